@@ -1,0 +1,445 @@
+/*
+ * Container walk, header and layer parsing, workspace layout and latent decoding.
+ * Every read is bounds-checked; limits are checked before any size is computed.
+ */
+#include "cn_internal.h"
+
+void cn_memzero(void *p, size_t n)
+{
+    /* volatile: keeps the compiler from turning this loop into a memset call,
+     * which a -nostdlib link cannot satisfy. Only small structs are zeroed. */
+    volatile uint8_t *q = (volatile uint8_t *)p;
+    while (n--)
+        *q++ = 0;
+}
+
+uint32_t cnerf_crc32(uint32_t crc, const uint8_t *p, size_t len)
+{
+    static const uint32_t tab[16] = {
+        0x00000000u, 0x1DB71064u, 0x3B6E20C8u, 0x26D930ACu, 0x76DC4190u, 0x6B6B51F4u,
+        0x4DB26158u, 0x5005713Cu, 0xEDB88320u, 0xF00F9344u, 0xD6D6A3E8u, 0xCB61B38Cu,
+        0x9B64C2B0u, 0x86D3D2D4u, 0xA00AE278u, 0xBDBDF21Cu};
+    crc = ~crc;
+    while (len--) {
+        crc ^= *p++;
+        crc = (crc >> 4) ^ tab[crc & 15u];
+        crc = (crc >> 4) ^ tab[crc & 15u];
+    }
+    return ~crc;
+}
+
+static void set_layer(cnerf_info *info, uint32_t *l, uint32_t net, uint32_t idx, uint32_t role,
+                      uint32_t n_in, uint32_t n_out)
+{
+    cnerf_layer_info *L = &info->layer[*l];
+    L->net = (uint8_t)net;
+    L->index = (uint8_t)idx;
+    L->role = (uint8_t)role;
+    L->n_in = (uint16_t)n_in;
+    L->n_out = (uint16_t)n_out;
+    /* Bounded by the limits: n_in <= CNERF_MAX_LAYER_IN, n_out <= CNERF_MAX_WIDTH, so
+     * n_params <= CNERF_MAX_LAYERS * CNERF_MAX_LAYER_PARAMS < 2^26. */
+    info->n_params += n_in * n_out;
+    info->n_biases += n_out;
+    (*l)++;
+}
+
+cnerf_status cnerf_expand_topology(cnerf_info *info)
+{
+    if (!info)
+        return CNERF_E_NULL;
+    if (info->l_pos > CNERF_MAX_L_POS || info->l_dir > CNERF_MAX_L_DIR)
+        return CNERF_E_LIMIT;
+    if (info->n_nets < 1u || info->n_nets > CNERF_MAX_NETS)
+        return CNERF_E_LIMIT;
+    if (info->pe_flags & ~CNERF_PE_INCLUDE_INPUT)
+        return CNERF_E_HEADER;
+    const uint32_t inc = (info->pe_flags & CNERF_PE_INCLUDE_INPUT) ? 3u : 0u;
+    const uint32_t in_pos = inc + 6u * info->l_pos;
+    const uint32_t in_dir = inc + 6u * info->l_dir;
+    if (in_pos == 0u)
+        return CNERF_E_HEADER;
+    info->in_pos = (uint16_t)in_pos;
+    info->in_dir = (uint16_t)in_dir;
+    info->n_params = 0;
+    info->n_biases = 0;
+    uint32_t l = 0;
+    for (uint32_t n = 0; n < info->n_nets; n++) {
+        cnerf_net_info *N = &info->net[n];
+        if (N->depth < 1u || N->depth > CNERF_MAX_DEPTH || N->width < 1u ||
+            N->width > CNERF_MAX_WIDTH || N->view_width > CNERF_MAX_VIEW_WIDTH)
+            return CNERF_E_LIMIT;
+        if (N->skip != CNERF_NO_SKIP && (uint32_t)N->skip + 1u >= N->depth)
+            return CNERF_E_HEADER; /* the skip must feed a later trunk layer */
+        const uint32_t W = N->width;
+        N->first_layer = (uint8_t)l;
+        for (uint32_t i = 0; i < N->depth; i++) {
+            uint32_t n_in = W;
+            if (i == 0u)
+                n_in = in_pos;
+            else if (N->skip != CNERF_NO_SKIP && i == (uint32_t)N->skip + 1u)
+                n_in = in_pos + W;
+            set_layer(info, &l, n, i, CNERF_ROLE_TRUNK, n_in, W);
+        }
+        uint32_t i = N->depth;
+        if (N->view_width) {
+            set_layer(info, &l, n, i++, CNERF_ROLE_SIGMA, W, 1u);
+            set_layer(info, &l, n, i++, CNERF_ROLE_FEATURE, W, W);
+            set_layer(info, &l, n, i++, CNERF_ROLE_VIEW, W + in_dir, N->view_width);
+            set_layer(info, &l, n, i++, CNERF_ROLE_RGB, N->view_width, 3u);
+        } else {
+            set_layer(info, &l, n, i++, CNERF_ROLE_OUTPUT, W, 4u);
+        }
+        N->n_layers = (uint8_t)(l - N->first_layer);
+    }
+    info->n_layers = l;
+    return CNERF_OK;
+}
+
+static cnerf_status parse_head(cn_reader *r, uint32_t clen, cnerf_info *info)
+{
+    info->coord = (uint8_t)cn_rd_u8(r);
+    info->l_pos = (uint8_t)cn_rd_u8(r);
+    info->l_dir = (uint8_t)cn_rd_u8(r);
+    info->pe_flags = (uint8_t)cn_rd_u8(r);
+    info->near_q16 = cn_rd_i32(r);
+    info->far_q16 = cn_rd_i32(r);
+    for (int i = 0; i < 6; i++)
+        info->aabb_q16[i] = cn_rd_i32(r);
+    for (int i = 0; i < 3; i++)
+        info->background[i] = (uint8_t)cn_rd_u8(r);
+    info->n_coarse = (uint16_t)cn_rd_u16(r);
+    info->n_fine = (uint16_t)cn_rd_u16(r);
+    info->n_nets = (uint8_t)cn_rd_u8(r);
+    if (r->err)
+        return CNERF_E_CHUNK;
+    if (info->n_nets < 1u || info->n_nets > CNERF_MAX_NETS)
+        return CNERF_E_LIMIT;
+    if (clen != CNERF_HEAD_FIXED_BYTES + CNERF_HEAD_NET_BYTES * (uint32_t)info->n_nets)
+        return CNERF_E_CHUNK;
+    for (uint32_t n = 0; n < info->n_nets; n++) {
+        cnerf_net_info *N = &info->net[n];
+        N->depth = (uint8_t)cn_rd_u8(r);
+        N->width = (uint16_t)cn_rd_u16(r);
+        N->skip = (uint8_t)cn_rd_u8(r);
+        N->view_width = (uint16_t)cn_rd_u16(r);
+    }
+    if (r->err)
+        return CNERF_E_CHUNK;
+    if (info->coord > CNERF_COORD_NDC)
+        return CNERF_E_HEADER;
+    if (info->n_coarse < 1u || info->n_coarse > CNERF_MAX_SAMPLES ||
+        info->n_fine > CNERF_MAX_SAMPLES)
+        return CNERF_E_LIMIT;
+    if (info->n_nets != (info->n_fine ? 2u : 1u))
+        return CNERF_E_HEADER;
+    if (info->near_q16 < 0 || info->far_q16 <= info->near_q16)
+        return CNERF_E_HEADER;
+    if (info->coord == CNERF_COORD_NDC &&
+        (info->near_q16 != 0 || info->far_q16 != CNERF_Q16_ONE))
+        return CNERF_E_HEADER;
+    for (int i = 0; i < 3; i++)
+        if (info->aabb_q16[i] >= info->aabb_q16[i + 3])
+            return CNERF_E_HEADER;
+    return cnerf_expand_topology(info);
+}
+
+static int exp_ok(int32_t e) { return e >= CNERF_EXP_MIN && e <= CNERF_EXP_MAX; }
+
+/* Parses one LAYR payload [p, p+clen) at absolute offset `off` of the stream. */
+static cnerf_status parse_layer(const uint8_t *buf, uint32_t off, uint32_t clen,
+                                cnerf_layer_info *L)
+{
+    cn_reader r;
+    cn_rd_init(&r, buf + off, clen);
+    uint32_t net = cn_rd_u8(&r), index = cn_rd_u8(&r);
+    uint32_t n_in = cn_rd_u16(&r), n_out = cn_rd_u16(&r);
+    if (r.err)
+        return CNERF_E_CHUNK;
+    if (net != L->net || index != L->index)
+        return CNERF_E_CHUNK_ORDER;
+    if (n_in != L->n_in || n_out != L->n_out)
+        return CNERF_E_LAYER;
+    int32_t a_m = cn_rd_i24(&r), a_e = cn_rd_i8(&r);
+    int32_t b_m = cn_rd_i24(&r), b_e = cn_rd_i8(&r);
+    uint32_t bias_bits = cn_rd_u8(&r);
+    int32_t bias_e = cn_rd_i8(&r);
+    if (r.err)
+        return CNERF_E_CHUNK;
+    if (a_m < -CNERF_M24_ABS_MAX || b_m < -CNERF_M24_ABS_MAX || !exp_ok(a_e) || !exp_ok(b_e) ||
+        !exp_ok(bias_e) || bias_bits > CNERF_MAX_BIAS_BITS || (bias_bits == 0u && bias_e != 0))
+        return CNERF_E_FORMAT;
+    L->a_m = a_m;
+    L->a_e = (int8_t)a_e;
+    L->b_m = b_m;
+    L->b_e = (int8_t)b_e;
+    L->bias_bits = (uint8_t)bias_bits;
+    L->bias_e = (int8_t)bias_e;
+    /* n_out * bias_bits <= 1024 * 24: no overflow. */
+    const uint32_t bias_packed = (n_out * bias_bits + 7u) >> 3;
+    if (cn_rd_left(&r) < bias_packed)
+        return CNERF_E_CHUNK;
+    L->bias_offset = off + (uint32_t)(r.p - (buf + off));
+    r.p += bias_packed;
+    int32_t kmin = cn_rd_i16(&r), kmax = cn_rd_i16(&r);
+    if (r.err)
+        return CNERF_E_CHUNK;
+    if (kmin < -CNERF_MAX_ABS_K || kmax < -CNERF_MAX_ABS_K || kmin > kmax)
+        return CNERF_E_RANGE;
+    L->kmin = kmin;
+    L->kmax = kmax;
+    L->latent_bytes = (kmin >= -128 && kmax <= 127) ? 1u : 2u;
+    L->header_bytes = 6u;
+    L->affine_bytes = 8u;
+    L->bias_bytes = 2u + bias_packed;
+    L->table_bytes = 4u;
+    L->prec = 0;
+    L->eg_order = 0;
+    if (kmin == kmax) {
+        /* A constant layer codes nothing. */
+        if (cn_rd_left(&r) != 0u)
+            return CNERF_E_CHUNK;
+        L->table_offset = L->payload_offset = off + clen;
+        L->payload_bytes = 0;
+        return CNERF_OK;
+    }
+    uint32_t prec = cn_rd_u8(&r), k = cn_rd_u8(&r);
+    if (r.err)
+        return CNERF_E_TABLE;
+    if (prec < 1u || prec > CNERF_MAX_PREC || k > CNERF_MAX_EG_ORDER)
+        return CNERF_E_TABLE;
+    L->prec = (uint8_t)prec;
+    L->eg_order = (uint8_t)k;
+    L->table_offset = off + (uint32_t)(r.p - (buf + off));
+    cn_bits b;
+    cn_bits_init(&b, r.p, cn_rd_left(&r));
+    /* kmax - kmin + 1 <= 65535 by the range check. */
+    cnerf_status st = cn_table_read(&b, (uint32_t)(kmax - kmin) + 1u, prec, k, (uint32_t *)0);
+    if (st != CNERF_OK)
+        return st;
+    uint32_t tbytes = (uint32_t)cn_bits_used(&b, r.p);
+    L->table_bytes = 6u + tbytes;
+    r.p += tbytes;
+    L->payload_offset = off + (uint32_t)(r.p - (buf + off));
+    L->payload_bytes = (uint32_t)cn_rd_left(&r);
+    if (L->payload_bytes < 4u)
+        return CNERF_E_PAYLOAD;
+    return CNERF_OK;
+}
+
+static int tag_ok(uint32_t tag)
+{
+    for (int i = 0; i < 4; i++) {
+        uint32_t c = (tag >> (8 * i)) & 0xFFu;
+        if (!((c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z')))
+            return 0;
+    }
+    return 1;
+}
+
+cnerf_status cn_parse(const uint8_t *buf, size_t len, cnerf_info *info)
+{
+    cn_memzero(info, sizeof *info);
+    static const uint8_t magic[4] = {CNERF_MAGIC_0, CNERF_MAGIC_1, CNERF_MAGIC_2, CNERF_MAGIC_3};
+    for (size_t i = 0; i < 4u; i++) {
+        if (i >= len)
+            return CNERF_E_TRUNCATED; /* a prefix of the magic */
+        if (buf[i] != magic[i])
+            return CNERF_E_MAGIC;
+    }
+    if ((len >> 16) >> 16) /* offsets are 32-bit; written so 32-bit size_t warns not */
+        return CNERF_E_LIMIT;
+    cn_reader r;
+    cn_rd_init(&r, buf, len);
+    r.p += 4;
+    info->version_major = (uint16_t)cn_rd_u16(&r);
+    info->version_minor = (uint16_t)cn_rd_u16(&r);
+    if (r.err)
+        return CNERF_E_TRUNCATED;
+    if (info->version_major != CNERF_VERSION_MAJOR)
+        return CNERF_E_VERSION;
+    info->signature_bytes = CNERF_SIGNATURE_BYTES;
+    int seen_head = 0;
+    uint32_t next_layer = 0;
+    for (;;) {
+        const uint32_t off = (uint32_t)(r.p - buf);
+        if (cn_rd_left(&r) < 8u)
+            return CNERF_E_TRUNCATED;
+        const uint32_t tag = cn_rd_u32(&r);
+        const uint32_t clen = cn_rd_u32(&r);
+        if (cn_rd_left(&r) < 4u || cn_rd_left(&r) - 4u < clen)
+            return CNERF_E_TRUNCATED;
+        const uint32_t poff = off + 8u;
+        uint32_t crc = cnerf_crc32(0, buf + off, 4u);
+        crc = cnerf_crc32(crc, buf + poff, clen);
+        r.p += clen;
+        if (cn_rd_u32(&r) != crc)
+            return CNERF_E_CRC;
+        if (!tag_ok(tag))
+            return CNERF_E_CHUNK;
+        const int critical = (tag & 0xFFu) >= 'A' && (tag & 0xFFu) <= 'Z';
+        const uint32_t cbytes = clen + CNERF_CHUNK_OVERHEAD;
+        cnerf_status st;
+        if (!seen_head && tag != CNERF_TAG_HEAD)
+            return CNERF_E_CHUNK_ORDER;
+        if (tag == CNERF_TAG_HEAD) {
+            if (seen_head)
+                return CNERF_E_CHUNK_ORDER;
+            cn_reader h;
+            cn_rd_init(&h, buf + poff, clen);
+            if ((st = parse_head(&h, clen, info)) != CNERF_OK)
+                return st;
+            seen_head = 1;
+            info->head_bytes = cbytes;
+        } else if (tag == CNERF_TAG_LAYR) {
+            if (next_layer >= info->n_layers)
+                return CNERF_E_CHUNK_ORDER;
+            cnerf_layer_info *L = &info->layer[next_layer];
+            if ((st = parse_layer(buf, poff, clen, L)) != CNERF_OK)
+                return st;
+            L->chunk_offset = off;
+            L->chunk_bytes = cbytes;
+            next_layer++;
+        } else if (tag == CNERF_TAG_DONE) {
+            if (clen != 0u)
+                return CNERF_E_CHUNK;
+            if (next_layer != info->n_layers)
+                return CNERF_E_CHUNK_ORDER;
+            info->done_bytes = cbytes;
+            info->file_bytes = off + cbytes;
+            return cn_rd_left(&r) ? CNERF_E_TRAILING : CNERF_OK;
+        } else if (critical) {
+            return CNERF_E_UNKNOWN_CHUNK;
+        } else {
+            info->ancillary_bytes += cbytes;
+            if (tag == CNERF_TAG_META && info->meta_offset == 0u) {
+                info->meta_offset = poff;
+                info->meta_len = clen;
+            }
+        }
+    }
+}
+
+cnerf_status cnerf_peek(const uint8_t *buf, size_t len, cnerf_info *info)
+{
+    if (!buf || !info)
+        return CNERF_E_NULL;
+    return cn_parse(buf, len, info);
+}
+
+static size_t align8(size_t n) { return (n + 7u) & ~(size_t)7u; }
+
+/* Alphabet size of a coded layer, 0 for a constant one. */
+static uint32_t alphabet(const cnerf_layer_info *L)
+{
+    return L->kmin < L->kmax ? (uint32_t)(L->kmax - L->kmin) + 1u : 0u;
+}
+
+size_t cnerf_workspace_size(const cnerf_info *info)
+{
+    if (!info || info->n_layers > CNERF_MAX_LAYERS)
+        return 0;
+    /* Every term is bounded by the limits (see CNERF_WORKSPACE_BOUND), and the total is
+     * below 2^28 bytes, so size_t arithmetic cannot overflow even where it is 32 bits. */
+    size_t total = 0;
+    uint32_t max_n = 0;
+    for (uint32_t l = 0; l < info->n_layers; l++) {
+        const cnerf_layer_info *L = &info->layer[l];
+        total += align8((size_t)L->n_in * L->n_out * (L->latent_bytes ? L->latent_bytes : 2u));
+        total += align8((size_t)L->n_out * 4u);
+        if (alphabet(L) > max_n)
+            max_n = alphabet(L);
+    }
+    if (max_n)
+        total += align8(((size_t)max_n + 1u) * 4u);
+    return total;
+}
+
+/* Reads layer L's bias mantissas into `out`. */
+static cnerf_status read_biases(const uint8_t *buf, const cnerf_layer_info *L, int32_t *out)
+{
+    if (L->bias_bits == 0u) {
+        for (uint32_t j = 0; j < L->n_out; j++)
+            out[j] = 0;
+        return CNERF_OK;
+    }
+    cn_bits b;
+    cn_bits_init(&b, buf + L->bias_offset, (L->n_out * (uint32_t)L->bias_bits + 7u) >> 3);
+    for (uint32_t j = 0; j < L->n_out; j++)
+        out[j] = cn_sext(cn_bits_get(&b, L->bias_bits), L->bias_bits);
+    return b.err ? CNERF_E_CHUNK : CNERF_OK; /* cannot fail after cn_parse */
+}
+
+static cnerf_status decode_layer(const uint8_t *buf, const cnerf_layer_info *L, void *lat,
+                                 uint32_t *cum)
+{
+    const uint32_t count = (uint32_t)L->n_in * L->n_out;
+    if (L->kmin == L->kmax) {
+        for (uint32_t i = 0; i < count; i++) {
+            if (L->latent_bytes == 1u)
+                ((int8_t *)lat)[i] = (int8_t)L->kmin;
+            else
+                ((int16_t *)lat)[i] = (int16_t)L->kmin;
+        }
+        return CNERF_OK;
+    }
+    const uint32_t n = alphabet(L);
+    cn_bits b;
+    cn_bits_init(&b, buf + L->table_offset, L->payload_offset - L->table_offset);
+    cnerf_status st = cn_table_read(&b, n, L->prec, L->eg_order, cum);
+    if (st != CNERF_OK)
+        return st;
+    return cn_rans_decode(buf + L->payload_offset, L->payload_bytes, cum, n, L->prec, L->kmin,
+                          lat, L->latent_bytes, count);
+}
+
+cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void *ws,
+                        size_t ws_size)
+{
+    if (!dec)
+        return CNERF_E_NULL;
+    cn_memzero(dec, sizeof *dec);
+    if (!buf || !ws)
+        return CNERF_E_NULL;
+    if ((uintptr_t)ws & (CNERF_WS_ALIGN - 1u))
+        return CNERF_E_WS_ALIGN;
+    cnerf_status st = cn_parse(buf, len, &dec->info);
+    if (st == CNERF_OK && ws_size < cnerf_workspace_size(&dec->info))
+        st = CNERF_E_WS_SMALL;
+    uint8_t *w = (uint8_t *)ws;
+    const cnerf_info *info = &dec->info;
+    uint32_t *cum = (uint32_t *)0;
+    if (st == CNERF_OK) {
+        /* Layout: per layer latents then biases; the table scratch last. */
+        for (uint32_t l = 0; l < info->n_layers; l++) {
+            const cnerf_layer_info *L = &info->layer[l];
+            dec->latent[l] = w;
+            w += align8((size_t)L->n_in * L->n_out * L->latent_bytes);
+            dec->bias[l] = (const int32_t *)(void *)w;
+            w += align8((size_t)L->n_out * 4u);
+        }
+        cum = (uint32_t *)(void *)w;
+    }
+    for (uint32_t l = 0; st == CNERF_OK && l < info->n_layers; l++) {
+        const cnerf_layer_info *L = &info->layer[l];
+        st = read_biases(buf, L, (int32_t *)(uintptr_t)dec->bias[l]);
+        if (st == CNERF_OK)
+            st = decode_layer(buf, L, (void *)(uintptr_t)dec->latent[l], cum);
+    }
+    if (st != CNERF_OK)
+        cn_memzero(dec, sizeof *dec);
+    return st;
+}
+
+int32_t cnerf_latent(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t i)
+{
+    if (!dec || l >= dec->info.n_layers)
+        return 0;
+    const cnerf_layer_info *L = &dec->info.layer[l];
+    if (o >= L->n_out || i >= L->n_in || !dec->latent[l])
+        return 0;
+    const uint32_t idx = o * L->n_in + i;
+    if (L->latent_bytes == 1u)
+        return ((const int8_t *)dec->latent[l])[idx];
+    return ((const int16_t *)dec->latent[l])[idx];
+}

@@ -1,0 +1,121 @@
+/*
+ * Encoder side of the bitstream: growable buffers, bit writer, frequency-table
+ * quantization, rANS encoding, number formats and the stream writer.
+ * Host C11 (allocates, uses libm).
+ */
+#ifndef CNERF_ENC_STREAM_H
+#define CNERF_ENC_STREAM_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "cnerf/cnerf.h"
+
+/* ---- growable byte buffer ---- */
+typedef struct cn_buf {
+    uint8_t *p;
+    size_t n, cap;
+    int oom; /* sticky: an allocation failed */
+} cn_buf;
+
+void cn_buf_free(cn_buf *b);
+void cn_buf_put(cn_buf *b, const void *src, size_t n);
+void cn_buf_u8(cn_buf *b, uint32_t v);
+void cn_buf_u16(cn_buf *b, uint32_t v);
+void cn_buf_u24(cn_buf *b, uint32_t v);
+void cn_buf_u32(cn_buf *b, uint32_t v);
+
+/* ---- bit writer: MSB-first into a cn_buf, zero-padded to a byte on flush ---- */
+typedef struct cn_bitw {
+    cn_buf *out;
+    uint32_t acc;
+    unsigned nacc;
+} cn_bitw;
+
+void cn_bitw_init(cn_bitw *w, cn_buf *out);
+void cn_bitw_put(cn_bitw *w, uint32_t v, unsigned n); /* n <= 24 */
+void cn_bitw_eg(cn_bitw *w, uint32_t v, unsigned k);  /* Exp-Golomb of order k */
+void cn_bitw_flush(cn_bitw *w);
+/* Length in bits of the order-k Exp-Golomb code of v. */
+unsigned cn_eg_bits(uint32_t v, unsigned k);
+
+/* ---- frequency tables ---- */
+
+/* Quantizes a PMF p[0..n) (any non-negative weights, not all zero) to frequencies
+ * freq[i] >= 1 summing to 2^prec: round, clamp to >= 1, then add or remove single
+ * counts where that costs the fewest bits (p_i * delta log2 f_i).
+ * Returns 0, or -1 if n > 2^prec, prec > 16, or on allocation failure. */
+int cn_quantize_pmf(const double *p, uint32_t n, unsigned prec, uint32_t *freq);
+
+/* Bits of the coded table (excluding the prec/order bytes) with the best Exp-Golomb
+ * order, written to *order. */
+uint64_t cn_table_bits(const uint32_t *freq, uint32_t n, unsigned *order);
+
+/* Ideal code length in bits of data with symbol counts cnt[] under table freq[]. */
+double cn_table_cost_bits(const uint64_t *cnt, const uint32_t *freq, uint32_t n, unsigned prec);
+
+/* ---- rANS ---- */
+
+/* Encodes syms[0..count) (symbol indices < n) with the table freq[0..n) of precision
+ * prec, appending the payload to `out` (decoder reads it front to back).
+ * Returns 0, or -1 on invalid input or allocation failure. */
+int cn_rans_encode(const uint32_t *syms, size_t count, const uint32_t *freq, uint32_t n,
+                   unsigned prec, cn_buf *out);
+
+/* ---- number formats ---- */
+
+/* m24e8: v ~ m * 2^e with |m| <= 2^23 - 1, e in [CNERF_EXP_MIN, CNERF_EXP_MAX], rounded
+ * to nearest. Returns 0, or -1 if v is not finite or too large. */
+int cn_to_m24e8(double v, int32_t *m, int8_t *e);
+double cn_from_m24e8(int32_t m, int8_t e);
+
+/* Bias block: one exponent and nbits-bit mantissas (1 <= nbits <= 24) with the largest
+ * |b| using the full mantissa range. All-zero input gives *bits = 0, *e = 0.
+ * Returns 0, or -1 on non-finite or too large input. */
+int cn_quantize_biases(const float *b, uint32_t n, unsigned nbits, int32_t *m, uint8_t *bits,
+                       int8_t *e);
+
+/* ---- the stream writer ---- */
+
+enum cn_table_source { CN_TABLE_NONE = 0, CN_TABLE_COUNTS = 1, CN_TABLE_PRIOR = 2 };
+
+typedef struct cn_layer_src {
+    const int32_t *k; /* n_out * n_in latents, row-major [out][in] */
+    int32_t a_m, b_m;
+    int8_t a_e, b_e;
+    const int32_t *bias_m; /* n_out mantissas, NULL for all-zero */
+    uint8_t bias_bits;
+    int8_t bias_e;
+    /* Optional model PMF (the prior's discretized density) over k = pmf_kmin + i,
+     * i < pmf_n. When given, the writer also tries a table built from it. */
+    const double *pmf;
+    int32_t pmf_kmin;
+    uint32_t pmf_n;
+} cn_layer_src;
+
+typedef struct cn_stream_src {
+    /* Render parameters and topology: coord, l_pos, l_dir, pe_flags, near_q16, far_q16,
+     * aabb_q16, background, n_coarse, n_fine, n_nets, net[].depth/width/skip/view_width.
+     * Everything else is derived. */
+    cnerf_info hdr;
+    cn_layer_src layer[CNERF_MAX_LAYERS];
+    const char *meta; /* optional provenance text for the 'meta' chunk */
+} cn_stream_src;
+
+typedef struct cn_write_report {
+    uint8_t table_source[CNERF_MAX_LAYERS]; /* enum cn_table_source per layer */
+    double ideal_bits[CNERF_MAX_LAYERS];    /* -sum log2 of the chosen table's probabilities */
+} cn_write_report;
+
+/* Writes the whole stream into `out` (which is reset first), then reads it back with
+ * the decoder's parser. On failure returns -1 and puts a message in err. */
+int cn_write_stream(const cn_stream_src *src, cn_buf *out, cn_write_report *rep, char *err,
+                    size_t errlen);
+
+/* Reads a whole file; returns 0 or -1 with a message in err. *data is malloc'ed. */
+int cn_read_file(const char *path, uint8_t **data, size_t *len, char *err, size_t errlen);
+/* Writes a whole file atomically (temporary file, fsync, rename). */
+int cn_write_file_atomic(const char *path, const void *data, size_t len, char *err,
+                         size_t errlen);
+
+#endif /* CNERF_ENC_STREAM_H */

@@ -1,0 +1,24 @@
+/* Synthetic models: random latents for a given topology, for tests, vectors and demos. */
+#ifndef CNERF_ENC_SYNTH_H
+#define CNERF_ENC_SYNTH_H
+
+#include "cn_stream.h"
+
+typedef struct cn_synth {
+    cn_stream_src src; /* ready for cn_write_stream */
+    int32_t *k[CNERF_MAX_LAYERS];
+    int32_t *bias[CNERF_MAX_LAYERS];
+} cn_synth;
+
+/* Named presets fill the topology and render parameters of a Blender-style scene:
+ * "tiny" (D 4, W 64, 32+32 samples), "small" (D 4, W 128, 32+32), "paper" (D 8, W 256,
+ * 64+128). Returns 0, or -1 for an unknown name. */
+int cn_preset_header(const char *name, cnerf_info *hdr);
+
+/* Random latents ~ round(Laplace(0, spread)) clamped to the format's range, random
+ * affine decoders and 16-bit biases. `hdr` as for cn_stream_src.hdr. */
+int cn_synth_make(cn_synth *s, const cnerf_info *hdr, uint64_t seed, double spread, char *err,
+                  size_t errlen);
+void cn_synth_free(cn_synth *s);
+
+#endif /* CNERF_ENC_SYNTH_H */

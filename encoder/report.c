@@ -1,0 +1,95 @@
+/* Size breakdown and `cnerf info` output. */
+#include <inttypes.h>
+
+#include "cn_report.h"
+
+const char *cn_role_name(unsigned role)
+{
+    static const char *names[] = {"trunk", "sigma", "feature", "view", "rgb", "output"};
+    return role < sizeof names / sizeof names[0] ? names[role] : "?";
+}
+
+void cn_breakdown(const cnerf_info *info, cn_totals *t)
+{
+    *t = (cn_totals){0};
+    for (uint32_t l = 0; l < info->n_layers; l++) {
+        const cnerf_layer_info *L = &info->layer[l];
+        t->payload += L->payload_bytes;
+        t->tables += L->table_bytes;
+        t->affine += L->affine_bytes;
+        t->biases += L->bias_bytes;
+        t->layer_hdr += CNERF_CHUNK_OVERHEAD + L->header_bytes;
+    }
+    t->stream_hdr = (uint64_t)info->signature_bytes + info->head_bytes + info->done_bytes;
+    t->ancillary = info->ancillary_bytes;
+    t->total = t->payload + t->tables + t->affine + t->biases + t->layer_hdr + t->stream_hdr +
+               t->ancillary;
+}
+
+static double q16(int32_t v) { return v / 65536.0; }
+
+static void row(FILE *f, const char *what, uint64_t bytes, uint64_t total)
+{
+    fprintf(f, "  %-26s %10" PRIu64 " bytes  %5.1f%%\n", what, bytes,
+            total ? 100.0 * (double)bytes / (double)total : 0.0);
+}
+
+void cn_print_info(FILE *f, const char *name, const uint8_t *buf, const cnerf_info *I)
+{
+    fprintf(f, "%s: cnerf stream, format version %u.%u, %" PRIu32 " bytes\n", name,
+            I->version_major, I->version_minor, I->file_bytes);
+    fprintf(f, "render: %s", I->coord == CNERF_COORD_NDC ? "NDC (forward-facing)" : "world (360)");
+    fprintf(f, ", near %g, far %g, background #%02x%02x%02x\n", q16(I->near_q16), q16(I->far_q16),
+            I->background[0], I->background[1], I->background[2]);
+    fprintf(f, "bounds: [%g, %g] x [%g, %g] x [%g, %g]\n", q16(I->aabb_q16[0]), q16(I->aabb_q16[3]),
+            q16(I->aabb_q16[1]), q16(I->aabb_q16[4]), q16(I->aabb_q16[2]), q16(I->aabb_q16[5]));
+    fprintf(f, "encoding: position L=%u (%u inputs), direction L=%u (%u inputs)%s\n", I->l_pos,
+            I->in_pos, I->l_dir, I->in_dir,
+            (I->pe_flags & CNERF_PE_INCLUDE_INPUT) ? ", raw input included" : "");
+    fprintf(f, "samples: %u coarse + %u fine\n", I->n_coarse, I->n_fine);
+    for (unsigned n = 0; n < I->n_nets; n++) {
+        const cnerf_net_info *N = &I->net[n];
+        fprintf(f, "network %u (%s): depth %u, width %u, ", n, n ? "fine" : "coarse", N->depth,
+                N->width);
+        if (N->skip == CNERF_NO_SKIP)
+            fprintf(f, "no skip");
+        else
+            fprintf(f, "skip into layer %u", N->skip + 1u);
+        if (N->view_width)
+            fprintf(f, ", view branch width %u", N->view_width);
+        else
+            fprintf(f, ", no view branch");
+        fprintf(f, ", %u linear layers\n", N->n_layers);
+    }
+    if (I->meta_len)
+        fprintf(f, "meta: %.*s\n", (int)I->meta_len, (const char *)buf + I->meta_offset);
+    fprintf(f, "\n%-5s %-3s %-7s %11s %8s %13s %4s %6s %8s %6s %5s %7s\n", "layer", "net", "role",
+            "in->out", "params", "k range", "prec", "table", "payload", "affine", "bias",
+            "bits/p");
+    for (uint32_t l = 0; l < I->n_layers; l++) {
+        const cnerf_layer_info *L = &I->layer[l];
+        char shape[32], range[32];
+        snprintf(shape, sizeof shape, "%u->%u", L->n_in, L->n_out);
+        snprintf(range, sizeof range, "[%d,%d]", (int)L->kmin, (int)L->kmax);
+        uint32_t params = (uint32_t)L->n_in * L->n_out;
+        double bpp = 8.0 * (double)(L->chunk_bytes) / (double)params;
+        fprintf(f, "%-5u %-3u %-7s %11s %8u %13s %4u %6u %8u %6u %5u %7.3f\n", l, L->net,
+                cn_role_name(L->role), shape, params, range, L->prec, L->table_bytes,
+                L->payload_bytes, L->affine_bytes, L->bias_bytes, bpp);
+    }
+    cn_totals t;
+    cn_breakdown(I, &t);
+    fprintf(f, "\ntotals (bits/p counts the whole layer chunk):\n");
+    row(f, "latent payload", t.payload, t.total);
+    row(f, "frequency tables", t.tables, t.total);
+    row(f, "affine decoders", t.affine, t.total);
+    row(f, "biases", t.biases, t.total);
+    row(f, "layer headers + framing", t.layer_hdr, t.total);
+    row(f, "stream header", t.stream_hdr, t.total);
+    row(f, "ancillary (meta)", t.ancillary, t.total);
+    fprintf(f, "  %-26s %10" PRIu64 " bytes  (file: %" PRIu32 " bytes%s)\n", "total", t.total,
+            I->file_bytes, t.total == I->file_bytes ? "" : ", MISMATCH");
+    fprintf(f, "parameters: %" PRIu32 " latents, %" PRIu32 " biases\n", I->n_params, I->n_biases);
+    fprintf(f, "bits per parameter: %.3f payload only, %.3f whole file (float32: 32)\n",
+            8.0 * (double)t.payload / I->n_params, 8.0 * (double)t.total / I->n_params);
+}

@@ -1,0 +1,93 @@
+/* Synthetic models and named presets. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cn_rng.h"
+#include "cn_synth.h"
+
+int cn_preset_header(const char *name, cnerf_info *hdr)
+{
+    static const struct {
+        const char *name;
+        unsigned depth, width, n_coarse, n_fine;
+    } presets[] = {{"tiny", 4, 64, 32, 32}, {"small", 4, 128, 32, 32}, {"paper", 8, 256, 64, 128}};
+    for (size_t i = 0; i < sizeof presets / sizeof presets[0]; i++) {
+        if (strcmp(name, presets[i].name) != 0)
+            continue;
+        memset(hdr, 0, sizeof *hdr);
+        hdr->coord = CNERF_COORD_WORLD;
+        hdr->l_pos = 10;
+        hdr->l_dir = 4;
+        hdr->pe_flags = CNERF_PE_INCLUDE_INPUT;
+        hdr->near_q16 = 2 * CNERF_Q16_ONE;
+        hdr->far_q16 = 6 * CNERF_Q16_ONE;
+        for (int a = 0; a < 3; a++) {
+            hdr->aabb_q16[a] = -3 * CNERF_Q16_ONE / 2;
+            hdr->aabb_q16[a + 3] = 3 * CNERF_Q16_ONE / 2;
+            hdr->background[a] = 255;
+        }
+        hdr->n_coarse = (uint16_t)presets[i].n_coarse;
+        hdr->n_fine = (uint16_t)presets[i].n_fine;
+        hdr->n_nets = presets[i].n_fine ? 2 : 1;
+        for (unsigned n = 0; n < hdr->n_nets; n++) {
+            hdr->net[n].depth = (uint8_t)presets[i].depth;
+            hdr->net[n].width = (uint16_t)presets[i].width;
+            hdr->net[n].skip = (uint8_t)(presets[i].depth / 2);
+            hdr->net[n].view_width = (uint16_t)(presets[i].width / 2);
+        }
+        return 0;
+    }
+    return -1;
+}
+
+void cn_synth_free(cn_synth *s)
+{
+    for (unsigned l = 0; l < CNERF_MAX_LAYERS; l++) {
+        free(s->k[l]);
+        free(s->bias[l]);
+        s->k[l] = s->bias[l] = NULL;
+    }
+}
+
+int cn_synth_make(cn_synth *s, const cnerf_info *hdr, uint64_t seed, double spread, char *err,
+                  size_t errlen)
+{
+    memset(s, 0, sizeof *s);
+    s->src.hdr = *hdr;
+    cnerf_info info = *hdr;
+    cnerf_status st = cnerf_expand_topology(&info);
+    if (st != CNERF_OK) {
+        snprintf(err, errlen, "invalid topology: %s", cnerf_status_str(st));
+        return -1;
+    }
+    cn_rng r = cn_rng_seed(seed);
+    for (unsigned l = 0; l < info.n_layers; l++) {
+        const cnerf_layer_info *L = &info.layer[l];
+        size_t count = (size_t)L->n_in * L->n_out;
+        s->k[l] = malloc(sizeof(int32_t) * count);
+        s->bias[l] = malloc(sizeof(int32_t) * L->n_out);
+        if (!s->k[l] || !s->bias[l]) {
+            cn_synth_free(s);
+            snprintf(err, errlen, "out of memory");
+            return -1;
+        }
+        for (size_t i = 0; i < count; i++) {
+            double v = cn_rng_laplace(&r, spread);
+            v = v > CNERF_MAX_ABS_K ? CNERF_MAX_ABS_K : v < -CNERF_MAX_ABS_K ? -CNERF_MAX_ABS_K : v;
+            s->k[l][i] = (int32_t)lround(v);
+        }
+        for (unsigned j = 0; j < L->n_out; j++)
+            s->bias[l][j] = (int32_t)cn_rng_below(&r, 65536) - 32768;
+        cn_layer_src *S = &s->src.layer[l];
+        S->k = s->k[l];
+        S->bias_m = s->bias[l];
+        S->bias_bits = 16;
+        S->bias_e = -16;
+        /* a spreads the latents over roughly the Glorot range of the layer. */
+        double glorot = sqrt(6.0 / (L->n_in + L->n_out));
+        cn_to_m24e8(glorot / (3.0 * (spread > 0.5 ? spread : 0.5)), &S->a_m, &S->a_e);
+        cn_to_m24e8((cn_rng_uniform(&r) - 0.5) * 1e-3, &S->b_m, &S->b_e);
+    }
+    return 0;
+}

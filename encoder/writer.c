@@ -1,0 +1,249 @@
+/* The bitstream writer: everything docs/bitstream.md specifies, then a read-back. */
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../decoder/cn_internal.h"
+#include "cn_stream.h"
+
+static int fail(char *err, size_t errlen, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    if (err && errlen)
+        vsnprintf(err, errlen, fmt, ap);
+    va_end(ap);
+    return -1;
+}
+
+static void put_chunk(cn_buf *out, uint32_t tag, const cn_buf *payload)
+{
+    uint8_t t[4] = {(uint8_t)tag, (uint8_t)(tag >> 8), (uint8_t)(tag >> 16), (uint8_t)(tag >> 24)};
+    cn_buf_put(out, t, 4);
+    cn_buf_u32(out, (uint32_t)payload->n);
+    cn_buf_put(out, payload->p, payload->n);
+    uint32_t crc = cnerf_crc32(0, t, 4);
+    crc = cnerf_crc32(crc, payload->p, payload->n);
+    cn_buf_u32(out, crc);
+}
+
+static void put_head(cn_buf *h, const cnerf_info *I)
+{
+    cn_buf_u8(h, I->coord);
+    cn_buf_u8(h, I->l_pos);
+    cn_buf_u8(h, I->l_dir);
+    cn_buf_u8(h, I->pe_flags);
+    cn_buf_u32(h, (uint32_t)I->near_q16);
+    cn_buf_u32(h, (uint32_t)I->far_q16);
+    for (int i = 0; i < 6; i++)
+        cn_buf_u32(h, (uint32_t)I->aabb_q16[i]);
+    for (int i = 0; i < 3; i++)
+        cn_buf_u8(h, I->background[i]);
+    cn_buf_u16(h, I->n_coarse);
+    cn_buf_u16(h, I->n_fine);
+    cn_buf_u8(h, I->n_nets);
+    for (unsigned n = 0; n < I->n_nets; n++) {
+        cn_buf_u8(h, I->net[n].depth);
+        cn_buf_u16(h, I->net[n].width);
+        cn_buf_u8(h, I->net[n].skip);
+        cn_buf_u16(h, I->net[n].view_width);
+    }
+}
+
+/* Chooses the table (source and precision) with the smallest estimated total size. */
+typedef struct table_choice {
+    uint32_t *freq;
+    unsigned prec, order, source;
+    double bits;
+} table_choice;
+
+static int choose_table(const uint64_t *cnt, const double *prior, uint32_t n, table_choice *best)
+{
+    double *pc = malloc(sizeof(double) * n);
+    uint32_t *f = malloc(sizeof(uint32_t) * n);
+    if (!pc || !f) {
+        free(pc);
+        free(f);
+        return -1;
+    }
+    for (uint32_t i = 0; i < n; i++)
+        pc[i] = (double)cnt[i];
+    unsigned pmin = 1;
+    while ((1u << pmin) < n)
+        pmin++;
+    best->bits = -1;
+    for (unsigned src = CN_TABLE_COUNTS; src <= CN_TABLE_PRIOR; src++) {
+        const double *p = src == CN_TABLE_COUNTS ? pc : prior;
+        if (!p)
+            continue;
+        for (unsigned prec = pmin; prec <= CNERF_MAX_PREC; prec++) {
+            if (cn_quantize_pmf(p, n, prec, f)) {
+                free(pc);
+                free(f);
+                return -1;
+            }
+            unsigned order;
+            double bits = (double)cn_table_bits(f, n, &order) + 16.0 +
+                          cn_table_cost_bits(cnt, f, n, prec);
+            if (best->bits < 0 || bits < best->bits) {
+                best->bits = bits;
+                best->prec = prec;
+                best->order = order;
+                best->source = src;
+                memcpy(best->freq, f, sizeof(uint32_t) * n);
+            }
+        }
+    }
+    free(pc);
+    free(f);
+    return 0;
+}
+
+static int put_layer(cn_buf *c, const cnerf_layer_info *L, const cn_layer_src *S, unsigned l,
+                     cn_write_report *rep, char *err, size_t errlen)
+{
+    const size_t count = (size_t)L->n_in * L->n_out;
+    if (!S->k)
+        return fail(err, errlen, "layer %u: no latents", l);
+    if (llabs(S->a_m) > CNERF_M24_ABS_MAX || llabs(S->b_m) > CNERF_M24_ABS_MAX ||
+        S->a_e < CNERF_EXP_MIN || S->a_e > CNERF_EXP_MAX || S->b_e < CNERF_EXP_MIN ||
+        S->b_e > CNERF_EXP_MAX || S->bias_e < CNERF_EXP_MIN || S->bias_e > CNERF_EXP_MAX ||
+        S->bias_bits > CNERF_MAX_BIAS_BITS)
+        return fail(err, errlen, "layer %u: affine decoder or bias format out of range", l);
+    cn_buf_u8(c, L->net);
+    cn_buf_u8(c, L->index);
+    cn_buf_u16(c, L->n_in);
+    cn_buf_u16(c, L->n_out);
+    cn_buf_u24(c, (uint32_t)S->a_m & 0xFFFFFFu);
+    cn_buf_u8(c, (uint32_t)(uint8_t)S->a_e);
+    cn_buf_u24(c, (uint32_t)S->b_m & 0xFFFFFFu);
+    cn_buf_u8(c, (uint32_t)(uint8_t)S->b_e);
+    const unsigned bb = S->bias_m ? S->bias_bits : 0;
+    cn_buf_u8(c, bb);
+    cn_buf_u8(c, bb ? (uint32_t)(uint8_t)S->bias_e : 0);
+    if (bb) {
+        const int32_t lim = (int32_t)(1u << (bb - 1));
+        cn_bitw w;
+        cn_bitw_init(&w, c);
+        for (unsigned j = 0; j < L->n_out; j++) {
+            if (S->bias_m[j] < -lim || S->bias_m[j] >= lim)
+                return fail(err, errlen, "layer %u: bias %u does not fit %u bits", l, j, bb);
+            cn_bitw_put(&w, (uint32_t)S->bias_m[j] & ((1u << bb) - 1u), bb);
+        }
+        cn_bitw_flush(&w);
+    }
+    int32_t kmin = S->k[0], kmax = S->k[0];
+    for (size_t i = 0; i < count; i++) {
+        if (S->k[i] < -CNERF_MAX_ABS_K || S->k[i] > CNERF_MAX_ABS_K)
+            return fail(err, errlen, "layer %u: latent %d outside +-%d", l, S->k[i],
+                        CNERF_MAX_ABS_K);
+        if (S->k[i] < kmin)
+            kmin = S->k[i];
+        if (S->k[i] > kmax)
+            kmax = S->k[i];
+    }
+    cn_buf_u16(c, (uint32_t)kmin & 0xFFFFu);
+    cn_buf_u16(c, (uint32_t)kmax & 0xFFFFu);
+    if (kmin == kmax) {
+        if (rep) {
+            rep->table_source[l] = CN_TABLE_NONE;
+            rep->ideal_bits[l] = 0;
+        }
+        return 0;
+    }
+    const uint32_t n = (uint32_t)(kmax - kmin) + 1;
+    uint64_t *cnt = calloc(n, sizeof(uint64_t));
+    double *prior = S->pmf ? calloc(n, sizeof(double)) : NULL;
+    uint32_t *syms = malloc(sizeof(uint32_t) * count);
+    table_choice best = {malloc(sizeof(uint32_t) * n), 0, 0, 0, 0};
+    int rc = -1;
+    if (!cnt || (S->pmf && !prior) || !syms || !best.freq) {
+        fail(err, errlen, "layer %u: out of memory", l);
+        goto done;
+    }
+    for (size_t i = 0; i < count; i++) {
+        syms[i] = (uint32_t)(S->k[i] - kmin);
+        cnt[syms[i]]++;
+    }
+    if (prior)
+        for (uint32_t i = 0; i < n; i++) {
+            int64_t j = (int64_t)kmin + i - S->pmf_kmin;
+            prior[i] = j >= 0 && j < (int64_t)S->pmf_n ? S->pmf[j] : 0.0;
+        }
+    if (choose_table(cnt, prior, n, &best)) {
+        fail(err, errlen, "layer %u: out of memory", l);
+        goto done;
+    }
+    cn_buf_u8(c, best.prec);
+    cn_buf_u8(c, best.order);
+    cn_bitw w;
+    cn_bitw_init(&w, c);
+    for (uint32_t i = 0; i + 1 < n; i++)
+        cn_bitw_eg(&w, best.freq[i] - 1, best.order);
+    cn_bitw_flush(&w);
+    if (cn_rans_encode(syms, count, best.freq, n, best.prec, c)) {
+        fail(err, errlen, "layer %u: entropy coding failed", l);
+        goto done;
+    }
+    if (rep) {
+        rep->table_source[l] = (uint8_t)best.source;
+        rep->ideal_bits[l] = cn_table_cost_bits(cnt, best.freq, n, best.prec);
+    }
+    rc = 0;
+done:
+    free(cnt);
+    free(prior);
+    free(syms);
+    free(best.freq);
+    return rc;
+}
+
+int cn_write_stream(const cn_stream_src *src, cn_buf *out, cn_write_report *rep, char *err,
+                    size_t errlen)
+{
+    cnerf_info *info = malloc(sizeof *info);
+    if (!info)
+        return fail(err, errlen, "out of memory");
+    *info = src->hdr;
+    cnerf_status st = cnerf_expand_topology(info);
+    if (st != CNERF_OK) {
+        free(info);
+        return fail(err, errlen, "invalid topology: %s", cnerf_status_str(st));
+    }
+    if (rep)
+        memset(rep, 0, sizeof *rep);
+    out->n = 0;
+    out->oom = 0;
+    const uint8_t sig[4] = {CNERF_MAGIC_0, CNERF_MAGIC_1, CNERF_MAGIC_2, CNERF_MAGIC_3};
+    cn_buf_put(out, sig, 4);
+    cn_buf_u16(out, CNERF_VERSION_MAJOR);
+    cn_buf_u16(out, CNERF_VERSION_MINOR);
+    cn_buf c = {0};
+    put_head(&c, info);
+    put_chunk(out, CNERF_TAG_HEAD, &c);
+    if (src->meta) {
+        c.n = 0;
+        cn_buf_put(&c, src->meta, strlen(src->meta));
+        put_chunk(out, CNERF_TAG_META, &c);
+    }
+    int rc = 0;
+    for (unsigned l = 0; l < info->n_layers && rc == 0; l++) {
+        c.n = 0;
+        rc = put_layer(&c, &info->layer[l], &src->layer[l], l, rep, err, errlen);
+        if (rc == 0)
+            put_chunk(out, CNERF_TAG_LAYR, &c);
+    }
+    c.n = 0;
+    if (rc == 0)
+        put_chunk(out, CNERF_TAG_DONE, &c);
+    const int oom = out->oom || c.oom;
+    cn_buf_free(&c);
+    if (rc == 0 && oom)
+        rc = fail(err, errlen, "out of memory");
+    if (rc == 0 && (st = cn_parse(out->p, out->n, info)) != CNERF_OK)
+        rc = fail(err, errlen, "the written stream does not parse (%s): invalid header fields?",
+                  cnerf_status_str(st));
+    free(info);
+    return rc;
+}

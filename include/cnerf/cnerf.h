@@ -1,0 +1,154 @@
+/*
+ * cnerf decoder API: freestanding, allocation-free.
+ *
+ *   cnerf_info info;
+ *   cnerf_peek(buf, len, &info);                 -- parse and validate the structure
+ *   size_t n = cnerf_workspace_size(&info);      -- bytes of caller memory needed
+ *   cnerf_open(&dec, buf, len, ws, n);           -- decode latents into that memory
+ *
+ * Nothing is allocated and nothing global is written. The decoder keeps pointers into
+ * the caller's workspace; `buf` is not referenced after cnerf_open returns.
+ * Includes only <stdint.h>, <stddef.h> (via format.h and here).
+ */
+#ifndef CNERF_CNERF_H
+#define CNERF_CNERF_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "cnerf/format.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Status codes: 0 is success, errors are negative and never renumbered. */
+typedef enum cnerf_status {
+    CNERF_OK = 0,
+    CNERF_E_NULL = -1,          /* API misuse: a required pointer is NULL */
+    CNERF_E_ARG = -2,           /* API misuse: an argument is out of range */
+    CNERF_E_WS_ALIGN = -3,      /* workspace not aligned to CNERF_WS_ALIGN */
+    CNERF_E_WS_SMALL = -4,      /* workspace smaller than cnerf_workspace_size() */
+    CNERF_E_TRUNCATED = -5,     /* the stream ends before its DONE chunk */
+    CNERF_E_MAGIC = -6,         /* not a cnerf stream */
+    CNERF_E_VERSION = -7,       /* unsupported major version */
+    CNERF_E_CRC = -8,           /* a chunk's CRC-32 does not match */
+    CNERF_E_CHUNK_ORDER = -9,   /* HEAD not first, duplicate HEAD, missing or extra layers */
+    CNERF_E_UNKNOWN_CHUNK = -10, /* a critical chunk this decoder does not know */
+    CNERF_E_LIMIT = -11,        /* a dimension exceeds the format's limits */
+    CNERF_E_HEADER = -12,       /* header fields inconsistent (near >= far, bad flags, ...) */
+    CNERF_E_LAYER = -13,        /* layer shape or index disagrees with the topology */
+    CNERF_E_RANGE = -14,        /* latent range invalid (kmin > kmax, |k| too large) */
+    CNERF_E_TABLE = -15,        /* frequency table invalid (precision, zero or excess mass) */
+    CNERF_E_PAYLOAD = -16,      /* entropy-coded payload inconsistent with its table */
+    CNERF_E_TRAILING = -17,     /* bytes after the DONE chunk */
+    CNERF_E_FORMAT = -18,       /* a number-format field out of range (exponent, bit count) */
+    CNERF_E_CHUNK = -19,        /* a chunk's length disagrees with its content, or a bad tag */
+    CNERF_E_OVERFLOW = -20,     /* a value could overflow the renderer's accumulators */
+    CNERF_E_BUF_SMALL = -21     /* an output buffer is too small */
+} cnerf_status;
+
+/* Workspace alignment in bytes. */
+#define CNERF_WS_ALIGN 8u
+
+typedef struct cnerf_net_info {
+    uint8_t depth;       /* trunk layers, 1..CNERF_MAX_DEPTH */
+    uint8_t skip;        /* trunk layer after which PE(x) is concatenated, or CNERF_NO_SKIP */
+    uint16_t width;      /* trunk width, 1..CNERF_MAX_WIDTH */
+    uint16_t view_width; /* view-branch width; 0 = no view branch */
+    uint8_t n_layers;    /* linear layers of this network */
+    uint8_t first_layer; /* index of its first layer in cnerf_info.layer[] */
+} cnerf_net_info;
+
+typedef struct cnerf_layer_info {
+    uint8_t net;   /* 0 = coarse, 1 = fine */
+    uint8_t index; /* layer index within the network */
+    uint8_t role;  /* enum cnerf_role */
+    uint8_t latent_bytes; /* 1 (int8) or 2 (int16) per latent in the workspace */
+    uint16_t n_in, n_out;
+    int32_t a_m, b_m; /* affine decoder W = a*k + b, a = a_m * 2^a_e, b = b_m * 2^b_e */
+    int8_t a_e, b_e;
+    int8_t bias_e;     /* bias_j = bias_m[j] * 2^bias_e */
+    uint8_t bias_bits; /* bits per bias mantissa, 0 = all biases are zero */
+    int32_t kmin, kmax; /* latent range; kmin == kmax codes nothing */
+    uint8_t prec;       /* frequency-table precision in bits (0 when kmin == kmax) */
+    uint8_t eg_order;   /* Exp-Golomb order of the coded table */
+    /* Where the layer lives in the stream, and its size breakdown in bytes.
+     * chunk_bytes = CNERF_CHUNK_OVERHEAD + header + affine + bias + table + payload. */
+    uint32_t chunk_offset, chunk_bytes;
+    uint32_t header_bytes, affine_bytes, bias_bytes, table_bytes, payload_bytes;
+    uint32_t table_offset, bias_offset, payload_offset; /* absolute offsets in the stream */
+} cnerf_layer_info;
+
+typedef struct cnerf_info {
+    uint16_t version_major, version_minor;
+    uint8_t coord;      /* CNERF_COORD_WORLD or CNERF_COORD_NDC */
+    uint8_t l_pos;      /* position encoding octaves */
+    uint8_t l_dir;      /* direction encoding octaves */
+    uint8_t pe_flags;   /* CNERF_PE_* */
+    int32_t near_q16, far_q16;
+    int32_t aabb_q16[6]; /* scene bounds: min x, y, z, max x, y, z */
+    uint8_t background[3];
+    uint8_t n_nets;     /* 1 (coarse only) or 2 (coarse + fine) */
+    uint16_t n_coarse, n_fine;
+    uint16_t in_pos, in_dir; /* encoded input widths */
+    cnerf_net_info net[CNERF_MAX_NETS];
+    uint32_t n_layers;
+    uint32_t n_params; /* kernel parameters (latents) in all layers */
+    uint32_t n_biases;
+    cnerf_layer_info layer[CNERF_MAX_LAYERS];
+    /* Size breakdown of the whole stream in bytes. */
+    uint32_t file_bytes;      /* bytes up to and including DONE */
+    uint32_t signature_bytes; /* magic + version */
+    uint32_t head_bytes;      /* HEAD chunk including framing */
+    uint32_t ancillary_bytes; /* all ancillary chunks including framing */
+    uint32_t done_bytes;      /* DONE chunk */
+    uint32_t meta_offset, meta_len; /* first 'meta' chunk's payload (text), 0 if none */
+} cnerf_info;
+
+typedef struct cnerf_decoder {
+    cnerf_info info;
+    const void *latent[CNERF_MAX_LAYERS];  /* int8_t or int16_t, [n_out][n_in] row-major */
+    const int32_t *bias[CNERF_MAX_LAYERS]; /* n_out bias mantissas */
+} cnerf_decoder;
+
+/* Parses and validates the whole structure (signature, every chunk's CRC, header, layer
+ * shapes, ranges and tables) without decoding payloads. */
+cnerf_status cnerf_peek(const uint8_t *buf, size_t len, cnerf_info *info);
+
+/* Workspace bytes cnerf_open needs for this stream (0 if info is NULL). */
+size_t cnerf_workspace_size(const cnerf_info *info);
+
+/* Upper bound of cnerf_workspace_size over all streams whose layers are at most
+ * `params` latents and `outputs` biases in total, with at most `layers` layers;
+ * for static arrays (a compile-time constant when the arguments are). */
+#define CNERF_WORKSPACE_BOUND(params, outputs, layers)                                   \
+    ((size_t)(params) * 2u + (size_t)(outputs) * 4u + (size_t)(layers) * 16u +             \
+     ((size_t)65536u + 1u) * 4u + 16u)
+
+/* Decodes the stream into `ws` (aligned to CNERF_WS_ALIGN, at least
+ * cnerf_workspace_size() bytes). On error `dec` is left zeroed. */
+cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void *ws,
+                        size_t ws_size);
+
+/* Fills info->layer[] shapes and roles and info->net[].n_layers/first_layer, in_pos,
+ * in_dir, n_layers, n_params and n_biases from the topology fields.
+ * Returns CNERF_E_LIMIT or CNERF_E_HEADER for an invalid topology. */
+cnerf_status cnerf_expand_topology(cnerf_info *info);
+
+/* Latent k[o][i] of layer `l` (no bounds checks beyond an assert-free clamp to 0). */
+int32_t cnerf_latent(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t i);
+
+/* CRC-32 (ISO-HDLC, as zlib and PNG) of `len` bytes, continuing from `crc` (start at 0). */
+uint32_t cnerf_crc32(uint32_t crc, const uint8_t *p, size_t len);
+
+#ifndef CNERF_NO_STATUS_STRINGS
+/* Name of a status ("CNERF_E_CRC"); define CNERF_NO_STATUS_STRINGS to compile it out. */
+const char *cnerf_status_str(cnerf_status s);
+#endif
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* CNERF_CNERF_H */

@@ -1,0 +1,92 @@
+/*
+ * cnerf bitstream v1: constants shared by the encoder and the decoder.
+ * docs/bitstream.md is normative; this header mirrors it.
+ * Freestanding-safe: includes only <stdint.h>.
+ */
+#ifndef CNERF_FORMAT_H
+#define CNERF_FORMAT_H
+
+#include <stdint.h>
+
+/* File signature: 4 magic bytes, then u16 major, u16 minor (little-endian). */
+#define CNERF_MAGIC_0 0x89u
+#define CNERF_MAGIC_1 'C'
+#define CNERF_MAGIC_2 'N'
+#define CNERF_MAGIC_3 'F'
+#define CNERF_SIGNATURE_BYTES 8u
+#define CNERF_VERSION_MAJOR 1u
+#define CNERF_VERSION_MINOR 0u
+
+/* Chunk framing: tag[4], u32 length, payload[length], u32 CRC-32 of tag+payload. */
+#define CNERF_CHUNK_OVERHEAD 12u
+
+/* A tag is four ASCII letters; an upper-case first letter marks a critical chunk. */
+#define CNERF_TAG(a, b, c, d)                                                              \
+    ((uint32_t)(uint8_t)(a) | ((uint32_t)(uint8_t)(b) << 8) | ((uint32_t)(uint8_t)(c) << 16) | \
+     ((uint32_t)(uint8_t)(d) << 24))
+#define CNERF_TAG_HEAD CNERF_TAG('H', 'E', 'A', 'D')
+#define CNERF_TAG_LAYR CNERF_TAG('L', 'A', 'Y', 'R')
+#define CNERF_TAG_DONE CNERF_TAG('D', 'O', 'N', 'E')
+#define CNERF_TAG_META CNERF_TAG('m', 'e', 't', 'a')
+
+/* HEAD payload size in bytes (fixed layout, see docs/bitstream.md). */
+#define CNERF_HEAD_FIXED_BYTES 44u
+#define CNERF_HEAD_NET_BYTES 6u
+
+/* Coordinate systems. */
+#define CNERF_COORD_WORLD 0u /* 360-degree scene, rays in world space between near and far */
+#define CNERF_COORD_NDC 1u   /* forward-facing scene, rays in normalized device coordinates */
+
+/* Positional-encoding flags. */
+#define CNERF_PE_INCLUDE_INPUT 0x01u
+
+/* Skip field value meaning "no skip connection". */
+#define CNERF_NO_SKIP 0xFFu
+
+/* Limits, checked before any size is computed. */
+#define CNERF_MAX_NETS 2u
+#define CNERF_MAX_DEPTH 16u
+#define CNERF_MAX_WIDTH 1024u
+#define CNERF_MAX_VIEW_WIDTH 1024u
+#define CNERF_MAX_L_POS 16u
+#define CNERF_MAX_L_DIR 8u
+#define CNERF_MAX_SAMPLES 1024u
+#define CNERF_MAX_LAYERS_PER_NET (CNERF_MAX_DEPTH + 4u)
+#define CNERF_MAX_LAYERS (CNERF_MAX_NETS * CNERF_MAX_LAYERS_PER_NET)
+#define CNERF_MAX_IN_POS (3u + 6u * CNERF_MAX_L_POS)
+#define CNERF_MAX_IN_DIR (3u + 6u * CNERF_MAX_L_DIR)
+/* Widest layer input: trunk width plus the skip's encoded position. */
+#define CNERF_MAX_LAYER_IN (CNERF_MAX_WIDTH + CNERF_MAX_IN_POS)
+#define CNERF_MAX_LAYER_PARAMS ((uint32_t)CNERF_MAX_LAYER_IN * CNERF_MAX_WIDTH)
+
+/* Integer latents k satisfy |k| <= CNERF_MAX_ABS_K. */
+#define CNERF_MAX_ABS_K 32767
+/* Frequency tables sum to 2^prec with 1 <= prec <= CNERF_MAX_PREC. */
+#define CNERF_MAX_PREC 16u
+/* Exp-Golomb order of a frequency table: 0 .. CNERF_MAX_EG_ORDER. */
+#define CNERF_MAX_EG_ORDER 15u
+
+/* m24e8 scalars (affine decoder a, b): value = m * 2^e, |m| < 2^23, e in [EXP_MIN, EXP_MAX]. */
+#define CNERF_M24_ABS_MAX 8388607
+#define CNERF_EXP_MIN (-64)
+#define CNERF_EXP_MAX 63
+/* Bias blocks: nbits-bit two's-complement mantissas with one shared exponent. */
+#define CNERF_MAX_BIAS_BITS 24u
+
+/* rANS: 32-bit state, byte-wise renormalisation, lower bound of the normalised interval. */
+#define CNERF_RANS_L (1u << 23)
+
+/* Coordinates (near, far, bounding box) are Q16.16 signed. */
+#define CNERF_Q16_ONE 65536
+
+/* Layer roles, in the order the layers of one network appear in the stream. */
+enum cnerf_role {
+    CNERF_ROLE_TRUNK = 0,   /* ReLU(W x + b), x = previous output (or [PE(x), h] after the skip) */
+    CNERF_ROLE_SIGMA = 1,   /* density: W h + b, one output; ReLU applied by the renderer */
+    CNERF_ROLE_FEATURE = 2, /* feature: W h + b, no activation */
+    CNERF_ROLE_VIEW = 3,    /* ReLU(W [feature, PE(d)] + b) */
+    CNERF_ROLE_RGB = 4,     /* sigmoid(W v + b), three outputs */
+    CNERF_ROLE_OUTPUT = 5   /* without a view branch: W h + b -> (r, g, b, sigma) */
+};
+
+#endif /* CNERF_FORMAT_H */

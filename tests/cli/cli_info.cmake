@@ -1,0 +1,36 @@
+# cnerf synth writes a stream; cnerf info prints a breakdown whose total is the file size;
+# a corrupt file is refused with the status name and a non-zero exit.
+file(MAKE_DIRECTORY ${WORK})
+execute_process(COMMAND ${CNERF} synth -o ${WORK}/tiny.cnrf --preset tiny --seed 7
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "synth failed (${rc}): ${out}${err}")
+endif()
+file(SIZE ${WORK}/tiny.cnrf size)
+execute_process(COMMAND ${CNERF} info ${WORK}/tiny.cnrf
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "info failed (${rc}): ${err}")
+endif()
+string(REGEX MATCH "total +([0-9]+) bytes +\\(file: ([0-9]+) bytes\\)" m "${out}")
+if(NOT m OR NOT CMAKE_MATCH_1 EQUAL size OR NOT CMAKE_MATCH_2 EQUAL size)
+  message(FATAL_ERROR "info totals do not add up to the file size ${size}:\n${out}")
+endif()
+foreach(want "network 0 \\(coarse\\): depth 4, width 64" "network 1 \\(fine\\)" "latent payload"
+        "frequency tables" "bits per parameter")
+  if(NOT out MATCHES "${want}")
+    message(FATAL_ERROR "info output lacks '${want}':\n${out}")
+  endif()
+endforeach()
+# A truncated copy is refused with its status.
+execute_process(COMMAND sh -c "head -c 100 '${WORK}/tiny.cnrf' > '${WORK}/trunc.cnrf'")
+execute_process(COMMAND ${CNERF} info ${WORK}/trunc.cnrf
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(rc EQUAL 0 OR NOT err MATCHES "CNERF_E_TRUNCATED")
+  message(FATAL_ERROR "truncated stream: expected failure with CNERF_E_TRUNCATED, got ${rc}: ${err}")
+endif()
+execute_process(COMMAND ${CNERF} info ${WORK}/missing.cnrf
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(rc EQUAL 0 OR NOT err MATCHES "missing.cnrf: cannot open")
+  message(FATAL_ERROR "missing file: expected a clear error, got ${rc}: ${err}")
+endif()

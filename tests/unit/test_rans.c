@@ -1,0 +1,183 @@
+/* rANS coder and frequency tables: encoder against decoder, edge cases, coding gap. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cn_internal.h"
+#include "cn_rng.h"
+#include "testutil.h"
+
+/* Encodes syms with freq, decodes with the decoder's cn_rans_decode, compares; returns
+ * the payload size. */
+static size_t roundtrip(const uint32_t *syms, size_t count, const uint32_t *freq, uint32_t n,
+                        unsigned prec)
+{
+    cn_buf b = {0};
+    assert_int_equal(cn_rans_encode(syms, count, freq, n, prec, &b), 0);
+    uint32_t *cum = malloc(sizeof(uint32_t) * (n + 1));
+    int32_t *out = malloc(sizeof(int32_t) * (count ? count : 1));
+    assert_non_null(cum);
+    assert_non_null(out);
+    cum[0] = 0;
+    for (uint32_t i = 0; i < n; i++)
+        cum[i + 1] = cum[i] + freq[i];
+    assert_int_equal(cn_rans_decode(b.p, b.n, cum, n, prec, 0, out, 4, (uint32_t)count),
+                     CNERF_OK);
+    for (size_t i = 0; i < count; i++)
+        assert_int_equal(out[i], syms[i]);
+    /* Asking for one symbol fewer leaves bytes or a wrong state: detected (a certain
+     * symbol never changes the state, so only with two or more symbols). */
+    if (count > 0 && n > 1)
+        assert_int_equal(cn_rans_decode(b.p, b.n, cum, n, prec, 0, out, 4, (uint32_t)count - 1),
+                         CNERF_E_PAYLOAD);
+    size_t len = b.n;
+    cn_buf_free(&b);
+    free(cum);
+    free(out);
+    return len;
+}
+
+static void test_empty_payload(void **state)
+{
+    (void)state;
+    uint32_t freq[2] = {1, 1};
+    /* No symbols: only the 4-byte final state. */
+    assert_int_equal(roundtrip(NULL, 0, freq, 2, 1), 4);
+}
+
+static void test_one_symbol_alphabet(void **state)
+{
+    (void)state;
+    uint32_t freq[1] = {1u << 12};
+    uint32_t syms[1000] = {0};
+    /* A certain symbol costs nothing. */
+    assert_int_equal(roundtrip(syms, 1000, freq, 1, 12), 4);
+}
+
+static void test_frequency_one_symbols(void **state)
+{
+    (void)state;
+    /* Max precision, one symbol takes almost everything, others frequency 1. */
+    enum { N = 5 };
+    uint32_t freq[N] = {(1u << 16) - 4, 1, 1, 1, 1};
+    cn_rng r = cn_rng_seed(3);
+    uint32_t syms[20000];
+    for (size_t i = 0; i < 20000; i++)
+        syms[i] = cn_rng_below(&r, 100) == 0 ? 1 + cn_rng_below(&r, 4) : 0;
+    roundtrip(syms, 20000, freq, N, 16);
+    /* Runs of only the rarest symbols (the largest renormalisation steps). */
+    for (size_t i = 0; i < 20000; i++)
+        syms[i] = 1 + (uint32_t)(i % 4);
+    size_t len = roundtrip(syms, 20000, freq, N, 16);
+    assert_true(len >= 20000 * 2 - 8); /* 16 bits each */
+}
+
+static void test_max_precision_large_alphabet(void **state)
+{
+    (void)state;
+    const uint32_t n = 65535;
+    uint32_t *freq = malloc(sizeof(uint32_t) * n);
+    for (uint32_t i = 0; i < n; i++)
+        freq[i] = 1;
+    freq[n / 2] += 1; /* sum = 65536 */
+    cn_rng r = cn_rng_seed(5);
+    size_t count = 100000;
+    uint32_t *syms = malloc(sizeof(uint32_t) * count);
+    for (size_t i = 0; i < count; i++)
+        syms[i] = cn_rng_below(&r, n);
+    roundtrip(syms, count, freq, n, 16);
+    free(freq);
+    free(syms);
+}
+
+/* Very long payloads at every precision; reports the gap to -sum log2 p. */
+static void test_long_payload_gap(void **state)
+{
+    (void)state;
+    const size_t count = 2000000;
+    uint32_t *syms = malloc(sizeof(uint32_t) * count);
+    cn_rng r = cn_rng_seed(11);
+    for (unsigned prec = 8; prec <= 16; prec += 4) {
+        /* A discretized Laplacian over 33 symbols. */
+        enum { N = 33 };
+        double p[N];
+        for (int i = 0; i < N; i++)
+            p[i] = exp(-fabs(i - 16.0) / 2.5);
+        uint32_t freq[N];
+        assert_int_equal(cn_quantize_pmf(p, N, prec, freq), 0);
+        uint32_t cum[N + 1] = {0};
+        for (int i = 0; i < N; i++)
+            cum[i + 1] = cum[i] + freq[i];
+        uint64_t cnt[N] = {0};
+        for (size_t i = 0; i < count; i++) {
+            uint32_t slot = cn_rng_below(&r, 1u << prec), s = 0;
+            while (cum[s + 1] <= slot)
+                s++;
+            syms[i] = s;
+            cnt[s]++;
+        }
+        double ideal = cn_table_cost_bits(cnt, freq, N, prec) / 8.0;
+        size_t len = roundtrip(syms, count, freq, N, prec);
+        double gap = (len - ideal) / ideal * 100.0;
+        printf("# rANS prec %2u: %zu symbols, ideal %.0f bytes, coded %zu bytes, gap %.4f%%\n",
+               prec, count, ideal, len, gap);
+        assert_true(len >= ideal - 1);
+        assert_true(gap < 0.1);
+    }
+    free(syms);
+}
+
+static void test_corrupt_payload_detected(void **state)
+{
+    (void)state;
+    uint32_t freq[4] = {200, 30, 20, 6};
+    uint32_t syms[5000];
+    cn_rng r = cn_rng_seed(9);
+    for (size_t i = 0; i < 5000; i++)
+        syms[i] = cn_rng_below(&r, 4);
+    cn_buf b = {0};
+    assert_int_equal(cn_rans_encode(syms, 5000, freq, 4, 8, &b), 0);
+    uint32_t cum[5] = {0, 200, 230, 250, 256};
+    int32_t *out = malloc(sizeof(int32_t) * 5000);
+    /* Truncated payloads and bad initial states. */
+    for (size_t cut = 0; cut < b.n; cut += 1 + cut / 3)
+        assert_int_equal(cn_rans_decode(b.p, cut, cum, 4, 8, 0, out, 4, 5000), CNERF_E_PAYLOAD);
+    uint8_t bad[4] = {0, 0, 0, 0};
+    assert_int_equal(cn_rans_decode(bad, 4, cum, 4, 8, 0, out, 4, 0), CNERF_E_PAYLOAD);
+    uint8_t big[4] = {0, 0, 0, 0x80};
+    assert_int_equal(cn_rans_decode(big, 4, cum, 4, 8, 0, out, 4, 0), CNERF_E_PAYLOAD);
+    /* Extra trailing byte. */
+    cn_buf_u8(&b, 0x55);
+    assert_int_equal(cn_rans_decode(b.p, b.n, cum, 4, 8, 0, out, 4, 5000), CNERF_E_PAYLOAD);
+    free(out);
+    cn_buf_free(&b);
+}
+
+static void test_encoder_rejects_bad_input(void **state)
+{
+    (void)state;
+    cn_buf b = {0};
+    uint32_t freq[2] = {100, 100}; /* does not sum to 256 */
+    uint32_t syms[2] = {0, 1};
+    assert_int_equal(cn_rans_encode(syms, 2, freq, 2, 8, &b), -1);
+    uint32_t ok[2] = {128, 128};
+    uint32_t bad[1] = {2};
+    assert_int_equal(cn_rans_encode(bad, 1, ok, 2, 8, &b), -1);
+    assert_int_equal(cn_rans_encode(syms, 2, ok, 2, 17, &b), -1);
+    cn_buf_free(&b);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_empty_payload),
+        cmocka_unit_test(test_one_symbol_alphabet),
+        cmocka_unit_test(test_frequency_one_symbols),
+        cmocka_unit_test(test_max_precision_large_alphabet),
+        cmocka_unit_test(test_long_payload_gap),
+        cmocka_unit_test(test_corrupt_payload_detected),
+        cmocka_unit_test(test_encoder_rejects_bad_input),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
