@@ -113,7 +113,8 @@ typedef struct cnerf_decoder {
 } cnerf_decoder;
 
 /* Parses and validates the whole structure (signature, every chunk's CRC, header, layer
- * shapes, ranges and tables) without decoding payloads. */
+ * shapes, ranges and tables) without decoding payloads. buf may be NULL when len is 0
+ * (an empty stream: CNERF_E_TRUNCATED). */
 cnerf_status cnerf_peek(const uint8_t *buf, size_t len, cnerf_info *info);
 
 /* Workspace bytes cnerf_open needs for this stream (0 if info is NULL). */

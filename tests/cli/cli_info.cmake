@@ -29,6 +29,12 @@ execute_process(COMMAND ${CNERF} info ${WORK}/trunc.cnrf
 if(rc EQUAL 0 OR NOT err MATCHES "CNERF_E_TRUNCATED")
   message(FATAL_ERROR "truncated stream: expected failure with CNERF_E_TRUNCATED, got ${rc}: ${err}")
 endif()
+file(WRITE ${WORK}/empty.cnrf "")
+execute_process(COMMAND ${CNERF} info ${WORK}/empty.cnrf
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(rc EQUAL 0 OR NOT err MATCHES "CNERF_E_TRUNCATED")
+  message(FATAL_ERROR "empty file: expected CNERF_E_TRUNCATED, got ${rc}: ${err}")
+endif()
 execute_process(COMMAND ${CNERF} info ${WORK}/missing.cnrf
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(rc EQUAL 0 OR NOT err MATCHES "missing.cnrf: cannot open")
