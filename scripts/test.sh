@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# Builds cnerf and runs every test with ctest.
+#   scripts/test.sh              RelWithDebInfo build in build/
+#   scripts/test.sh --sanitize   the same under AddressSanitizer + UBSan in build-asan/
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build=build
+opts=()
+if [ "${1:-}" = "--sanitize" ]; then
+  build=build-asan
+  opts=(-DCNERF_SANITIZE=ON)
+  export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1
+fi
+jobs=$(nproc 2>/dev/null || echo 2)
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo "${opts[@]}"
+cmake --build "$build" -j"$jobs"
+ctest --test-dir "$build" --output-on-failure -j"$jobs"
