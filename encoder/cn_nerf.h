@@ -1,0 +1,85 @@
+/*
+ * The float NeRF model: parameters, gradients and Adam moments each in one contiguous block
+ * with named per-layer views; batched forward and backward passes of both networks through
+ * cblas_sgemm. Layer shapes and order come from the stream's topology (cnerf_expand_topology),
+ * so the trained model maps one to one onto the bitstream.
+ */
+#ifndef CNERF_ENC_NERF_H
+#define CNERF_ENC_NERF_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "cnerf/cnerf.h"
+
+/* ---- layer primitives: outputs first, gradients accumulate (+=) ---- */
+
+/* y[p][o] = sum_i x[p][i] * w[o][i] + b[o] for p < P; x has row stride ldx, y ldy. */
+void cn_linear_forward(float *y, size_t ldy, const float *x, size_t ldx, const float *w,
+                       const float *b, size_t P, size_t n_in, size_t n_out);
+/* dw += dy^T x, db += column sums of dy; if dx: dx[:, 0:nx] (+)= dy w[:, x0:x0+nx]
+ * (accumulate when dx_accum, else overwrite). */
+void cn_linear_backward(float *dx, size_t lddx, size_t x0, size_t nx, int dx_accum, float *dw,
+                        float *db, const float *dy, size_t lddy, const float *x, size_t ldx,
+                        const float *w, size_t P, size_t n_in, size_t n_out);
+/* In place: y = max(y, 0) over P rows of n columns (stride ld). */
+void cn_relu_forward(float *y, size_t ld, size_t P, size_t n);
+/* dy *= (y > 0), with y the ReLU output. */
+void cn_relu_backward(float *dy, size_t lddy, const float *y, size_t ldy, size_t P, size_t n);
+
+/* Positional encoding of n 3-vectors into rows of width 3*inc + 6*L (row stride ld):
+ * [v if inc], then for each octave l: sin(2^l pi v_xyz), cos(2^l pi v_xyz). */
+void cn_posenc(float *out, size_t ld, const float *v, size_t n, unsigned L, int inc);
+
+/* ---- the model ---- */
+
+typedef struct cn_layer_params {
+    size_t w, b; /* offsets of the kernel [n_out][n_in] and the bias [n_out] in the block */
+} cn_layer_params;
+
+typedef struct cn_model {
+    cnerf_info topo;   /* render parameters and expanded topology */
+    size_t n_params;   /* floats in each block */
+    float *params;     /* the one parameter block */
+    float *grads;      /* gradients, same layout */
+    float *adam_m, *adam_v;
+    cn_layer_params layer[CNERF_MAX_LAYERS];
+} cn_model;
+
+/* Allocates the blocks for the header's topology and initialises the kernels Glorot-uniform
+ * and biases to zero. Returns 0 or -1 with a message. */
+int cn_model_init(cn_model *m, const cnerf_info *hdr, uint64_t seed, char *err, size_t errlen);
+void cn_model_free(cn_model *m);
+
+/* The kernel that the forward pass uses for layer l. Every linear kernel is read through
+ * here, so a reparameterization (latents -> integer -> affine decoder) slots in at one place. */
+const float *cn_model_kernel(const cn_model *m, unsigned l);
+/* Where the gradient of layer l's kernel accumulates. */
+float *cn_model_kernel_grad(cn_model *m, unsigned l);
+
+/* ---- one network on a batch of points ---- */
+
+typedef struct cn_net_buf {
+    size_t cap;        /* points the buffers hold */
+    size_t ld_in;      /* row stride of `in`: in_pos (+ W when the skip concatenates) */
+    float *in;         /* [PE(x) | h_skip] */
+    float *h[CNERF_MAX_DEPTH]; /* trunk outputs (the skip layer's lives inside `in`) */
+    size_t ld_h[CNERF_MAX_DEPTH];
+    float *view_in;    /* [feature | PE(d)], row stride W + in_dir (view branch) */
+    float *view_h;     /* view hidden, V wide */
+    float *out;        /* raw outputs: P x 4 as (r, g, b, sigma) */
+    /* gradients */
+    float *d_in, *d_h[CNERF_MAX_DEPTH], *d_view_in, *d_view_h, *d_out;
+} cn_net_buf;
+
+int cn_net_buf_init(cn_net_buf *nb, const cnerf_info *topo, unsigned net, size_t cap);
+void cn_net_buf_free(cn_net_buf *nb);
+
+/* Forward pass of network `net` on P points whose encodings the caller wrote into
+ * nb->in (columns 0..in_pos) and, with a view branch, nb->view_in (columns W..W+in_dir).
+ * Raw outputs (r, g, b, sigma before sigmoid/ReLU) land in nb->out. */
+void cn_net_forward(const cn_model *m, unsigned net, cn_net_buf *nb, size_t P);
+/* Backward pass from nb->d_out (P x 4); accumulates into m->grads. */
+void cn_net_backward(cn_model *m, unsigned net, cn_net_buf *nb, size_t P);
+
+#endif /* CNERF_ENC_NERF_H */

@@ -1,0 +1,80 @@
+/*
+ * Float rendering: rays, sampling (stratified coarse, inverse-CDF fine), volume rendering
+ * with its backward pass, and the batched two-network render used for training and for
+ * evaluation. The rules are written down in docs/rendering.md; the fixed-point decoder
+ * copies them.
+ */
+#ifndef CNERF_ENC_RENDER_H
+#define CNERF_ENC_RENDER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "cn_nerf.h"
+#include "cn_rng.h"
+
+/* A pinhole camera: camera-to-world [R | t] with OpenGL axes (x right, y up, looking
+ * down -z), intrinsics in pixels. */
+typedef struct cn_camera {
+    double c2w[3][4];
+    double fx, fy, cx, cy;
+    int w, h;
+} cn_camera;
+
+/* The ray through the centre of pixel (x, y): o + t d with d = R (u, v, -1),
+ * u = (x + 0.5 - cx) / fx, v = -(y + 0.5 - cy) / fy. In NDC scenes the ray is then warped
+ * into normalized device coordinates (near plane 1). `viewdir` is the unit world direction. */
+void cn_camera_ray(const cn_camera *cam, int ndc, double x, double y, float o[3], float d[3],
+                   float viewdir[3]);
+
+/* Coarse samples: n bins of [near, far], t_i = near + (i + u_i) (far - near) / n with
+ * u_i = 1/2 (rng NULL) or uniform in [0, 1). */
+void cn_sample_coarse(float *t, unsigned n, float near, float far, cn_rng *rng);
+/* Fine samples from the coarse weights w[0..nc) over the same bins: pdf (w_i + eps) /
+ * sum, quantiles u_j = (j + 1/2) / nf (rng NULL) or (j + U) / nf, piecewise-linear inverse
+ * CDF. Writes nf increasing values. */
+void cn_sample_fine(float *t, unsigned nf, const float *w, unsigned nc, float near, float far,
+                    cn_rng *rng);
+/* Merges two increasing lists into out (na + nb values). */
+void cn_merge_sorted(float *out, const float *a, unsigned na, const float *b, unsigned nb);
+
+#define CN_PDF_EPS 1e-5f
+
+/* Volume rendering of one ray from raw network outputs raw[i*ld + 0..3] = (r, g, b, sigma)
+ * at increasing t[0..n): c_i = sigmoid(rgb), sigma_i = ReLU(sigma) (0 where inside[i] == 0),
+ * delta_i = t_{i+1} - t_i (last: far - t_{n-1}), times dnorm = |d|;
+ * alpha_i = 1 - exp(-sigma_i delta_i), T_i = prod_{j<i} (1 - alpha_j), w_i = T_i alpha_i;
+ * C = sum w_i c_i + T_n bg. Writes color and, if w is not NULL, the weights. */
+void cn_volume_forward(const float *raw, size_t ld, const float *t, const uint8_t *inside,
+                       unsigned n, float far, float dnorm, const float bg[3], float color[3],
+                       float *w);
+/* Gradient of the loss with respect to raw, given dC = dL/dC (overwrites draw rows). */
+void cn_volume_backward(float *draw, size_t ld, const float *raw, const float *t,
+                        const uint8_t *inside, unsigned n, float far, float dnorm,
+                        const float bg[3], const float dC[3]);
+
+/* ---- batched rendering of rays through both networks ---- */
+
+typedef struct cn_batch {
+    size_t cap;                 /* rays */
+    unsigned nc, ns;            /* coarse samples, samples of the last network */
+    float *o, *d, *vd;          /* cap x 3: origins, directions, unit view directions */
+    float *t_c, *t_f;           /* cap x nc, cap x ns (fine: merged coarse + fine) */
+    float *w_c;                 /* coarse weights, cap x nc */
+    float *pts;                 /* cap x ns x 3 */
+    uint8_t *inside[2];         /* per network: cap x nc, cap x ns */
+    float *color[2];            /* cap x 3 per network */
+    cn_net_buf nb[2];
+} cn_batch;
+
+int cn_batch_init(cn_batch *b, const cnerf_info *topo, size_t cap);
+void cn_batch_free(cn_batch *b);
+
+/* Renders rays b->o/d/vd[0..R) through the coarse network (and the fine one when the model
+ * has it). Training (rng not NULL) jitters the samples with per-ray streams derived from
+ * `seed`, so the result does not depend on the thread count. */
+void cn_render_forward(const cn_model *m, cn_batch *b, size_t R, const uint64_t *seed);
+/* Backward from dcolor[net] (R x 3 each; NULL to skip a network); accumulates gradients. */
+void cn_render_backward(cn_model *m, cn_batch *b, size_t R, float *const dcolor[2]);
+
+#endif /* CNERF_ENC_RENDER_H */

@@ -1,0 +1,318 @@
+/* The float NeRF: layer primitives, the parameter block and both networks' passes. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cblas.h>
+
+#include "cn_nerf.h"
+#include "cn_rng.h"
+
+/* ---- layer primitives ---- */
+
+void cn_linear_forward(float *y, size_t ldy, const float *x, size_t ldx, const float *w,
+                       const float *b, size_t P, size_t n_in, size_t n_out)
+{
+    if (P == 0)
+        return;
+    cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, (int)P, (int)n_out, (int)n_in, 1.0f, x,
+                (int)ldx, w, (int)n_in, 0.0f, y, (int)ldy);
+#pragma omp parallel for schedule(static)
+    for (size_t p = 0; p < P; p++) {
+        float *row = y + p * ldy;
+        for (size_t o = 0; o < n_out; o++)
+            row[o] += b[o];
+    }
+}
+
+/* db += column sums of dy (P x n, stride ld), summed in double per thread. */
+static void colsum_acc(float *db, const float *dy, size_t ld, size_t P, size_t n)
+{
+#pragma omp parallel
+    {
+        double acc[CNERF_MAX_LAYER_IN];
+        for (size_t o = 0; o < n; o++)
+            acc[o] = 0;
+#pragma omp for schedule(static) nowait
+        for (size_t p = 0; p < P; p++) {
+            const float *row = dy + p * ld;
+            for (size_t o = 0; o < n; o++)
+                acc[o] += row[o];
+        }
+#pragma omp critical
+        for (size_t o = 0; o < n; o++)
+            db[o] += (float)acc[o];
+    }
+}
+
+void cn_linear_backward(float *dx, size_t lddx, size_t x0, size_t nx, int dx_accum, float *dw,
+                        float *db, const float *dy, size_t lddy, const float *x, size_t ldx,
+                        const float *w, size_t P, size_t n_in, size_t n_out)
+{
+    if (P == 0)
+        return;
+    cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, (int)n_out, (int)n_in, (int)P, 1.0f, dy,
+                (int)lddy, x, (int)ldx, 1.0f, dw, (int)n_in);
+    colsum_acc(db, dy, lddy, P, n_out);
+    if (dx && nx)
+        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, (int)P, (int)nx, (int)n_out, 1.0f,
+                    dy, (int)lddy, w + x0, (int)n_in, dx_accum ? 1.0f : 0.0f, dx, (int)lddx);
+}
+
+void cn_relu_forward(float *y, size_t ld, size_t P, size_t n)
+{
+#pragma omp parallel for schedule(static)
+    for (size_t p = 0; p < P; p++)
+        for (size_t o = 0; o < n; o++)
+            if (y[p * ld + o] < 0)
+                y[p * ld + o] = 0;
+}
+
+void cn_relu_backward(float *dy, size_t lddy, const float *y, size_t ldy, size_t P, size_t n)
+{
+#pragma omp parallel for schedule(static)
+    for (size_t p = 0; p < P; p++)
+        for (size_t o = 0; o < n; o++)
+            if (!(y[p * ldy + o] > 0))
+                dy[p * lddy + o] = 0;
+}
+
+void cn_posenc(float *out, size_t ld, const float *v, size_t n, unsigned L, int inc)
+{
+#pragma omp parallel for schedule(static)
+    for (size_t p = 0; p < n; p++) {
+        float *o = out + p * ld;
+        const float *x = v + 3 * p;
+        if (inc) {
+            *o++ = x[0];
+            *o++ = x[1];
+            *o++ = x[2];
+        }
+        double s[3], c[3];
+        for (int a = 0; a < 3; a++) {
+            s[a] = sin(M_PI * x[a]);
+            c[a] = cos(M_PI * x[a]);
+        }
+        for (unsigned l = 0; l < L; l++) {
+            for (int a = 0; a < 3; a++)
+                o[a] = (float)s[a];
+            for (int a = 0; a < 3; a++)
+                o[3 + a] = (float)c[a];
+            o += 6;
+            /* double angle: accurate to ~1e-13 over 16 octaves in double */
+            for (int a = 0; a < 3; a++) {
+                double s2 = 2 * s[a] * c[a], c2 = c[a] * c[a] - s[a] * s[a];
+                s[a] = s2;
+                c[a] = c2;
+            }
+        }
+    }
+}
+
+/* ---- the model ---- */
+
+int cn_model_init(cn_model *m, const cnerf_info *hdr, uint64_t seed, char *err, size_t errlen)
+{
+    memset(m, 0, sizeof *m);
+    m->topo = *hdr;
+    cnerf_status st = cnerf_expand_topology(&m->topo);
+    if (st != CNERF_OK) {
+        snprintf(err, errlen, "invalid model topology: %s", cnerf_status_str(st));
+        return -1;
+    }
+    size_t off = 0;
+    for (unsigned l = 0; l < m->topo.n_layers; l++) {
+        const cnerf_layer_info *L = &m->topo.layer[l];
+        m->layer[l].w = off;
+        off += (size_t)L->n_in * L->n_out;
+        m->layer[l].b = off;
+        off += L->n_out;
+    }
+    m->n_params = off;
+    size_t bytes = sizeof(float) * off;
+    m->params = calloc(1, bytes);
+    m->grads = calloc(1, bytes);
+    m->adam_m = calloc(1, bytes);
+    m->adam_v = calloc(1, bytes);
+    if (!m->params || !m->grads || !m->adam_m || !m->adam_v) {
+        cn_model_free(m);
+        snprintf(err, errlen, "out of memory for %zu parameters", off);
+        return -1;
+    }
+    cn_rng r = cn_rng_seed(seed);
+    for (unsigned l = 0; l < m->topo.n_layers; l++) {
+        const cnerf_layer_info *L = &m->topo.layer[l];
+        const double lim = sqrt(6.0 / (L->n_in + L->n_out));
+        float *w = m->params + m->layer[l].w;
+        for (size_t i = 0; i < (size_t)L->n_in * L->n_out; i++)
+            w[i] = (float)((2 * cn_rng_uniform(&r) - 1) * lim);
+    }
+    return 0;
+}
+
+void cn_model_free(cn_model *m)
+{
+    free(m->params);
+    free(m->grads);
+    free(m->adam_m);
+    free(m->adam_v);
+    m->params = m->grads = m->adam_m = m->adam_v = NULL;
+}
+
+const float *cn_model_kernel(const cn_model *m, unsigned l) { return m->params + m->layer[l].w; }
+float *cn_model_kernel_grad(cn_model *m, unsigned l) { return m->grads + m->layer[l].w; }
+
+/* ---- network buffers ---- */
+
+static float *fbuf(size_t n) { return malloc(sizeof(float) * (n ? n : 1)); }
+
+int cn_net_buf_init(cn_net_buf *nb, const cnerf_info *topo, unsigned net, size_t cap)
+{
+    memset(nb, 0, sizeof *nb);
+    const cnerf_net_info *N = &topo->net[net];
+    const size_t W = N->width, in_pos = topo->in_pos;
+    nb->cap = cap;
+    nb->ld_in = in_pos + (N->skip != CNERF_NO_SKIP ? W : 0);
+    nb->in = fbuf(cap * nb->ld_in);
+    nb->d_in = fbuf(cap * nb->ld_in);
+    int bad = !nb->in || !nb->d_in;
+    for (unsigned i = 0; i < N->depth; i++) {
+        if (i == N->skip) {
+            nb->h[i] = nb->in + in_pos;
+            nb->d_h[i] = nb->d_in + in_pos;
+            nb->ld_h[i] = nb->ld_in;
+        } else {
+            nb->h[i] = fbuf(cap * W);
+            nb->d_h[i] = fbuf(cap * W);
+            nb->ld_h[i] = W;
+            bad |= !nb->h[i] || !nb->d_h[i];
+        }
+    }
+    if (N->view_width) {
+        const size_t lv = W + topo->in_dir;
+        nb->view_in = fbuf(cap * lv);
+        nb->d_view_in = fbuf(cap * lv);
+        nb->view_h = fbuf(cap * N->view_width);
+        nb->d_view_h = fbuf(cap * N->view_width);
+        bad |= !nb->view_in || !nb->d_view_in || !nb->view_h || !nb->d_view_h;
+    }
+    nb->out = fbuf(cap * 4);
+    nb->d_out = fbuf(cap * 4);
+    bad |= !nb->out || !nb->d_out;
+    if (bad) {
+        cn_net_buf_free(nb);
+        return -1;
+    }
+    return 0;
+}
+
+void cn_net_buf_free(cn_net_buf *nb)
+{
+    for (unsigned i = 0; i < CNERF_MAX_DEPTH; i++) {
+        if (nb->h[i] && (nb->h[i] < nb->in || nb->h[i] >= nb->in + nb->cap * nb->ld_in)) {
+            free(nb->h[i]);
+            free(nb->d_h[i]);
+        }
+    }
+    free(nb->in);
+    free(nb->d_in);
+    free(nb->view_in);
+    free(nb->d_view_in);
+    free(nb->view_h);
+    free(nb->d_view_h);
+    free(nb->out);
+    free(nb->d_out);
+    memset(nb, 0, sizeof *nb);
+}
+
+/* Input of trunk layer i: pointer, row stride and width. */
+static const float *trunk_input(const cnerf_info *T, const cnerf_net_info *N,
+                                const cn_net_buf *nb, unsigned i, size_t *ld)
+{
+    if (i == 0 || (N->skip != CNERF_NO_SKIP && i == N->skip + 1u)) {
+        *ld = nb->ld_in;
+        return nb->in;
+    }
+    (void)T;
+    *ld = nb->ld_h[i - 1];
+    return nb->h[i - 1];
+}
+
+void cn_net_forward(const cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
+{
+    const cnerf_info *T = &m->topo;
+    const cnerf_net_info *N = &T->net[net];
+    const unsigned l0 = N->first_layer, D = N->depth;
+    const size_t W = N->width;
+    for (unsigned i = 0; i < D; i++) {
+        const cnerf_layer_info *L = &T->layer[l0 + i];
+        size_t ldx;
+        const float *x = trunk_input(T, N, nb, i, &ldx);
+        cn_linear_forward(nb->h[i], nb->ld_h[i], x, ldx, cn_model_kernel(m, l0 + i),
+                          m->params + m->layer[l0 + i].b, P, L->n_in, W);
+        cn_relu_forward(nb->h[i], nb->ld_h[i], P, W);
+    }
+    const float *h = nb->h[D - 1];
+    const size_t ldh = nb->ld_h[D - 1];
+    const unsigned l = l0 + D;
+    if (N->view_width) {
+        const size_t lv = W + T->in_dir, V = N->view_width;
+        cn_linear_forward(nb->out + 3, 4, h, ldh, cn_model_kernel(m, l),
+                          m->params + m->layer[l].b, P, W, 1);
+        cn_linear_forward(nb->view_in, lv, h, ldh, cn_model_kernel(m, l + 1),
+                          m->params + m->layer[l + 1].b, P, W, W);
+        cn_linear_forward(nb->view_h, V, nb->view_in, lv, cn_model_kernel(m, l + 2),
+                          m->params + m->layer[l + 2].b, P, lv, V);
+        cn_relu_forward(nb->view_h, V, P, V);
+        cn_linear_forward(nb->out, 4, nb->view_h, V, cn_model_kernel(m, l + 3),
+                          m->params + m->layer[l + 3].b, P, V, 3);
+    } else {
+        cn_linear_forward(nb->out, 4, h, ldh, cn_model_kernel(m, l), m->params + m->layer[l].b,
+                          P, W, 4);
+    }
+}
+
+void cn_net_backward(cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
+{
+    const cnerf_info *T = &m->topo;
+    const cnerf_net_info *N = &T->net[net];
+    const unsigned l0 = N->first_layer, D = N->depth;
+    const size_t W = N->width;
+    const float *h = nb->h[D - 1];
+    float *dh = nb->d_h[D - 1];
+    const size_t ldh = nb->ld_h[D - 1];
+    const unsigned l = l0 + D;
+#define LAYER_ARGS(k) cn_model_kernel_grad(m, k), m->grads + m->layer[k].b
+    if (N->view_width) {
+        const size_t lv = W + T->in_dir, V = N->view_width;
+        cn_linear_backward(nb->d_view_h, V, 0, V, 0, LAYER_ARGS(l + 3), nb->d_out, 4, nb->view_h,
+                           V, cn_model_kernel(m, l + 3), P, V, 3);
+        cn_relu_backward(nb->d_view_h, V, nb->view_h, V, P, V);
+        cn_linear_backward(nb->d_view_in, lv, 0, W, 0, LAYER_ARGS(l + 2), nb->d_view_h, V,
+                           nb->view_in, lv, cn_model_kernel(m, l + 2), P, lv, V);
+        cn_linear_backward(dh, ldh, 0, W, 0, LAYER_ARGS(l + 1), nb->d_view_in, lv, h, ldh,
+                           cn_model_kernel(m, l + 1), P, W, W);
+        cn_linear_backward(dh, ldh, 0, W, 1, LAYER_ARGS(l), nb->d_out + 3, 4, h, ldh,
+                           cn_model_kernel(m, l), P, W, 1);
+    } else {
+        cn_linear_backward(dh, ldh, 0, W, 0, LAYER_ARGS(l), nb->d_out, 4, h, ldh,
+                           cn_model_kernel(m, l), P, W, 4);
+    }
+    for (unsigned i = D; i-- > 0;) {
+        const cnerf_layer_info *L = &T->layer[l0 + i];
+        cn_relu_backward(nb->d_h[i], nb->ld_h[i], nb->h[i], nb->ld_h[i], P, W);
+        size_t ldx;
+        const float *x = trunk_input(T, N, nb, i, &ldx);
+        float *dx = NULL;
+        size_t lddx = 0, x0 = 0;
+        if (i > 0) {
+            dx = nb->d_h[i - 1];
+            lddx = nb->ld_h[i - 1];
+            x0 = L->n_in - W; /* after the skip, only the h part of [PE(x), h] */
+        }
+        cn_linear_backward(dx, lddx, x0, dx ? W : 0, 0, LAYER_ARGS(l0 + i), nb->d_h[i],
+                           nb->ld_h[i], x, ldx, cn_model_kernel(m, l0 + i), P, L->n_in, W);
+    }
+#undef LAYER_ARGS
+}

@@ -1,0 +1,321 @@
+/* Finite-difference checks of every backward pass: linear layer, ReLU, volume rendering
+ * (density and colour), one whole network, and the two-network render.
+ *
+ * Tolerance: central differences with step h on float computations; a gradient passes when
+ * |analytic - numeric| <= 2e-2 * max(|analytic|, |numeric|) + 2e-4 (float round-off of the
+ * loss divided by 2h dominates below that); whole renders: see RENDER_ABS_TOL. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cn_nerf.h"
+#include "cn_render.h"
+#include "testutil.h"
+
+#define REL_TOL 2e-2
+#define ABS_TOL 2e-4
+/* Whole-render checks use h = 2.5e-4 on a float loss of order 1: round-off ~1e-7 / 5e-4. */
+#define RENDER_ABS_TOL 1e-3
+
+static void fill(float *x, size_t n, cn_rng *r, double scale)
+{
+    for (size_t i = 0; i < n; i++)
+        x[i] = (float)((2 * cn_rng_uniform(r) - 1) * scale);
+}
+
+static int close_enough(double a, double n)
+{
+    return fabs(a - n) <= REL_TOL * fmax(fabs(a), fabs(n)) + ABS_TOL;
+}
+
+static double dot(const float *a, const float *b, size_t n)
+{
+    double s = 0;
+    for (size_t i = 0; i < n; i++)
+        s += (double)a[i] * b[i];
+    return s;
+}
+
+/* ---- linear layer with ReLU: L = sum g * relu(x W^T + b) ---- */
+enum { LP = 37, LIN = 11, LOUT = 7 };
+static float lx[LP * LIN], lw[LOUT * LIN], lb[LOUT], lg[LP * LOUT];
+
+static double linear_loss(void)
+{
+    float y[LP * LOUT];
+    cn_linear_forward(y, LOUT, lx, LIN, lw, lb, LP, LIN, LOUT);
+    cn_relu_forward(y, LOUT, LP, LOUT);
+    return dot(y, lg, LP * LOUT);
+}
+
+static void check_fd(const char *what, float *param, size_t n, const float *grad, double h)
+{
+    int bad = 0;
+    for (size_t i = 0; i < n; i++) {
+        float keep = param[i];
+        param[i] = keep + (float)h;
+        double lp = linear_loss();
+        param[i] = keep - (float)h;
+        double lm = linear_loss();
+        param[i] = keep;
+        double num = (lp - lm) / (2 * h);
+        if (!close_enough(grad[i], num)) {
+            print_error("%s[%zu]: analytic %g numeric %g\n", what, i, grad[i], num);
+            bad++;
+        }
+    }
+    assert_int_equal(bad, 0);
+}
+
+static void test_linear_relu(void **state)
+{
+    (void)state;
+    cn_rng r = cn_rng_seed(1);
+    fill(lx, LP * LIN, &r, 1.0);
+    fill(lw, LOUT * LIN, &r, 0.5);
+    fill(lb, LOUT, &r, 0.3);
+    fill(lg, LP * LOUT, &r, 1.0);
+    float y[LP * LOUT], dy[LP * LOUT], dw[LOUT * LIN] = {0}, db[LOUT] = {0}, dx[LP * LIN];
+    cn_linear_forward(y, LOUT, lx, LIN, lw, lb, LP, LIN, LOUT);
+    cn_relu_forward(y, LOUT, LP, LOUT);
+    memcpy(dy, lg, sizeof dy);
+    cn_relu_backward(dy, LOUT, y, LOUT, LP, LOUT);
+    cn_linear_backward(dx, LIN, 0, LIN, 0, dw, db, dy, LOUT, lx, LIN, lw, LP, LIN, LOUT);
+    check_fd("dW", lw, LOUT * LIN, dw, 1e-3);
+    check_fd("db", lb, LOUT, db, 1e-3);
+    check_fd("dx", lx, LP * LIN, dx, 1e-3);
+    /* Gradients accumulate: a second backward doubles dW and db. */
+    float dw2[LOUT * LIN], db2[LOUT];
+    memcpy(dw2, dw, sizeof dw);
+    memcpy(db2, db, sizeof db);
+    cn_linear_backward(NULL, 0, 0, 0, 0, dw2, db2, dy, LOUT, lx, LIN, lw, LP, LIN, LOUT);
+    for (int i = 0; i < LOUT; i++)
+        assert_float_equal(db2[i], 2 * db[i], 1e-5);
+    /* A column slice of dx (the part after a skip concatenation). */
+    float dxs[LP * 4];
+    cn_linear_backward(dxs, 4, 5, 4, 0, dw2, db2, dy, LOUT, lx, LIN, lw, LP, LIN, LOUT);
+    for (int p = 0; p < LP; p++)
+        for (int i = 0; i < 4; i++)
+            assert_float_equal(dxs[p * 4 + i], dx[p * LIN + 5 + i], 1e-5);
+}
+
+/* ---- volume rendering: L = g . C ---- */
+enum { VN = 12 };
+static float vraw[VN * 4], vt[VN];
+static uint8_t vin[VN];
+static const float vbg[3] = {1.0f, 0.5f, 0.25f};
+static float vg[3];
+
+static double volume_loss(void)
+{
+    float C[3];
+    cn_volume_forward(vraw, 4, vt, vin, VN, 6.0f, 1.3f, vbg, C, NULL);
+    return (double)vg[0] * C[0] + (double)vg[1] * C[1] + (double)vg[2] * C[2];
+}
+
+static void test_volume_rendering(void **state)
+{
+    (void)state;
+    cn_rng r = cn_rng_seed(2);
+    for (int trial = 0; trial < 20; trial++) {
+        fill(vraw, VN * 4, &r, 2.0);
+        fill(vg, 3, &r, 1.0);
+        cn_sample_coarse(vt, VN, 2.0f, 6.0f, &r);
+        for (int i = 0; i < VN; i++)
+            vin[i] = (uint8_t)(cn_rng_below(&r, 5) != 0);
+        float draw[VN * 4];
+        cn_volume_backward(draw, 4, vraw, vt, vin, VN, 6.0f, 1.3f, vbg, vg);
+        int bad = 0;
+        for (int i = 0; i < VN * 4; i++) {
+            float keep = vraw[i];
+            const double h = 1e-3;
+            vraw[i] = keep + (float)h;
+            double lp = volume_loss();
+            vraw[i] = keep - (float)h;
+            double lm = volume_loss();
+            vraw[i] = keep;
+            if (i % 4 == 3 && fabs(keep) < 2 * h)
+                continue; /* ReLU kink */
+            double num = (lp - lm) / (2 * h);
+            if (!close_enough(draw[i], num)) {
+                print_error("trial %d raw[%d]: analytic %g numeric %g\n", trial, i, draw[i], num);
+                bad++;
+            }
+        }
+        assert_int_equal(bad, 0);
+    }
+    /* Weights sum with the background's share to one. */
+    float C[3], w[VN];
+    cn_volume_forward(vraw, 4, vt, NULL, VN, 6.0f, 1.0f, vbg, C, w);
+    double sw = 0;
+    for (int i = 0; i < VN; i++) {
+        assert_true(w[i] >= 0);
+        sw += w[i];
+    }
+    assert_true(sw <= 1.0 + 1e-6);
+}
+
+/* ---- a whole network and the two-network render ---- */
+static cn_model gm;
+static cn_batch gb;
+static float gg[2][64 * 3];
+enum { GR = 6 };
+
+static double render_loss(unsigned net)
+{
+    const uint64_t seed = 99;
+    cn_render_forward(&gm, &gb, GR, &seed);
+    return dot(gb.color[net], gg[net], GR * 3);
+}
+
+static void setup_small_model(int view)
+{
+    cnerf_info hdr;
+    tu_small_header(&hdr, 4, 8, 1);
+    hdr.n_coarse = 7;
+    hdr.n_fine = 5;
+    for (int n = 0; n < 2; n++) {
+        hdr.net[n].view_width = view ? 5 : 0;
+        hdr.net[n].skip = 1;
+    }
+    char err[256];
+    assert_int_equal(cn_model_init(&gm, &hdr, 5, err, sizeof err), 0);
+    cn_rng r = cn_rng_seed(6);
+    for (unsigned l = 0; l < gm.topo.n_layers; l++)
+        fill(gm.params + gm.layer[l].b, gm.topo.layer[l].n_out, &r, 0.2);
+    assert_int_equal(cn_batch_init(&gb, &gm.topo, GR), 0);
+    for (int i = 0; i < GR; i++) {
+        float o[3] = {(float)(cn_rng_uniform(&r) - 0.5), (float)(cn_rng_uniform(&r) - 0.5), 4.0f};
+        float d[3] = {(float)(cn_rng_uniform(&r) - 0.5) * 0.3f,
+                      (float)(cn_rng_uniform(&r) - 0.5) * 0.3f, -1.0f};
+        memcpy(gb.o + 3 * i, o, sizeof o);
+        memcpy(gb.d + 3 * i, d, sizeof d);
+        float n = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        for (int a = 0; a < 3; a++)
+            gb.vd[3 * i + a] = d[a] / n;
+    }
+    fill(&gg[0][0], sizeof gg / sizeof(float), &r, 1.0);
+}
+
+static void check_render_grads(unsigned net)
+{
+    memset(gm.grads, 0, sizeof(float) * gm.n_params);
+    render_loss(net);
+    float *dcol[2] = {NULL, NULL};
+    dcol[net] = gg[net];
+    cn_render_backward(&gm, &gb, GR, dcol);
+    const cnerf_net_info *N = &gm.topo.net[net];
+    int bad = 0, checked = 0;
+    cn_rng r = cn_rng_seed(7 + net);
+    for (unsigned l = N->first_layer; l < (unsigned)N->first_layer + N->n_layers; l++) {
+        const cnerf_layer_info *L = &gm.topo.layer[l];
+        size_t nw = (size_t)L->n_in * L->n_out;
+        for (int k = 0; k < 12; k++) {
+            size_t idx = k < 8 ? gm.layer[l].w + cn_rng_below(&r, (uint32_t)nw)
+                               : gm.layer[l].b + cn_rng_below(&r, L->n_out);
+            float keep = gm.params[idx];
+            const double h = 2.5e-4; /* small enough to rarely straddle a ReLU kink */
+            gm.params[idx] = keep + (float)h;
+            double lp = render_loss(net);
+            gm.params[idx] = keep - (float)h;
+            double lm = render_loss(net);
+            gm.params[idx] = keep;
+            double num = (lp - lm) / (2 * h);
+            checked++;
+            if (fabs(gm.grads[idx] - num) > REL_TOL * fmax(fabs(gm.grads[idx]), fabs(num)) +
+                                                 RENDER_ABS_TOL) {
+                print_error("net %u layer %u param %zu: analytic %g numeric %g\n", net, l,
+                            idx, gm.grads[idx], num);
+                bad++;
+            }
+        }
+    }
+    assert_true(checked > 50);
+    assert_int_equal(bad, 0);
+}
+
+static void test_render_grads_view(void **state)
+{
+    (void)state;
+    setup_small_model(1);
+    check_render_grads(0);
+    check_render_grads(1);
+    cn_batch_free(&gb);
+    cn_model_free(&gm);
+}
+
+static void test_render_grads_no_view(void **state)
+{
+    (void)state;
+    setup_small_model(0);
+    check_render_grads(0);
+    check_render_grads(1);
+    cn_batch_free(&gb);
+    cn_model_free(&gm);
+}
+
+static void test_posenc_values(void **state)
+{
+    (void)state;
+    const float v[6] = {0.3f, -1.7f, 2.2f, 4.1f, 0.0f, -0.01f};
+    float out[2 * 63];
+    cn_posenc(out, 63, v, 2, 10, 1);
+    for (int p = 0; p < 2; p++) {
+        for (int a = 0; a < 3; a++)
+            assert_float_equal(out[p * 63 + a], v[p * 3 + a], 0);
+        for (int l = 0; l < 10; l++)
+            for (int a = 0; a < 3; a++) {
+                double arg = ldexp(M_PI * v[p * 3 + a], l);
+                assert_float_equal(out[p * 63 + 3 + 6 * l + a], sin(arg), 2e-6);
+                assert_float_equal(out[p * 63 + 6 + 6 * l + a], cos(arg), 2e-6);
+            }
+    }
+}
+
+/* Hierarchical sampling: sorted, inside the bounds, concentrated where the weights are. */
+static void test_fine_sampling(void **state)
+{
+    (void)state;
+    enum { NC = 16, NF = 64 };
+    float w[NC] = {0}, t[NF], tc[NC], all[NC + NF];
+    w[5] = 0.7f;
+    w[11] = 0.3f;
+    cn_rng r = cn_rng_seed(4);
+    for (int pass = 0; pass < 2; pass++) {
+        cn_sample_fine(t, NF, w, NC, 2.0f, 6.0f, pass ? &r : NULL);
+        int in5 = 0, in11 = 0;
+        for (int j = 0; j < NF; j++) {
+            assert_true(t[j] >= 2.0f && t[j] <= 6.0f);
+            if (j)
+                assert_true(t[j] >= t[j - 1]);
+            in5 += t[j] >= 2.0f + 5 * 0.25f && t[j] < 2.0f + 6 * 0.25f;
+            in11 += t[j] >= 2.0f + 11 * 0.25f && t[j] < 2.0f + 12 * 0.25f;
+        }
+        assert_true(in5 >= 40 && in5 <= 50);  /* ~70% of 64 */
+        assert_true(in11 >= 15 && in11 <= 23); /* ~30% */
+    }
+    cn_sample_coarse(tc, NC, 2.0f, 6.0f, NULL);
+    assert_float_equal(tc[0], 2.125f, 1e-6);
+    cn_merge_sorted(all, tc, NC, t, NF);
+    for (int j = 1; j < NC + NF; j++)
+        assert_true(all[j] >= all[j - 1]);
+    /* Deterministic quantiles: the evaluation rule. */
+    float w1[4] = {1, 1, 1, 1};
+    float t4[4];
+    cn_sample_fine(t4, 4, w1, 4, 0.0f, 4.0f, NULL);
+    for (int j = 0; j < 4; j++)
+        assert_float_equal(t4[j], j + 0.5f, 1e-5);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_linear_relu),
+        cmocka_unit_test(test_volume_rendering),
+        cmocka_unit_test(test_posenc_values),
+        cmocka_unit_test(test_fine_sampling),
+        cmocka_unit_test(test_render_grads_view),
+        cmocka_unit_test(test_render_grads_no_view),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
