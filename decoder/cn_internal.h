@@ -156,6 +156,9 @@ cnerf_status cn_rans_decode(const uint8_t *payload, size_t len, const uint32_t *
 
 /* ---- container walk ---- */
 
+/* Parses a HEAD payload of clen bytes into info (render parameters, expanded topology). */
+cnerf_status cn_parse_head(const uint8_t *p, uint32_t clen, cnerf_info *info);
+
 /* Parses the whole stream into `info`; used by cnerf_peek and cnerf_open. */
 cnerf_status cn_parse(const uint8_t *buf, size_t len, cnerf_info *info);
 

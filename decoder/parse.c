@@ -96,8 +96,11 @@ cnerf_status cnerf_expand_topology(cnerf_info *info)
     return CNERF_OK;
 }
 
-static cnerf_status parse_head(cn_reader *r, uint32_t clen, cnerf_info *info)
+cnerf_status cn_parse_head(const uint8_t *p, uint32_t clen, cnerf_info *info)
 {
+    cn_reader rd;
+    cn_reader *r = &rd;
+    cn_rd_init(r, p, clen);
     info->coord = (uint8_t)cn_rd_u8(r);
     info->l_pos = (uint8_t)cn_rd_u8(r);
     info->l_dir = (uint8_t)cn_rd_u8(r);
@@ -290,9 +293,7 @@ cnerf_status cn_parse(const uint8_t *buf, size_t len, cnerf_info *info)
         if (tag == CNERF_TAG_HEAD) {
             if (seen_head)
                 return CNERF_E_CHUNK_ORDER;
-            cn_reader h;
-            cn_rd_init(&h, buf + poff, clen);
-            if ((st = parse_head(&h, clen, info)) != CNERF_OK)
+            if ((st = cn_parse_head(buf + poff, clen, info)) != CNERF_OK)
                 return st;
             seen_head = 1;
             info->head_bytes = cbytes;

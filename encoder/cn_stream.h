@@ -107,6 +107,9 @@ typedef struct cn_write_report {
     double ideal_bits[CNERF_MAX_LAYERS];    /* -sum log2 of the chosen table's probabilities */
 } cn_write_report;
 
+/* Appends a HEAD payload (render parameters and topology of hdr) to h. */
+void cn_put_head(cn_buf *h, const cnerf_info *hdr);
+
 /* Writes the whole stream into `out` (which is reset first), then reads it back with
  * the decoder's parser. On failure returns -1 and puts a message in err. */
 int cn_write_stream(const cn_stream_src *src, cn_buf *out, cn_write_report *rep, char *err,

@@ -28,7 +28,7 @@ static void put_chunk(cn_buf *out, uint32_t tag, const cn_buf *payload)
     cn_buf_u32(out, crc);
 }
 
-static void put_head(cn_buf *h, const cnerf_info *I)
+void cn_put_head(cn_buf *h, const cnerf_info *I)
 {
     cn_buf_u8(h, I->coord);
     cn_buf_u8(h, I->l_pos);
@@ -220,7 +220,7 @@ int cn_write_stream(const cn_stream_src *src, cn_buf *out, cn_write_report *rep,
     cn_buf_u16(out, CNERF_VERSION_MAJOR);
     cn_buf_u16(out, CNERF_VERSION_MINOR);
     cn_buf c = {0};
-    put_head(&c, info);
+    cn_put_head(&c, info);
     put_chunk(out, CNERF_TAG_HEAD, &c);
     if (src->meta) {
         c.n = 0;

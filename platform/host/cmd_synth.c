@@ -1,9 +1,9 @@
 /* cnerf synth: writes a random model of a preset's (or a custom) topology. */
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 
 #include "cli.h"
+#include "cli_args.h"
 #include "cn_synth.h"
 
 #define SYNTH_USAGE                                                                          \
@@ -11,78 +11,31 @@
     "       [--depth D] [--width W] [--view-width V] [--coarse N] [--fine N] [--lpos L]\n"  \
     "       [--ldir L] [--ndc] [--black]"
 
-/* Parses an unsigned integer option value in [lo, hi]; returns 0 or prints an error. */
-static int parse_uint(const char *opt, const char *v, unsigned long lo, unsigned long hi,
-                      unsigned long *out)
-{
-    char *end = NULL;
-    unsigned long x = strtoul(v, &end, 10);
-    if (!*v || *end || *v == '-' || x < lo || x > hi) {
-        cli_fail("synth", "%s: '%s' is not an integer in [%lu, %lu]", opt, v, lo, hi);
-        return -1;
-    }
-    *out = x;
-    return 0;
-}
-
 int cmd_synth(int argc, char **argv)
 {
     const char *out = NULL, *preset = "tiny";
-    unsigned long long seed = 1;
+    uint64_t seed = 1;
     double spread = 2.0;
     long depth = -1, width = -1, view = -1, coarse = -1, fine = -1, lpos = -1, ldir = -1;
-    int ndc = 0, black = 0;
-    struct {
-        const char *name;
-        long *dst;
-        unsigned long lo, hi;
-    } ints[] = {{"--depth", &depth, 1, CNERF_MAX_DEPTH},
-                {"--width", &width, 1, CNERF_MAX_WIDTH},
-                {"--view-width", &view, 0, CNERF_MAX_VIEW_WIDTH},
-                {"--coarse", &coarse, 1, CNERF_MAX_SAMPLES},
-                {"--fine", &fine, 0, CNERF_MAX_SAMPLES},
-                {"--lpos", &lpos, 0, CNERF_MAX_L_POS},
-                {"--ldir", &ldir, 0, CNERF_MAX_L_DIR}};
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        if (!strcmp(a, "--ndc")) {
-            ndc = 1;
-            continue;
-        }
-        if (!strcmp(a, "--black")) {
-            black = 1;
-            continue;
-        }
-        if (i + 1 >= argc)
-            return cli_fail("synth", "option %s needs a value\n%s", a, SYNTH_USAGE);
-        const char *v = argv[++i];
-        char *end = NULL;
-        int known = 0;
-        for (size_t j = 0; j < sizeof ints / sizeof ints[0]; j++)
-            if (!strcmp(a, ints[j].name)) {
-                unsigned long x;
-                if (parse_uint(a, v, ints[j].lo, ints[j].hi, &x))
-                    return 1;
-                *ints[j].dst = (long)x;
-                known = 1;
-            }
-        if (known)
-            continue;
-        if (!strcmp(a, "-o"))
-            out = v;
-        else if (!strcmp(a, "--preset"))
-            preset = v;
-        else if (!strcmp(a, "--seed")) {
-            seed = strtoull(v, &end, 10);
-            if (*end || !*v || *v == '-')
-                return cli_fail("synth", "--seed: '%s' is not a non-negative integer", v);
-        } else if (!strcmp(a, "--spread")) {
-            spread = strtod(v, &end);
-            if (*end || !*v || !(spread >= 0 && spread <= 40000))
-                return cli_fail("synth", "--spread: '%s' is not a number in [0, 40000]", v);
-        } else
-            return cli_fail("synth", "unknown option '%s'\n%s", a, SYNTH_USAGE);
-    }
+    int ndc = 0, black = 0, n_pos;
+    const cli_opt opts[] = {
+        {"-o", CLI_STR, &out, 0, 0},
+        {"--preset", CLI_STR, &preset, 0, 0},
+        {"--seed", CLI_U64, &seed, 0, 0},
+        {"--spread", CLI_DOUBLE, &spread, 0, 40000},
+        {"--depth", CLI_LONG, &depth, 1, CNERF_MAX_DEPTH},
+        {"--width", CLI_LONG, &width, 1, CNERF_MAX_WIDTH},
+        {"--view-width", CLI_LONG, &view, 0, CNERF_MAX_VIEW_WIDTH},
+        {"--coarse", CLI_LONG, &coarse, 1, CNERF_MAX_SAMPLES},
+        {"--fine", CLI_LONG, &fine, 0, CNERF_MAX_SAMPLES},
+        {"--lpos", CLI_LONG, &lpos, 0, CNERF_MAX_L_POS},
+        {"--ldir", CLI_LONG, &ldir, 0, CNERF_MAX_L_DIR},
+        {"--ndc", CLI_FLAG, &ndc, 0, 0},
+        {"--black", CLI_FLAG, &black, 0, 0},
+    };
+    if (cli_parse("synth", SYNTH_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], NULL, 0,
+                  &n_pos))
+        return 1;
     if (!out)
         return cli_fail("synth", "no output file (-o)\n%s", SYNTH_USAGE);
     cnerf_info hdr;
@@ -119,7 +72,7 @@ int cmd_synth(int argc, char **argv)
         memset(hdr.background, 0, sizeof hdr.background);
     char err[512], meta[512];
     snprintf(meta, sizeof meta, "encoder=cnerf %s; command=synth; preset=%s; seed=%llu; spread=%g",
-             CNERF_VERSION_STRING, preset, seed, spread);
+             CNERF_VERSION_STRING, preset, (unsigned long long)seed, spread);
     cn_synth s;
     if (cn_synth_make(&s, &hdr, seed, spread, err, sizeof err))
         return cli_fail("synth", "%s", err);
