@@ -1,0 +1,116 @@
+/* Benchmark: one training step of the render (both networks, forward and backward) at a
+ * preset's shapes with random rays through the Lego geometry, against cblas_sgemm at the
+ * same matrix shapes. Prints medians of N runs and achieved GFLOP/s.
+ *   bench_step [preset] [rays] [runs]                                                      */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include <cblas.h>
+
+#include "cn_render.h"
+#include "cn_synth.h"
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+static int cmp(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static double median(double *v, int n)
+{
+    qsort(v, (size_t)n, sizeof *v, cmp);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/* Multiply-adds of one forward pass of network `net` over P points. */
+static double net_macs(const cnerf_info *T, unsigned net, double P)
+{
+    double macs = 0;
+    const cnerf_net_info *N = &T->net[net];
+    for (unsigned l = N->first_layer; l < (unsigned)N->first_layer + N->n_layers; l++)
+        macs += (double)T->layer[l].n_in * T->layer[l].n_out;
+    return macs * P;
+}
+
+int main(int argc, char **argv)
+{
+    const char *preset = argc > 1 ? argv[1] : "small";
+    const size_t R = argc > 2 ? (size_t)atol(argv[2]) : 1024;
+    const int runs = argc > 3 ? atoi(argv[3]) : 10;
+    cnerf_info hdr;
+    if (cn_preset_header(preset, &hdr)) {
+        fprintf(stderr, "unknown preset %s\n", preset);
+        return 2;
+    }
+    cn_model m;
+    char err[256];
+    cn_batch b;
+    if (cn_model_init(&m, &hdr, 1, err, sizeof err) || cn_batch_init(&b, &m.topo, R)) {
+        fprintf(stderr, "init failed\n");
+        return 1;
+    }
+    cn_rng r = cn_rng_seed(3);
+    for (size_t i = 0; i < R; i++) {
+        /* cameras on a sphere of radius 4 looking at the origin, like Blender scenes */
+        double th = 2 * M_PI * cn_rng_uniform(&r), ph = 0.3 + 0.9 * cn_rng_uniform(&r);
+        float o[3] = {(float)(4 * cos(th) * cos(ph)), (float)(4 * sin(th) * cos(ph)),
+                      (float)(4 * sin(ph))};
+        float d[3];
+        for (int a = 0; a < 3; a++)
+            d[a] = -o[a] / 4.0f + (float)(cn_rng_uniform(&r) - 0.5) * 0.3f;
+        float n = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        for (int a = 0; a < 3; a++) {
+            b.o[3 * i + a] = o[a];
+            b.d[3 * i + a] = d[a];
+            b.vd[3 * i + a] = d[a] / n;
+        }
+    }
+    float *dcol[2] = {malloc(sizeof(float) * R * 3), malloc(sizeof(float) * R * 3)};
+    for (size_t i = 0; i < 3 * R; i++)
+        dcol[0][i] = dcol[1][i] = 1e-3f;
+    double *fw = malloc(sizeof(double) * runs), *bw = malloc(sizeof(double) * runs);
+    for (int it = -1; it < runs; it++) { /* one warm-up */
+        uint64_t seed = (uint64_t)it + 7;
+        double t0 = now();
+        cn_render_forward(&m, &b, R, &seed);
+        double t1 = now();
+        cn_render_backward(&m, &b, R, dcol);
+        double t2 = now();
+        if (it >= 0) {
+            fw[it] = t1 - t0;
+            bw[it] = t2 - t1;
+        }
+    }
+    const cnerf_info *T = &m.topo;
+    double macs = net_macs(T, 0, (double)R * b.nc) + (T->n_nets > 1 ? net_macs(T, 1, (double)R * b.ns) : 0);
+    double flops = 2 * macs * 3; /* forward + backward (dX and dW) */
+    double f = median(fw, runs), bk = median(bw, runs);
+    printf("preset %s, %zu rays, %u+%u samples: forward %.4f s, backward %.4f s, step %.4f s "
+           "(median of %d), %.1f GFLOP/step, %.1f GFLOP/s\n",
+           preset, R, T->n_coarse, T->n_fine, f, bk, f + bk, runs, flops * 1e-9,
+           flops * 1e-9 / (f + bk));
+    /* sgemm at the largest trunk shape: P x W times W x W */
+    const int P = (int)(R * b.ns), W = T->net[0].width;
+    float *A = calloc((size_t)P * W, 4), *B = calloc((size_t)W * W, 4), *C = calloc((size_t)P * W, 4);
+    double *gs = malloc(sizeof(double) * runs);
+    for (int it = -1; it < runs; it++) {
+        double t0 = now();
+        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, P, W, W, 1, A, W, B, W, 0, C, W);
+        if (it >= 0)
+            gs[it] = now() - t0;
+    }
+    double g = median(gs, runs);
+    printf("sgemm %dx%dx%d: %.4f s, %.1f GFLOP/s; step at that rate would take %.4f s\n", P, W,
+           W, g, 2.0 * P * W * W * 1e-9 / g, flops / (2.0 * P * W * W / g));
+    return 0;
+}
