@@ -1,8 +1,28 @@
 #!/usr/bin/env bash
 # Freestanding Cortex-M4 build of the decoder: -std=c99 -ffreestanding -nostdlib, linked with
-# a minimal entry point and nothing else. Prints code/data sizes and the worst-case stack.
+# a minimal entry point and nothing else. Prints code/data sizes, sizeof(cnerf_decoder) and
+# the worst-case stack, and fails if docs/decoder.md states other numbers.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cmake -S . -B build-m4 -DCMAKE_TOOLCHAIN_FILE=cmake/toolchains/arm-none-eabi.cmake \
       -DCMAKE_BUILD_TYPE=MinSizeRel
-cmake --build build-m4 --clean-first
+log=$(mktemp)
+trap 'rm -f "$log"' EXIT
+cmake --build build-m4 --clean-first | tee "$log"
+
+text=$(awk '/\(TOTALS\)/ {print $1}' "$log")
+data=$(awk '/\(TOTALS\)/ {print $2}' "$log")
+bss=$(awk '/\(TOTALS\)/ {print $3}' "$log")
+dec=$(awk '/^sizeof\(cnerf_decoder\)/ {print $2}' "$log")
+open_stack=$(awk '$2 == "cnerf_open" {print $3}' "$log")
+stale=0
+check() { # what, pattern expected in docs/decoder.md
+  if ! grep -qF -- "$2" docs/decoder.md; then
+    echo "docs/decoder.md is stale: it should state $1 as measured: '$2'" >&2
+    stale=1
+  fi
+}
+check "the decoder's code size" "| **decoder total** | **$text** | **$data** | **$bss** |"
+check "sizeof(cnerf_decoder)" "| \`cnerf_decoder\` (caller-owned) | $dec on Cortex-M4"
+check "cnerf_open's worst-case stack" "| \`cnerf_open\` | $open_stack |"
+exit $stale
