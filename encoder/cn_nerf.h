@@ -44,18 +44,43 @@ typedef struct cn_model {
     float *grads;      /* gradients, same layout */
     float *adam_m, *adam_v;
     cn_layer_params layer[CNERF_MAX_LAYERS];
+    /* Compression (the paper's reparameterization): the block holds per layer the float
+     * latents Phi in place of the kernel, then a and b of every layer's affine decoder
+     * (off_ab + 2 l), then every layer's prior (off_prior + CN_PRIOR_PARAMS l). The kernel
+     * the network uses is materialized as W = a round(Phi) + b. Parameters before
+     * off_prior learn at the main rate, the priors at their own. */
+    int compressed;
+    size_t off_ab, off_prior;
+    float *kernel, *kgrad;  /* materialized kernels and their gradients */
+    size_t kofs[CNERF_MAX_LAYERS];
 } cn_model;
 
 /* Allocates the blocks for the header's topology and initialises the kernels Glorot-uniform
  * and biases to zero. Returns 0 or -1 with a message. */
 int cn_model_init(cn_model *m, const cnerf_info *hdr, uint64_t seed, char *err, size_t errlen);
+/* The same with compressed kernels: latents Glorot-uniform over [-levels, levels] integer
+ * steps, a = (Glorot limit) / levels, b = 0, priors at their initial scale. */
+int cn_model_init_compressed(cn_model *m, const cnerf_info *hdr, uint64_t seed, double levels,
+                             char *err, size_t errlen);
 void cn_model_free(cn_model *m);
 
 /* The kernel that the forward pass uses for layer l. Every linear kernel is read through
- * here, so a reparameterization (latents -> integer -> affine decoder) slots in at one place. */
+ * here, so the reparameterization (latents -> integer -> affine decoder) sits in one place. */
 const float *cn_model_kernel(const cn_model *m, unsigned l);
 /* Where the gradient of layer l's kernel accumulates. */
 float *cn_model_kernel_grad(cn_model *m, unsigned l);
+/* Compressed models: W = a round(Phi) + b for every layer, and zeroed kernel gradients.
+ * Call before a forward pass (no-op otherwise). */
+void cn_model_materialize(cn_model *m);
+/* Compressed models: maps the kernel gradients onto Phi (straight-through: dPhi = a dW),
+ * a (sum dW round(Phi)) and b (sum dW). Call after the backward pass (no-op otherwise). */
+void cn_model_kernels_backward(cn_model *m);
+/* Compressed models: the rate in bits of all latents under their priors, with uniform
+ * noise in [-1/2, 1/2) in place of rounding (streams from `seed`); adds scale * gradients
+ * to the latents' and the priors' gradients. Returns 0 for uncompressed models. */
+double cn_model_rate(cn_model *m, uint64_t seed, float scale);
+/* The integer latent round(Phi) of layer l, element i. */
+int32_t cn_model_latent(const cn_model *m, unsigned l, size_t i);
 
 /* ---- one network on a batch of points ---- */
 

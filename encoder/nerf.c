@@ -7,6 +7,7 @@
 #include <cblas.h>
 
 #include "cn_nerf.h"
+#include "cn_prior.h"
 #include "cn_rng.h"
 
 /* ---- layer primitives ---- */
@@ -112,41 +113,96 @@ void cn_posenc(float *out, size_t ld, const float *v, size_t n, unsigned L, int 
 
 /* ---- the model ---- */
 
-int cn_model_init(cn_model *m, const cnerf_info *hdr, uint64_t seed, char *err, size_t errlen)
+/* Lays out and allocates the blocks; kernels uninitialised. */
+static int model_alloc(cn_model *m, const cnerf_info *hdr, int compressed, char *err,
+                       size_t errlen)
 {
     memset(m, 0, sizeof *m);
     m->topo = *hdr;
+    m->compressed = compressed;
     cnerf_status st = cnerf_expand_topology(&m->topo);
     if (st != CNERF_OK) {
         snprintf(err, errlen, "invalid model topology: %s", cnerf_status_str(st));
         return -1;
     }
-    size_t off = 0;
+    size_t off = 0, koff = 0;
     for (unsigned l = 0; l < m->topo.n_layers; l++) {
         const cnerf_layer_info *L = &m->topo.layer[l];
         m->layer[l].w = off;
         off += (size_t)L->n_in * L->n_out;
         m->layer[l].b = off;
         off += L->n_out;
+        m->kofs[l] = koff;
+        koff += (size_t)L->n_in * L->n_out;
     }
+    m->off_ab = off;
+    if (compressed)
+        off += 2 * (size_t)m->topo.n_layers;
+    m->off_prior = off;
+    if (compressed)
+        off += CN_PRIOR_PARAMS * (size_t)m->topo.n_layers;
     m->n_params = off;
     size_t bytes = sizeof(float) * off;
     m->params = calloc(1, bytes);
     m->grads = calloc(1, bytes);
     m->adam_m = calloc(1, bytes);
     m->adam_v = calloc(1, bytes);
-    if (!m->params || !m->grads || !m->adam_m || !m->adam_v) {
+    int bad = !m->params || !m->grads || !m->adam_m || !m->adam_v;
+    if (compressed) {
+        m->kernel = calloc(koff, sizeof(float));
+        m->kgrad = calloc(koff, sizeof(float));
+        bad |= !m->kernel || !m->kgrad;
+    }
+    if (bad) {
         cn_model_free(m);
         snprintf(err, errlen, "out of memory for %zu parameters", off);
         return -1;
     }
-    cn_rng r = cn_rng_seed(seed);
+    return 0;
+}
+
+/* Kernels Glorot-uniform, divided by `unit` (1 for plain kernels, a for latents). */
+static void init_kernels(cn_model *m, cn_rng *r, int compressed, double levels)
+{
     for (unsigned l = 0; l < m->topo.n_layers; l++) {
         const cnerf_layer_info *L = &m->topo.layer[l];
         const double lim = sqrt(6.0 / (L->n_in + L->n_out));
+        const double unit = compressed ? lim / levels : 1.0;
         float *w = m->params + m->layer[l].w;
         for (size_t i = 0; i < (size_t)L->n_in * L->n_out; i++)
-            w[i] = (float)((2 * cn_rng_uniform(&r) - 1) * lim);
+            w[i] = (float)((2 * cn_rng_uniform(r) - 1) * lim / unit);
+        if (compressed) {
+            m->params[m->off_ab + 2 * l] = (float)unit;
+            m->params[m->off_ab + 2 * l + 1] = 0.0f;
+        }
+    }
+}
+
+int cn_model_init(cn_model *m, const cnerf_info *hdr, uint64_t seed, char *err, size_t errlen)
+{
+    if (model_alloc(m, hdr, 0, err, errlen))
+        return -1;
+    cn_rng r = cn_rng_seed(seed);
+    init_kernels(m, &r, 0, 1.0);
+    return 0;
+}
+
+int cn_model_init_compressed(cn_model *m, const cnerf_info *hdr, uint64_t seed, double levels,
+                             char *err, size_t errlen)
+{
+    if (!(levels > 0)) {
+        snprintf(err, errlen, "the initial latent spread must be positive");
+        return -1;
+    }
+    if (model_alloc(m, hdr, 1, err, errlen))
+        return -1;
+    cn_rng r = cn_rng_seed(seed);
+    init_kernels(m, &r, 1, levels);
+    for (unsigned l = 0; l < m->topo.n_layers; l++) {
+        double u[10];
+        for (int i = 0; i < 10; i++)
+            u[i] = cn_rng_uniform(&r);
+        cn_prior_init(m->params + m->off_prior + CN_PRIOR_PARAMS * (size_t)l, u);
     }
     return 0;
 }
@@ -157,11 +213,91 @@ void cn_model_free(cn_model *m)
     free(m->grads);
     free(m->adam_m);
     free(m->adam_v);
-    m->params = m->grads = m->adam_m = m->adam_v = NULL;
+    free(m->kernel);
+    free(m->kgrad);
+    m->params = m->grads = m->adam_m = m->adam_v = m->kernel = m->kgrad = NULL;
 }
 
-const float *cn_model_kernel(const cn_model *m, unsigned l) { return m->params + m->layer[l].w; }
-float *cn_model_kernel_grad(cn_model *m, unsigned l) { return m->grads + m->layer[l].w; }
+const float *cn_model_kernel(const cn_model *m, unsigned l)
+{
+    return m->compressed ? m->kernel + m->kofs[l] : m->params + m->layer[l].w;
+}
+
+float *cn_model_kernel_grad(cn_model *m, unsigned l)
+{
+    return m->compressed ? m->kgrad + m->kofs[l] : m->grads + m->layer[l].w;
+}
+
+int32_t cn_model_latent(const cn_model *m, unsigned l, size_t i)
+{
+    return (int32_t)lroundf(m->params[m->layer[l].w + i]);
+}
+
+void cn_model_materialize(cn_model *m)
+{
+    if (!m->compressed)
+        return;
+    for (unsigned l = 0; l < m->topo.n_layers; l++) {
+        const size_t n = (size_t)m->topo.layer[l].n_in * m->topo.layer[l].n_out;
+        const float a = m->params[m->off_ab + 2 * l], b = m->params[m->off_ab + 2 * l + 1];
+        const float *phi = m->params + m->layer[l].w;
+        float *w = m->kernel + m->kofs[l], *dw = m->kgrad + m->kofs[l];
+#pragma omp parallel for schedule(static)
+        for (size_t i = 0; i < n; i++) {
+            w[i] = a * roundf(phi[i]) + b; /* ties away from zero, as the export */
+            dw[i] = 0;
+        }
+    }
+}
+
+void cn_model_kernels_backward(cn_model *m)
+{
+    if (!m->compressed)
+        return;
+    for (unsigned l = 0; l < m->topo.n_layers; l++) {
+        const size_t n = (size_t)m->topo.layer[l].n_in * m->topo.layer[l].n_out;
+        const float a = m->params[m->off_ab + 2 * l];
+        const float *phi = m->params + m->layer[l].w, *dw = m->kgrad + m->kofs[l];
+        float *dphi = m->grads + m->layer[l].w;
+        double da = 0, db = 0;
+#pragma omp parallel for schedule(static) reduction(+ : da, db)
+        for (size_t i = 0; i < n; i++) {
+            dphi[i] += a * dw[i]; /* straight-through: d round(x) / dx := 1 */
+            da += (double)dw[i] * roundf(phi[i]);
+            db += dw[i];
+        }
+        m->grads[m->off_ab + 2 * l] += (float)da;
+        m->grads[m->off_ab + 2 * l + 1] += (float)db;
+    }
+}
+
+double cn_model_rate(cn_model *m, uint64_t seed, float scale)
+{
+    if (!m->compressed)
+        return 0;
+    size_t max = 0;
+    for (unsigned l = 0; l < m->topo.n_layers; l++) {
+        size_t n = (size_t)m->topo.layer[l].n_in * m->topo.layer[l].n_out;
+        max = n > max ? n : max;
+    }
+    float *x = malloc(sizeof(float) * max);
+    if (!x)
+        return NAN;
+    double bits = 0;
+    for (unsigned l = 0; l < m->topo.n_layers; l++) {
+        const size_t n = (size_t)m->topo.layer[l].n_in * m->topo.layer[l].n_out;
+        const float *phi = m->params + m->layer[l].w;
+        cn_rng r = cn_rng_seed(seed * 0x9E3779B97F4A7C15ull + l);
+        for (size_t i = 0; i < n; i++)
+            x[i] = phi[i] + (float)(cn_rng_uniform(&r) - 0.5);
+        const size_t po = m->off_prior + CN_PRIOR_PARAMS * (size_t)l;
+        /* d x / d Phi = 1: the rate's gradient lands on the latents directly. */
+        bits += cn_prior_bits(m->params + po, x, n, scale, m->grads + m->layer[l].w,
+                              m->grads + po);
+    }
+    free(x);
+    return bits;
+}
 
 /* ---- network buffers ---- */
 

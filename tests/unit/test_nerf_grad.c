@@ -164,11 +164,12 @@ enum { GR = 6 };
 static double render_loss(unsigned net)
 {
     const uint64_t seed = 99;
+    cn_model_materialize(&gm);
     cn_render_forward(&gm, &gb, GR, &seed);
     return dot(gb.color[net], gg[net], GR * 3);
 }
 
-static void setup_small_model(int view)
+static void setup_small_model(int view, int compressed)
 {
     cnerf_info hdr;
     tu_small_header(&hdr, 4, 8, 1);
@@ -179,7 +180,10 @@ static void setup_small_model(int view)
         hdr.net[n].skip = 1;
     }
     char err[256];
-    assert_int_equal(cn_model_init(&gm, &hdr, 5, err, sizeof err), 0);
+    if (compressed)
+        assert_int_equal(cn_model_init_compressed(&gm, &hdr, 5, 8.0, err, sizeof err), 0);
+    else
+        assert_int_equal(cn_model_init(&gm, &hdr, 5, err, sizeof err), 0);
     cn_rng r = cn_rng_seed(6);
     for (unsigned l = 0; l < gm.topo.n_layers; l++)
         fill(gm.params + gm.layer[l].b, gm.topo.layer[l].n_out, &r, 0.2);
@@ -237,7 +241,7 @@ static void check_render_grads(unsigned net)
 static void test_render_grads_view(void **state)
 {
     (void)state;
-    setup_small_model(1);
+    setup_small_model(1, 0);
     check_render_grads(0);
     check_render_grads(1);
     cn_batch_free(&gb);
@@ -247,9 +251,75 @@ static void test_render_grads_view(void **state)
 static void test_render_grads_no_view(void **state)
 {
     (void)state;
-    setup_small_model(0);
+    setup_small_model(0, 0);
     check_render_grads(0);
     check_render_grads(1);
+    cn_batch_free(&gb);
+    cn_model_free(&gm);
+}
+
+/* Compressed kernels: W = a round(Phi) + b; finite differences through a and b; the
+ * straight-through gradient of Phi is a dW exactly. */
+static void test_compressed_kernels(void **state)
+{
+    (void)state;
+    setup_small_model(1, 1);
+    cn_model_materialize(&gm);
+    for (unsigned l = 0; l < gm.topo.n_layers; l++) {
+        const float a = gm.params[gm.off_ab + 2 * l], b = gm.params[gm.off_ab + 2 * l + 1];
+        assert_true(a > 0);
+        for (size_t i = 0; i < 5; i++)
+            assert_float_equal(cn_model_kernel(&gm, l)[i], a * cn_model_latent(&gm, l, i) + b,
+                               1e-7);
+    }
+    for (unsigned net = 0; net < 2; net++) {
+        memset(gm.grads, 0, sizeof(float) * gm.n_params);
+        render_loss(net);
+        float *dcol[2] = {NULL, NULL};
+        dcol[net] = gg[net];
+        cn_render_backward(&gm, &gb, GR, dcol);
+        cn_model_kernels_backward(&gm);
+        const cnerf_net_info *N = &gm.topo.net[net];
+        int bad = 0;
+        for (unsigned l = N->first_layer; l < (unsigned)N->first_layer + N->n_layers; l++) {
+            const float a = gm.params[gm.off_ab + 2 * l];
+            for (size_t i = 0; i < 7; i++)
+                assert_float_equal(gm.grads[gm.layer[l].w + i], a * gm.kgrad[gm.kofs[l] + i],
+                                   1e-6 * fabs(gm.grads[gm.layer[l].w + i]) + 1e-12);
+        }
+        for (unsigned l = N->first_layer; l < (unsigned)N->first_layer + N->n_layers; l++) {
+            for (int k = 0; k < 2; k++) {
+                const size_t idx = gm.off_ab + 2 * l + (size_t)k;
+                const float keep = gm.params[idx];
+                /* a is small (Glorot limit / levels): a relative step keeps the float loss's
+                 * round-off below the difference; b moves every weight of the layer, so a
+                 * smaller step crosses fewer ReLU kinks */
+                const double h = k == 0 ? 1e-3 * keep : 6.25e-5;
+                gm.params[idx] = keep + (float)h;
+                double lp = render_loss(net);
+                gm.params[idx] = keep - (float)h;
+                double lm = render_loss(net);
+                gm.params[idx] = keep;
+                double num = (lp - lm) / (2 * h);
+                if (fabs(gm.grads[idx] - num) >
+                    REL_TOL * fmax(fabs(gm.grads[idx]), fabs(num)) + RENDER_ABS_TOL) {
+                    print_error("net %u layer %u %s: analytic %g numeric %g\n", net, l,
+                                k ? "b" : "a", gm.grads[idx], num);
+                    bad++;
+                }
+            }
+        }
+        assert_int_equal(bad, 0);
+    }
+    /* The rate adds its gradient to the latents and priors, scaled. */
+    memset(gm.grads, 0, sizeof(float) * gm.n_params);
+    double bits = cn_model_rate(&gm, 3, 2.0f);
+    assert_true(bits > 0);
+    double g1 = gm.grads[gm.layer[0].w], p1 = gm.grads[gm.off_prior];
+    memset(gm.grads, 0, sizeof(float) * gm.n_params);
+    assert_float_equal(cn_model_rate(&gm, 3, 1.0f), bits, 1e-9 * bits);
+    assert_float_equal(gm.grads[gm.layer[0].w] * 2, g1, 1e-6 * fabs(g1) + 1e-12);
+    assert_float_equal(gm.grads[gm.off_prior] * 2, p1, 1e-5 * fabs(p1) + 1e-9);
     cn_batch_free(&gb);
     cn_model_free(&gm);
 }
@@ -316,6 +386,7 @@ int main(void)
         cmocka_unit_test(test_fine_sampling),
         cmocka_unit_test(test_render_grads_view),
         cmocka_unit_test(test_render_grads_no_view),
+        cmocka_unit_test(test_compressed_kernels),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
