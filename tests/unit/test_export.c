@@ -1,0 +1,164 @@
+/* Model -> stream -> decoder -> float reference model: the numbers survive exactly, and the
+ * reference renders the file bit-identically to the trainer's (snapped) model. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cn_export.h"
+#include "cn_render.h"
+#include "testutil.h"
+
+static void small_model(cn_model *m, int compressed)
+{
+    cnerf_info hdr;
+    tu_small_header(&hdr, 3, 8, 1);
+    hdr.n_coarse = 6;
+    hdr.n_fine = 4;
+    char err[256];
+    if (compressed)
+        assert_int_equal(cn_model_init_compressed(m, &hdr, 11, 6.0, err, sizeof err), 0);
+    else
+        assert_int_equal(cn_model_init(m, &hdr, 11, err, sizeof err), 0);
+    cn_rng r = cn_rng_seed(12);
+    for (unsigned l = 0; l < m->topo.n_layers; l++)
+        for (unsigned j = 0; j < m->topo.layer[l].n_out; j++)
+            m->params[m->layer[l].b + j] = (float)(cn_rng_uniform(&r) - 0.5);
+}
+
+static void write_and_open(const cn_export *e, cn_buf *b, cnerf_decoder *dec, void **ws,
+                           cn_write_report *rep)
+{
+    char err[256];
+    memset(b, 0, sizeof *b);
+    if (cn_write_stream(&e->src, b, rep, err, sizeof err))
+        fail_msg("write: %s", err);
+    assert_int_equal(tu_open(dec, b->p, b->n, ws), CNERF_OK);
+}
+
+static void rays(cn_batch *bt, size_t R)
+{
+    cn_rng r = cn_rng_seed(5);
+    for (size_t i = 0; i < R; i++) {
+        float d[3] = {(float)(cn_rng_uniform(&r) - 0.5) * 0.4f,
+                      (float)(cn_rng_uniform(&r) - 0.5) * 0.4f, -1.0f};
+        float n = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        for (int a = 0; a < 3; a++) {
+            bt->o[3 * i + a] = a == 2 ? 4.0f : 0.1f;
+            bt->d[3 * i + a] = d[a];
+            bt->vd[3 * i + a] = d[a] / n;
+        }
+    }
+}
+
+static void test_closed_loop(void **state)
+{
+    (void)state;
+    cn_model m, ref;
+    small_model(&m, 1);
+    char err[256];
+    assert_int_equal(cn_model_snap(&m, err, sizeof err), 0);
+    cn_export e;
+    assert_int_equal(cn_export_compressed(&m, "test", &e, err, sizeof err), 0);
+    cn_buf b;
+    cnerf_decoder *dec = malloc(sizeof *dec);
+    void *ws;
+    cn_write_report rep;
+    write_and_open(&e, &b, dec, &ws, &rep);
+    assert_int_equal(cn_model_from_stream(dec, &ref, err, sizeof err), 0);
+    cn_model_materialize(&m);
+    for (unsigned l = 0; l < m.topo.n_layers; l++) {
+        const size_t n = (size_t)m.topo.layer[l].n_in * m.topo.layer[l].n_out;
+        for (size_t i = 0; i < n; i++) {
+            assert_int_equal(cnerf_latent(dec, l, (uint32_t)(i / m.topo.layer[l].n_in),
+                                          (uint32_t)(i % m.topo.layer[l].n_in)),
+                             cn_model_latent(&m, l, i));
+        }
+        assert_memory_equal(cn_model_kernel(&m, l), cn_model_kernel(&ref, l), n * sizeof(float));
+        assert_memory_equal(m.params + m.layer[l].b, ref.params + ref.layer[l].b,
+                            m.topo.layer[l].n_out * sizeof(float));
+        assert_true(rep.table_source[l] == CN_TABLE_COUNTS || rep.table_source[l] == CN_TABLE_PRIOR ||
+                    rep.table_source[l] == CN_TABLE_NONE);
+    }
+    /* Both render the same rays to the same bits. */
+    enum { R = 16 };
+    cn_batch b1, b2;
+    assert_int_equal(cn_batch_init(&b1, &m.topo, R), 0);
+    assert_int_equal(cn_batch_init(&b2, &ref.topo, R), 0);
+    rays(&b1, R);
+    rays(&b2, R);
+    cn_render_forward(&m, &b1, R, NULL);
+    cn_render_forward(&ref, &b2, R, NULL);
+    assert_memory_equal(b1.color[1], b2.color[1], sizeof(float) * 3 * R);
+    cn_batch_free(&b1);
+    cn_batch_free(&b2);
+    cn_model_free(&ref);
+    cn_model_free(&m);
+    cn_export_free(&e);
+    cn_buf_free(&b);
+    free(ws);
+    free(dec);
+}
+
+/* The naive baseline: 8-bit uniform quantization of a float model. */
+static void test_quantized_baseline(void **state)
+{
+    (void)state;
+    cn_model m, ref;
+    small_model(&m, 0);
+    char err[256];
+    cn_export e;
+    assert_int_equal(cn_export_quantized(&m, 8, NULL, &e, err, sizeof err), 0);
+    cn_buf b;
+    cnerf_decoder *dec = malloc(sizeof *dec);
+    void *ws;
+    write_and_open(&e, &b, dec, &ws, NULL);
+    assert_int_equal(cn_model_from_stream(dec, &ref, err, sizeof err), 0);
+    for (unsigned l = 0; l < m.topo.n_layers; l++) {
+        const cnerf_layer_info *L = &dec->info.layer[l];
+        assert_true(L->kmin >= -127 && L->kmax <= 127);
+        const double a = cn_from_m24e8(L->a_m, L->a_e);
+        const size_t n = (size_t)L->n_in * L->n_out;
+        for (size_t i = 0; i < n; i++)
+            assert_true(fabs(cn_model_kernel(&ref, l)[i] - cn_model_kernel(&m, l)[i]) <=
+                        0.5 * a * (1 + 1e-5));
+    }
+    assert_int_equal(cn_export_quantized(&m, 1, NULL, &e, err, sizeof err), -1);
+    cn_model_free(&ref);
+    cn_model_free(&m);
+    cn_export_free(&e);
+    cn_buf_free(&b);
+    free(ws);
+    free(dec);
+}
+
+/* With latents that follow the prior's own shape, the prior's table is competitive: the
+ * writer keeps whichever codes smaller, and never more than the counts' table would. */
+static void test_prior_tables(void **state)
+{
+    (void)state;
+    cn_model m;
+    small_model(&m, 1);
+    char err[256];
+    cn_export e;
+    assert_int_equal(cn_export_compressed(&m, NULL, &e, err, sizeof err), 0);
+    cn_buf with = {0}, without = {0};
+    assert_int_equal(cn_write_stream(&e.src, &with, NULL, err, sizeof err), 0);
+    for (unsigned l = 0; l < m.topo.n_layers; l++)
+        e.src.layer[l].pmf = NULL;
+    assert_int_equal(cn_write_stream(&e.src, &without, NULL, err, sizeof err), 0);
+    assert_true(with.n <= without.n);
+    cn_buf_free(&with);
+    cn_buf_free(&without);
+    cn_export_free(&e);
+    cn_model_free(&m);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_closed_loop),
+        cmocka_unit_test(test_quantized_baseline),
+        cmocka_unit_test(test_prior_tables),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
