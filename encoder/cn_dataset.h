@@ -1,0 +1,71 @@
+/*
+ * Multi-view datasets for training: Blender (NeRF-synthetic), instant-ngp style
+ * transforms.json, and LLFF (poses_bounds.npy). Host C11 (cJSON, libpng, OpenMP).
+ *
+ * Layout detection, in this order: transforms_train.json -> Blender; transforms.json ->
+ * instant-ngp; poses_bounds.npy -> LLFF; anything else is an error.
+ *
+ * Blender: transforms_{train,val,test}.json, each with camera_angle_x and
+ *   frames[].{file_path, transform_matrix}; file_path may omit ".png". A missing val or
+ *   test file leaves that split empty. fx = fy = 0.5 W / tan(0.5 camera_angle_x),
+ *   cx = W/2, cy = H/2. near 2, far 6.
+ * instant-ngp: one transforms.json with fl_x, fl_y, cx, cy, w, h (fl_x/fl_y may be given
+ *   as camera_angle_x/camera_angle_y instead; fl_y defaults to fl_x, cx/cy to the image
+ *   centre, w/h to the image file's size; the intrinsics refer to a w x h image and are
+ *   rescaled to the loaded size). Frames whose image is missing are skipped with a
+ *   warning. Split: of the usable frames in file order, indices 0, 8, 16, ... are test
+ *   views, the rest train (no val). near/far: with camera centres c_i, the scene centred at
+ *   the origin and s = aabb_scale (default 1), near = max(0.05, min |c_i| - sqrt(3) s),
+ *   far = max |c_i| + sqrt(3) s, over all usable frames.
+ * LLFF: images from images_<8*downscale>/ if it exists, else images_8/ area-downscaled by
+ *   `downscale` (sorted file names, PNG only, one per pose). NeRF's conventions: rotation
+ *   columns [down, right, back] become [right, up, back], translations and bounds scaled
+ *   by 1 / (0.75 min bound), poses recentred on their average pose, ndc = 1,
+ *   near = 0.9 min bound, far = max bound (after scaling), i.e. the scene's depth range;
+ *   an NDC renderer itself starts its rays at the plane z = -1 (near 1.0). Split: views
+ *   0, 8, 16, ... test, the rest train (no val).
+ * Recentring and the near/far rules use every frame in the files, not just the views
+ * that max_views keeps.
+ */
+#ifndef CNERF_ENC_DATASET_H
+#define CNERF_ENC_DATASET_H
+
+#include <stddef.h>
+
+enum { CN_DS_BLENDER = 1, CN_DS_NGP = 2, CN_DS_LLFF = 3 };
+
+typedef struct cn_view {
+    char name[64];         /* view name: file stem, e.g. "r_40" or "image008" */
+    int w, h;
+    double c2w[3][4];      /* camera-to-world, OpenGL camera axes: x right, y up, camera
+                              looks down -z */
+    double fx, fy, cx, cy; /* intrinsics in pixels of THIS (downscaled) image */
+    float *rgb;            /* w*h*3 floats in [0,1], already composited over the background */
+} cn_view;
+
+typedef struct cn_dataset {
+    int kind;        /* CN_DS_* */
+    int ndc;         /* 1: forward-facing scene to be rendered in NDC (LLFF) */
+    double near, far; /* ray bounds in world units; for NDC scenes the scene's depth range
+                         (the NDC warp itself uses the near plane z = -1) */
+    float bg[3];     /* background colour used for compositing */
+    cn_view *train, *val, *test;
+    int n_train, n_val, n_test;
+} cn_dataset;
+
+typedef struct cn_dataset_opts {
+    int downscale;    /* integer factor >= 1 (0 means 1), area averaging */
+    int black_bg;     /* composite RGBA over black instead of white */
+    double near, far; /* overrides when > 0 (else derived, see above) */
+    int max_views;    /* 0 = all; else load at most this many views per split */
+} cn_dataset_opts;
+
+/* Loads the dataset in `dir` (o may be NULL for the defaults). Returns 0, or -1 with a
+ * message naming the file and the problem in err; *ds is then empty. */
+int cn_dataset_load(const char *dir, const cn_dataset_opts *o, cn_dataset *ds, char *err,
+                    size_t errlen);
+
+/* Frees every view and empties *ds; safe on an empty dataset. */
+void cn_dataset_free(cn_dataset *ds);
+
+#endif /* CNERF_ENC_DATASET_H */

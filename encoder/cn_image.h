@@ -1,0 +1,39 @@
+/*
+ * Float images and PNG input/output for the encoder. Host C11, libpng.
+ */
+#ifndef CNERF_ENC_IMAGE_H
+#define CNERF_ENC_IMAGE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* A float image: w*h pixels of c = 3 (RGB) or 4 (RGBA, straight alpha) channels,
+ * row-major and interleaved, values in [0, 1]. */
+typedef struct cn_image {
+    int w, h, c;
+    float *px;
+} cn_image;
+
+/* Reads a PNG of any bit depth (1 to 16) and colour type: grey and grey+alpha become RGB
+ * and RGBA, palette images RGB (RGBA with a tRNS chunk), 16-bit samples keep their full
+ * precision. Returns 0, or -1 with a message naming the file and the problem (missing,
+ * not a PNG, truncated, corrupt) in err; *img is then empty. */
+int cn_png_read(const char *path, cn_image *img, char *err, size_t errlen);
+
+/* Writes w*h 8-bit RGB pixels (rows `stride` bytes apart, stride >= 3*w) as a PNG,
+ * atomically: the file is encoded in memory, written to a temporary file in the same
+ * directory, synced and renamed. Returns 0, or -1 with a message in err. */
+int cn_png_write_rgb8(const char *path, const uint8_t *rgb, int w, int h, size_t stride,
+                      char *err, size_t errlen);
+
+/* Area-averaging downscale by an integer factor f >= 1: each output pixel is the mean of
+ * an f x f block of input pixels, every channel averaged independently. RGBA images are
+ * averaged with straight (not premultiplied) alpha and stay RGBA; compositing over the
+ * background happens afterwards, as in NeRF's loaders (resize the RGBA, then composite).
+ * Fails with a message if w or h is not divisible by f. *out is a new image. */
+int cn_image_downscale(const cn_image *in, int f, cn_image *out, char *err, size_t errlen);
+
+/* Frees the pixels and empties the struct; safe on an empty image. */
+void cn_image_free(cn_image *img);
+
+#endif /* CNERF_ENC_IMAGE_H */

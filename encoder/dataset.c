@@ -1,0 +1,1182 @@
+/* Dataset loading: Blender, instant-ngp and LLFF layouts (see cn_dataset.h). */
+#include <ctype.h>
+#include <dirent.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+
+#include <cjson/cJSON.h>
+
+#include "cn_dataset.h"
+#include "cn_image.h"
+#include "cn_stream.h"
+
+#define CN_PATH_MAX 4096
+#define CN_VIEW_ERR 1024 /* per-image error message buffer of the parallel load */
+#define CN_LLFF_HOLD 8   /* every 8th view is a test view */
+
+enum { CN_TRAIN = 0, CN_VAL = 1, CN_TEST = 2 };
+
+/* ---- errors and paths ---- */
+
+__attribute__((format(printf, 3, 4))) static int cn_fail(char *err, size_t errlen,
+                                                         const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(err, errlen, fmt, ap);
+    va_end(ap);
+    return -1;
+}
+
+/* out = dir/name (name used as is when absolute, "./" prefixes dropped) + ext. */
+static int cn_join(char out[CN_PATH_MAX], const char *dir, const char *name, const char *ext,
+                   char *err, size_t errlen)
+{
+    while (name[0] == '.' && name[1] == '/')
+        name += 2;
+    int n = name[0] == '/' ? snprintf(out, CN_PATH_MAX, "%s%s", name, ext)
+                           : snprintf(out, CN_PATH_MAX, "%s/%s%s", dir, name, ext);
+    if (n < 0 || n >= CN_PATH_MAX)
+        return cn_fail(err, errlen, "%s/%s%s: path too long", dir, name, ext);
+    return 0;
+}
+
+static int cn_is_file(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0 && S_ISREG(st.st_mode);
+}
+
+static int cn_is_dir(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0 && S_ISDIR(st.st_mode);
+}
+
+/* The file name of path without directory and extension, truncated to fit. */
+static void cn_stem(const char *path, char name[64])
+{
+    const char *base = strrchr(path, '/');
+    base = base ? base + 1 : path;
+    const char *dot = strrchr(base, '.');
+    size_t n = dot && dot != base ? (size_t)(dot - base) : strlen(base);
+    if (n > 63)
+        n = 63;
+    memcpy(name, base, n);
+    name[n] = '\0';
+}
+
+/* ---- camera poses and intrinsics ---- */
+
+/* Checks a camera-to-world matrix: finite, rotation orthonormal within 1e-3 and not a
+ * reflection. Returns 0, or -1 with the problem in why. */
+static int cn_pose_check(const double m[3][4], char *why, size_t n)
+{
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 4; j++)
+            if (!isfinite(m[i][j])) {
+                snprintf(why, n, "non-finite entry [%d][%d]", i, j);
+                return -1;
+            }
+    double dev = 0;
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) {
+            double d = -(double)(i == j);
+            for (int k = 0; k < 3; k++)
+                d += m[k][i] * m[k][j];
+            dev = fmax(dev, fabs(d));
+        }
+    if (dev > 1e-3) {
+        snprintf(why, n, "degenerate pose: rotation is not orthonormal (max |R^T R - I| = %.3g)",
+                 dev);
+        return -1;
+    }
+    double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                 m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                 m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    if (det < 0) {
+        snprintf(why, n, "degenerate pose: rotation is a reflection (determinant %.3g)", det);
+        return -1;
+    }
+    return 0;
+}
+
+/* Intrinsics as a dataset states them, resolved once the image size is known. NAN marks
+ * a value that is not given. */
+typedef struct cn_intr {
+    double ref_w, ref_h;     /* image size the values refer to; NAN: the image file's size */
+    double fx, fy, cx, cy;   /* pixels at the reference size; NAN: derived */
+    double angle_x, angle_y; /* fields of view (radians) for fx / fy when those are NAN */
+} cn_intr;
+
+static const cn_intr cn_intr_none = {NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
+
+/* Intrinsics of view v (v->w, v->h set) loaded from an image file of file_w x file_h.
+ * Missing focal lengths come from the fields of view (fy: else fx, square pixels),
+ * a missing principal point is the image centre. */
+static void cn_intr_resolve(const cn_intr *in, int file_w, int file_h, cn_view *v)
+{
+    double rw = isnan(in->ref_w) ? file_w : in->ref_w;
+    double rh = isnan(in->ref_h) ? file_h : in->ref_h;
+    double fx = !isnan(in->fx) ? in->fx : 0.5 * rw / tan(0.5 * in->angle_x);
+    double fy = !isnan(in->fy)        ? in->fy
+                : !isnan(in->angle_y) ? 0.5 * rh / tan(0.5 * in->angle_y)
+                                      : fx;
+    double cx = isnan(in->cx) ? 0.5 * rw : in->cx;
+    double cy = isnan(in->cy) ? 0.5 * rh : in->cy;
+    double sx = v->w / rw, sy = v->h / rh;
+    v->fx = fx * sx;
+    v->fy = fy * sy;
+    v->cx = cx * sx;
+    v->cy = cy * sy;
+}
+
+/* ---- the list of frames before their images are loaded ---- */
+
+typedef struct cn_frame {
+    char *path; /* image file */
+    int split;  /* CN_TRAIN, CN_VAL or CN_TEST */
+    cn_view v;  /* name and c2w; size, intrinsics and pixels once loaded */
+    cn_intr in;
+    int file_w, file_h; /* size of the image file */
+} cn_frame;
+
+typedef struct cn_frames {
+    cn_frame *f;
+    int n, cap;
+    int count[3];      /* frames kept per split */
+    int max_views;     /* per split, 0 = all */
+    int factor;        /* downscale applied to every image file */
+    int offered;       /* frames offered to cn_frames_add, kept or not */
+    double rmin, rmax; /* range of their camera distances from the origin */
+} cn_frames;
+
+static void cn_frames_free(cn_frames *L)
+{
+    for (int i = 0; i < L->n; i++) {
+        free(L->f[i].path);
+        free(L->f[i].v.rgb);
+    }
+    free(L->f);
+    L->f = NULL;
+    L->n = L->cap = 0;
+}
+
+/* Offers a frame for `split`; it is dropped (returning 0) when the split already has
+ * max_views frames. */
+static int cn_frames_add(cn_frames *L, const char *path, int split, const double c2w[3][4],
+                         const cn_intr *in, char *err, size_t errlen)
+{
+    double r = sqrt(c2w[0][3] * c2w[0][3] + c2w[1][3] * c2w[1][3] + c2w[2][3] * c2w[2][3]);
+    L->rmin = L->offered ? fmin(L->rmin, r) : r;
+    L->rmax = L->offered ? fmax(L->rmax, r) : r;
+    L->offered++;
+    if (L->max_views > 0 && L->count[split] >= L->max_views)
+        return 0;
+    if (L->n == L->cap) {
+        int cap = L->cap ? 2 * L->cap : 64;
+        cn_frame *f = realloc(L->f, sizeof *f * (size_t)cap);
+        if (!f)
+            return cn_fail(err, errlen, "%s: out of memory", path);
+        L->f = f;
+        L->cap = cap;
+    }
+    cn_frame *fr = &L->f[L->n];
+    *fr = (cn_frame){.split = split, .in = *in};
+    fr->path = strdup(path);
+    if (!fr->path)
+        return cn_fail(err, errlen, "%s: out of memory", path);
+    cn_stem(path, fr->v.name);
+    memcpy(fr->v.c2w, c2w, sizeof fr->v.c2w);
+    L->n++;
+    L->count[split]++;
+    return 0;
+}
+
+/* ---- images ---- */
+
+/* RGB of an RGB or RGBA image, RGBA composited over bg with straight alpha. */
+static float *cn_composite(const cn_image *im, const float bg[3])
+{
+    size_t n = (size_t)im->w * (size_t)im->h;
+    float *rgb = malloc(sizeof(float) * 3 * n);
+    if (!rgb)
+        return NULL;
+    for (size_t i = 0; i < n; i++) {
+        const float *p = im->px + i * (size_t)im->c;
+        float a = im->c == 4 ? p[3] : 1.0f;
+        for (int k = 0; k < 3; k++)
+            rgb[3 * i + k] = fminf(1.0f, fmaxf(0.0f, a * p[k] + (1.0f - a) * bg[k]));
+    }
+    return rgb;
+}
+
+/* Reads one frame's image, downscales it by `factor` and composites it. */
+static int cn_frame_load(cn_frame *fr, int factor, const float bg[3], char *err, size_t errlen)
+{
+    cn_image full, small = {0};
+    if (cn_png_read(fr->path, &full, err, errlen) != 0)
+        return -1;
+    fr->file_w = full.w;
+    fr->file_h = full.h;
+    const cn_image *im = &full;
+    if (factor > 1) {
+        char why[256];
+        if (cn_image_downscale(&full, factor, &small, why, sizeof why) != 0) {
+            cn_image_free(&full);
+            return cn_fail(err, errlen, "%s: %s (downscale %d)", fr->path, why, factor);
+        }
+        im = &small;
+    }
+    fr->v.w = im->w;
+    fr->v.h = im->h;
+    fr->v.rgb = cn_composite(im, bg);
+    cn_image_free(&full);
+    cn_image_free(&small);
+    if (!fr->v.rgb)
+        return cn_fail(err, errlen, "%s: out of memory", fr->path);
+    return 0;
+}
+
+/* Loads every frame's image (in parallel), checks that they all have the same size and
+ * resolves the intrinsics. */
+static int cn_frames_load_images(cn_frames *L, const float bg[3], char *err, size_t errlen)
+{
+    if (L->n == 0)
+        return 0;
+    char *msg = malloc((size_t)L->n * CN_VIEW_ERR);
+    int *rc = malloc(sizeof(int) * (size_t)L->n);
+    if (!msg || !rc) {
+        free(msg);
+        free(rc);
+        return cn_fail(err, errlen, "out of memory loading %d images", L->n);
+    }
+#pragma omp parallel for schedule(dynamic)
+    for (int i = 0; i < L->n; i++)
+        rc[i] = cn_frame_load(&L->f[i], L->factor, bg, msg + (size_t)i * CN_VIEW_ERR,
+                              CN_VIEW_ERR);
+    int bad = -1;
+    for (int i = 0; i < L->n && bad < 0; i++)
+        if (rc[i] != 0)
+            bad = i;
+    if (bad >= 0)
+        snprintf(err, errlen, "%s", msg + (size_t)bad * CN_VIEW_ERR);
+    free(msg);
+    free(rc);
+    if (bad >= 0)
+        return -1;
+    const cn_frame *a = &L->f[0];
+    for (int i = 1; i < L->n; i++) {
+        const cn_frame *b = &L->f[i];
+        if (b->file_w != a->file_w || b->file_h != a->file_h)
+            return cn_fail(err, errlen, "images differ in size: %s is %dx%d but %s is %dx%d",
+                           a->path, a->file_w, a->file_h, b->path, b->file_w, b->file_h);
+    }
+    for (int i = 0; i < L->n; i++)
+        cn_intr_resolve(&L->f[i].in, L->f[i].file_w, L->f[i].file_h, &L->f[i].v);
+    return 0;
+}
+
+/* ---- JSON helpers ---- */
+
+/* Where a JSON value sits, for messages: "file: key" or "file: frames[3].key". */
+typedef struct cn_jloc {
+    const char *file;
+    int frame; /* index into frames[], or -1 for a top-level key */
+} cn_jloc;
+
+__attribute__((format(printf, 5, 6))) static int cn_jfail(const cn_jloc *l, const char *key,
+                                                          char *err, size_t errlen,
+                                                          const char *fmt, ...)
+{
+    char what[512];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(what, sizeof what, fmt, ap);
+    va_end(ap);
+    if (l->frame >= 0)
+        return cn_fail(err, errlen, "%s: frames[%d]%s%s: %s", l->file, l->frame, key ? "." : "",
+                       key ? key : "", what);
+    return cn_fail(err, errlen, "%s: %s: %s", l->file, key, what);
+}
+
+/* 1 if JSON text ends inside a string or with brackets left open. */
+static int cn_json_incomplete(const char *text, size_t len)
+{
+    long depth = 0;
+    int in_str = 0;
+    for (size_t i = 0; i < len; i++) {
+        char ch = text[i];
+        if (in_str) {
+            if (ch == '\\')
+                i++;
+            else if (ch == '"')
+                in_str = 0;
+        } else if (ch == '"') {
+            in_str = 1;
+        } else if (ch == '{' || ch == '[') {
+            depth++;
+        } else if (ch == '}' || ch == ']') {
+            depth--;
+        }
+    }
+    return in_str || depth > 0;
+}
+
+/* Reports where parsing stopped: line, column and a hint for an incomplete document or
+ * NaN/Infinity. */
+static int cn_json_syntax_error(const char *path, const char *text, size_t len, const char *at,
+                                char *err, size_t errlen)
+{
+    if (!text || !at || at < text || at > text + len)
+        return cn_fail(err, errlen, "%s: malformed JSON (empty file)", path);
+    int line = 1, col = 1;
+    for (const char *p = text; p < at; p++) {
+        col = *p == '\n' ? 1 : col + 1;
+        line += *p == '\n';
+    }
+    size_t left = (size_t)(text + len - at);
+    const char *hint = "";
+    if (left == 0 || cn_json_incomplete(text, len))
+        hint = " (unexpected end of file)";
+    else if ((left >= 3 && !strncmp(at, "NaN", 3)) || (left >= 4 && !strncmp(at, "-NaN", 4)) ||
+             (left >= 8 && !strncmp(at, "Infinity", 8)) ||
+             (left >= 9 && !strncmp(at, "-Infinity", 9)))
+        hint = " (NaN and Infinity are not valid JSON numbers)";
+    return cn_fail(err, errlen, "%s: malformed JSON at line %d, column %d%s", path, line, col,
+                   hint);
+}
+
+/* Reads and parses a JSON file whose top level must be an object. */
+static int cn_json_load(const char *path, cJSON **root, char *err, size_t errlen)
+{
+    *root = NULL;
+    uint8_t *data;
+    size_t len;
+    if (cn_read_file(path, &data, &len, err, errlen) != 0)
+        return -1;
+    const char *text = (const char *)data, *end = NULL;
+    cJSON *j = len ? cJSON_ParseWithLengthOpts(text, len, &end, 0) : NULL;
+    int rc = 0;
+    if (!j) {
+        rc = cn_json_syntax_error(path, text, len, end, err, errlen);
+    } else {
+        const char *p = end;
+        while (p < text + len && isspace((unsigned char)*p))
+            p++;
+        if (p < text + len) {
+            char why[256];
+            cn_json_syntax_error(path, text, len, p, why, sizeof why);
+            rc = cn_fail(err, errlen, "%s (unexpected data after the top-level value)", why);
+        } else if (!cJSON_IsObject(j)) {
+            rc = cn_fail(err, errlen, "%s: expected a JSON object at the top level", path);
+        }
+    }
+    free(data);
+    if (rc != 0)
+        cJSON_Delete(j);
+    else
+        *root = j;
+    return rc;
+}
+
+/* A finite number under `key`: 1 when found, 0 when absent and optional, -1 on error
+ * (absent and required, not a number, not finite). */
+static int cn_json_num(const cJSON *obj, const char *key, int required, const cn_jloc *l,
+                       double *v, char *err, size_t errlen)
+{
+    const cJSON *it = cJSON_GetObjectItemCaseSensitive(obj, key);
+    if (!it)
+        return required ? cn_jfail(l, key, err, errlen, "missing") : 0;
+    if (!cJSON_IsNumber(it))
+        return cn_jfail(l, key, err, errlen, "expected a number");
+    if (!isfinite(it->valuedouble))
+        return cn_jfail(l, key, err, errlen, "not a finite number");
+    *v = it->valuedouble;
+    return 1;
+}
+
+/* An optional positive number; *v keeps its value when the key is absent. */
+static int cn_json_positive(const cJSON *obj, const char *key, const cn_jloc *l, double *v,
+                            char *err, size_t errlen)
+{
+    double x = 0;
+    int r = cn_json_num(obj, key, 0, l, &x, err, errlen);
+    if (r < 0)
+        return -1;
+    if (r == 1 && !(x > 0))
+        return cn_jfail(l, key, err, errlen, "must be positive (is %g)", x);
+    if (r == 1)
+        *v = x;
+    return 0;
+}
+
+/* A field of view in radians, in (0, pi); *v keeps its value when absent and optional. */
+static int cn_json_angle(const cJSON *obj, const char *key, int required, const cn_jloc *l,
+                         double *v, char *err, size_t errlen)
+{
+    double x = 0;
+    int r = cn_json_num(obj, key, required, l, &x, err, errlen);
+    if (r < 0)
+        return -1;
+    if (r == 1 && !(x > 0 && x < M_PI))
+        return cn_jfail(l, key, err, errlen, "must be a field of view in (0, pi) radians (is %g)",
+                        x);
+    if (r == 1)
+        *v = x;
+    return 0;
+}
+
+/* The top-level "frames" array. */
+static int cn_json_frames(const cJSON *root, const char *file, const cJSON **frames, char *err,
+                          size_t errlen)
+{
+    cn_jloc l = {file, -1};
+    *frames = cJSON_GetObjectItemCaseSensitive(root, "frames");
+    if (!*frames)
+        return cn_jfail(&l, "frames", err, errlen, "missing");
+    if (!cJSON_IsArray(*frames))
+        return cn_jfail(&l, "frames", err, errlen, "expected an array");
+    return 0;
+}
+
+/* The top 3x4 of a 4x4 array of numbers; -1 if it is anything else. */
+static int cn_json_matrix(const cJSON *m, double c2w[3][4])
+{
+    if (!cJSON_IsArray(m) || cJSON_GetArraySize(m) != 4)
+        return -1;
+    int i = 0;
+    const cJSON *row;
+    cJSON_ArrayForEach(row, m)
+    {
+        if (!cJSON_IsArray(row) || cJSON_GetArraySize(row) != 4)
+            return -1;
+        int j = 0;
+        const cJSON *x;
+        cJSON_ArrayForEach(x, row)
+        {
+            if (!cJSON_IsNumber(x))
+                return -1;
+            if (i < 3)
+                c2w[i][j] = x->valuedouble;
+            j++;
+        }
+        i++;
+    }
+    return 0;
+}
+
+/* frames[i]: its file_path and a valid transform_matrix. */
+static int cn_json_frame(const cJSON *fr, const cn_jloc *l, const char **file_path,
+                         double c2w[3][4], char *err, size_t errlen)
+{
+    if (!cJSON_IsObject(fr))
+        return cn_jfail(l, NULL, err, errlen, "expected an object");
+    const cJSON *fp = cJSON_GetObjectItemCaseSensitive(fr, "file_path");
+    if (!fp)
+        return cn_jfail(l, "file_path", err, errlen, "missing");
+    if (!cJSON_IsString(fp) || !fp->valuestring[0])
+        return cn_jfail(l, "file_path", err, errlen, "expected a non-empty string");
+    *file_path = fp->valuestring;
+    const cJSON *m = cJSON_GetObjectItemCaseSensitive(fr, "transform_matrix");
+    if (!m)
+        return cn_jfail(l, "transform_matrix", err, errlen, "missing");
+    if (cn_json_matrix(m, c2w) != 0)
+        return cn_jfail(l, "transform_matrix", err, errlen, "expected a 4x4 array of numbers");
+    char why[256];
+    if (cn_pose_check((const double(*)[4])c2w, why, sizeof why) != 0)
+        return cn_jfail(l, "transform_matrix", err, errlen, "%s", why);
+    return 0;
+}
+
+/* The image of a frame: file_path as given, else with ".png" appended. Returns 1 when
+ * found (path in out), 0 when missing (out = the path the frame most likely means: as
+ * given when it has an extension, else with ".png"), -1 on error. */
+static int cn_find_image(const char *dir, const char *file_path, char out[CN_PATH_MAX],
+                         char *err, size_t errlen)
+{
+    for (int png = 0; png <= 1; png++) {
+        if (cn_join(out, dir, file_path, png ? ".png" : "", err, errlen) != 0)
+            return -1;
+        if (cn_is_file(out))
+            return 1;
+    }
+    const char *base = strrchr(file_path, '/');
+    base = base ? base + 1 : file_path;
+    int has_ext = strchr(base + (base[0] == '.'), '.') != NULL;
+    return cn_join(out, dir, file_path, has_ext ? "" : ".png", err, errlen) == 0 ? 0 : -1;
+}
+
+/* How a JSON layout assigns frames to splits and treats missing images. */
+typedef struct cn_frame_rule {
+    int split;        /* fixed split, or -1: every CN_LLFF_HOLD-th usable frame is a test
+                         view, the others train */
+    int skip_missing; /* 1: skip frames without an image (warning); 0: error */
+} cn_frame_rule;
+
+/* Adds every frame of a transforms file's "frames" array to L. */
+static int cn_json_add_frames(const cJSON *root, const char *file, const char *dir,
+                              const cn_frame_rule *rule, const cn_intr *in, cn_frames *L,
+                              char *err, size_t errlen)
+{
+    const cJSON *frames;
+    if (cn_json_frames(root, file, &frames, err, errlen) != 0)
+        return -1;
+    int i = 0, usable = 0;
+    const cJSON *fr;
+    cJSON_ArrayForEach(fr, frames)
+    {
+        cn_jloc l = {file, i++};
+        const char *file_path = NULL;
+        double c2w[3][4];
+        char path[CN_PATH_MAX];
+        if (cn_json_frame(fr, &l, &file_path, c2w, err, errlen) != 0)
+            return -1;
+        int found = cn_find_image(dir, file_path, path, err, errlen);
+        if (found < 0)
+            return -1;
+        if (!found && !rule->skip_missing)
+            return cn_fail(err, errlen, "%s: missing (frames[%d].file_path in %s)", path, l.frame,
+                           file);
+        if (!found) {
+            fprintf(stderr, "warning: %s: missing, frame skipped\n", path);
+            continue;
+        }
+        int split = rule->split >= 0 ? rule->split
+                    : usable % CN_LLFF_HOLD == 0 ? CN_TEST
+                                                 : CN_TRAIN;
+        usable++;
+        if (cn_frames_add(L, path, split, (const double(*)[4])c2w, in, err, errlen) != 0)
+            return -1;
+    }
+    return 0;
+}
+
+/* ---- Blender ---- */
+
+static int cn_load_blender_split(const char *dir, int split, cn_frames *L, char *err,
+                                 size_t errlen)
+{
+    static const char *names[3] = {"transforms_train.json", "transforms_val.json",
+                                   "transforms_test.json"};
+    char file[CN_PATH_MAX];
+    if (cn_join(file, dir, names[split], "", err, errlen) != 0)
+        return -1;
+    if (!cn_is_file(file)) {
+        if (split == CN_TRAIN)
+            return cn_fail(err, errlen, "%s: missing", file);
+        return 0; /* that split stays empty */
+    }
+    cJSON *root;
+    if (cn_json_load(file, &root, err, errlen) != 0)
+        return -1;
+    cn_jloc l = {file, -1};
+    cn_intr in = cn_intr_none;
+    cn_frame_rule rule = {split, 0};
+    int rc = cn_json_angle(root, "camera_angle_x", 1, &l, &in.angle_x, err, errlen);
+    if (rc == 0)
+        rc = cn_json_add_frames(root, file, dir, &rule, &in, L, err, errlen);
+    cJSON_Delete(root);
+    return rc;
+}
+
+static int cn_load_blender(const char *dir, cn_dataset *ds, cn_frames *L, char *err,
+                           size_t errlen)
+{
+    ds->near = 2.0;
+    ds->far = 6.0;
+    for (int s = CN_TRAIN; s <= CN_TEST; s++)
+        if (cn_load_blender_split(dir, s, L, err, errlen) != 0)
+            return -1;
+    return 0;
+}
+
+/* ---- instant-ngp transforms.json ---- */
+
+/* Camera intrinsics and aabb_scale of a transforms.json. */
+static int cn_ngp_intrinsics(const cJSON *root, const cn_jloc *l, cn_intr *in, double *aabb,
+                             char *err, size_t errlen)
+{
+    *in = cn_intr_none;
+    *aabb = 1.0;
+    if (cn_json_positive(root, "w", l, &in->ref_w, err, errlen) ||
+        cn_json_positive(root, "h", l, &in->ref_h, err, errlen) ||
+        cn_json_positive(root, "fl_x", l, &in->fx, err, errlen) ||
+        cn_json_positive(root, "fl_y", l, &in->fy, err, errlen) ||
+        cn_json_angle(root, "camera_angle_x", 0, l, &in->angle_x, err, errlen) ||
+        cn_json_angle(root, "camera_angle_y", 0, l, &in->angle_y, err, errlen) ||
+        cn_json_num(root, "cx", 0, l, &in->cx, err, errlen) < 0 ||
+        cn_json_num(root, "cy", 0, l, &in->cy, err, errlen) < 0 ||
+        cn_json_positive(root, "aabb_scale", l, aabb, err, errlen))
+        return -1;
+    if (isnan(in->fx) && isnan(in->angle_x))
+        return cn_jfail(l, "fl_x", err, errlen, "missing (and no camera_angle_x either)");
+    static const char *dist[] = {"k1", "k2", "k3", "k4", "p1", "p2"};
+    for (size_t i = 0; i < sizeof dist / sizeof dist[0]; i++) {
+        const cJSON *k = cJSON_GetObjectItemCaseSensitive(root, dist[i]);
+        if (cJSON_IsNumber(k) && k->valuedouble != 0) {
+            fprintf(stderr, "warning: %s: lens distortion (%s) is ignored\n", l->file, dist[i]);
+            break;
+        }
+    }
+    return 0;
+}
+
+static int cn_load_ngp(const char *dir, cn_dataset *ds, cn_frames *L, char *err, size_t errlen)
+{
+    char file[CN_PATH_MAX];
+    cJSON *root;
+    if (cn_join(file, dir, "transforms.json", "", err, errlen) != 0 ||
+        cn_json_load(file, &root, err, errlen) != 0)
+        return -1;
+    cn_jloc l = {file, -1};
+    cn_intr in;
+    double s;
+    cn_frame_rule rule = {-1, 1};
+    int rc = cn_ngp_intrinsics(root, &l, &in, &s, err, errlen);
+    if (rc == 0)
+        rc = cn_json_add_frames(root, file, dir, &rule, &in, L, err, errlen);
+    cJSON_Delete(root);
+    /* Cameras around a scene centred at the origin inside the cube [-s, s]^3. */
+    ds->near = fmax(0.05, L->rmin - sqrt(3.0) * s);
+    ds->far = L->rmax + sqrt(3.0) * s;
+    return rc;
+}
+
+/* ---- LLFF poses_bounds.npy ---- */
+
+/* A cursor over the Python literal of a .npy header. */
+typedef struct cn_scan {
+    const char *p, *end;
+} cn_scan;
+
+static void cn_scan_blank(cn_scan *s)
+{
+    while (s->p < s->end && (*s->p == ' ' || *s->p == '\t' || *s->p == '\n'))
+        s->p++;
+}
+
+/* Skips blanks, then consumes w if it comes next. */
+static int cn_scan_word(cn_scan *s, const char *w)
+{
+    size_t n = strlen(w);
+    cn_scan_blank(s);
+    if ((size_t)(s->end - s->p) >= n && !strncmp(s->p, w, n)) {
+        s->p += n;
+        return 1;
+    }
+    return 0;
+}
+
+/* A quoted string without escapes. */
+static int cn_scan_str(cn_scan *s, char *out, size_t n)
+{
+    char q = cn_scan_word(s, "'") ? '\'' : cn_scan_word(s, "\"") ? '"' : 0;
+    if (!q)
+        return 0;
+    size_t k = 0;
+    while (s->p < s->end && *s->p != q) {
+        if (k + 1 >= n)
+            return 0;
+        out[k++] = *s->p++;
+    }
+    out[k] = '\0';
+    return s->p < s->end && *s->p++ == q;
+}
+
+/* A tuple of non-negative integers: "(20, 17)", "(5,)", "()". */
+static int cn_scan_shape(cn_scan *s, long *dim, int max, int *ndim)
+{
+    *ndim = 0;
+    if (!cn_scan_word(s, "("))
+        return 0;
+    for (;;) {
+        if (cn_scan_word(s, ")"))
+            return 1;
+        if (*ndim == max || s->p >= s->end || !isdigit((unsigned char)*s->p))
+            return 0;
+        long v = 0;
+        while (s->p < s->end && isdigit((unsigned char)*s->p) && v < 100000000)
+            v = 10 * v + (*s->p++ - '0');
+        if (s->p < s->end && isdigit((unsigned char)*s->p))
+            return 0; /* absurdly large */
+        dim[(*ndim)++] = v;
+        if (cn_scan_word(s, ")"))
+            return 1;
+        if (!cn_scan_word(s, ","))
+            return 0;
+    }
+}
+
+typedef struct cn_npy_hdr {
+    char descr[16];
+    int fortran;
+    long shape[8];
+    int ndim;
+} cn_npy_hdr;
+
+/* The header dictionary {'descr': ..., 'fortran_order': ..., 'shape': (...), }. Returns 0,
+ * or -1 with the problem in why. */
+static int cn_npy_dict(cn_scan *s, cn_npy_hdr *h, char *why, size_t n)
+{
+    unsigned seen = 0;
+    if (!cn_scan_word(s, "{"))
+        return cn_fail(why, n, "expected a dictionary");
+    while (!cn_scan_word(s, "}")) {
+        char key[32];
+        if (!cn_scan_str(s, key, sizeof key) || !cn_scan_word(s, ":"))
+            return cn_fail(why, n, "expected 'key': value");
+        if (!strcmp(key, "descr")) {
+            if (!cn_scan_str(s, h->descr, sizeof h->descr))
+                return cn_fail(why, n, "descr: expected a short string");
+            seen |= 1;
+        } else if (!strcmp(key, "fortran_order")) {
+            h->fortran = cn_scan_word(s, "True");
+            if (!h->fortran && !cn_scan_word(s, "False"))
+                return cn_fail(why, n, "fortran_order: expected True or False");
+            seen |= 2;
+        } else if (!strcmp(key, "shape")) {
+            if (!cn_scan_shape(s, h->shape, 8, &h->ndim))
+                return cn_fail(why, n, "shape: expected a tuple of integers");
+            seen |= 4;
+        } else {
+            return cn_fail(why, n, "unexpected key '%s'", key);
+        }
+        if (!cn_scan_word(s, ",")) {
+            if (!cn_scan_word(s, "}"))
+                return cn_fail(why, n, "expected ',' or '}'");
+            break;
+        }
+    }
+    if (seen != 7)
+        return cn_fail(why, n, "descr, fortran_order or shape missing");
+    cn_scan_blank(s);
+    if (s->p != s->end)
+        return cn_fail(why, n, "unexpected text after the dictionary");
+    return 0;
+}
+
+/* Checks a poses_bounds.npy image: version 1.0 or 2.0, '<f8', C order, shape (N, 17),
+ * nothing after the data. Gives N and the start of the data. */
+static int cn_npy_poses(const uint8_t *d, size_t len, const char *file, int *rows,
+                        const uint8_t **body, char *err, size_t errlen)
+{
+    if (len < 10 || memcmp(d, "\x93NUMPY", 6) != 0)
+        return cn_fail(err, errlen, "%s: not a NumPy .npy file (bad magic)", file);
+    if ((d[6] != 1 && d[6] != 2) || d[7] != 0)
+        return cn_fail(err, errlen, "%s: unsupported .npy version %d.%d (expected 1.0 or 2.0)",
+                       file, d[6], d[7]);
+    size_t off = d[6] == 1 ? 10 : 12;
+    if (len < off)
+        return cn_fail(err, errlen, "%s: truncated .npy header", file);
+    size_t hl = d[8] | (size_t)d[9] << 8;
+    if (d[6] == 2)
+        hl |= (size_t)d[10] << 16 | (size_t)d[11] << 24;
+    if (hl > len - off)
+        return cn_fail(err, errlen, "%s: truncated .npy header", file);
+    cn_scan s = {(const char *)d + off, (const char *)d + off + hl};
+    cn_npy_hdr h = {0};
+    char why[128];
+    if (cn_npy_dict(&s, &h, why, sizeof why) != 0)
+        return cn_fail(err, errlen, "%s: bad .npy header: %s", file, why);
+    if (strcmp(h.descr, "<f8") != 0)
+        return cn_fail(err, errlen,
+                       "%s: dtype '%s' is not supported (expected '<f8', little-endian float64)",
+                       file, h.descr);
+    if (h.fortran)
+        return cn_fail(err, errlen, "%s: fortran_order True is not supported (expected C order)",
+                       file);
+    if (h.ndim != 2 || h.shape[0] < 1 || h.shape[1] != 17) {
+        char shape[160] = "";
+        for (int i = 0; i < h.ndim; i++)
+            snprintf(shape + strlen(shape), sizeof shape - strlen(shape), "%s%ld", i ? ", " : "",
+                     h.shape[i]);
+        return cn_fail(err, errlen, "%s: array shape (%s): expected (N, 17) with N >= 1", file,
+                       shape);
+    }
+    size_t need = (size_t)h.shape[0] * 17 * 8, have = len - off - hl;
+    if (have != need)
+        return cn_fail(err, errlen,
+                       "%s: %s: %zu data bytes, but shape (%ld, 17) of float64 needs %zu", file,
+                       have < need ? "truncated" : "trailing bytes", have, h.shape[0], need);
+    *rows = (int)h.shape[0];
+    *body = d + off + hl;
+    return 0;
+}
+
+static double cn_le_f64(const uint8_t *p)
+{
+    uint64_t u = 0;
+    for (int i = 7; i >= 0; i--)
+        u = u << 8 | p[i];
+    double v;
+    memcpy(&v, &u, sizeof v);
+    return v;
+}
+
+/* One LLFF camera, converted to NeRF's conventions. */
+typedef struct cn_llff_cam {
+    double c2w[3][4];
+    cn_intr in;
+    double bnear, bfar; /* depth bounds */
+} cn_llff_cam;
+
+/* Row r: a row-major 3x5 [R | t | hwf] with rotation columns [down, right, back], then the
+ * depth bounds. The columns become [right, up, back] = [c1, -c0, c2]. */
+static int cn_llff_row(const uint8_t *p, int r, const char *file, cn_llff_cam *cam, char *err,
+                       size_t errlen)
+{
+    double v[17];
+    for (int i = 0; i < 17; i++) {
+        v[i] = cn_le_f64(p + 8 * i);
+        if (!isfinite(v[i]))
+            return cn_fail(err, errlen, "%s: row %d: non-finite value in column %d", file, r, i);
+    }
+    for (int i = 0; i < 3; i++) {
+        const double *m = v + 5 * i;
+        cam->c2w[i][0] = m[1];
+        cam->c2w[i][1] = -m[0];
+        cam->c2w[i][2] = m[2];
+        cam->c2w[i][3] = m[3];
+    }
+    double h = v[4], w = v[9], f = v[14];
+    if (!(h > 0 && w > 0 && f > 0))
+        return cn_fail(err, errlen,
+                       "%s: row %d: image height, width and focal length must be positive "
+                       "(got %g, %g, %g)",
+                       file, r, h, w, f);
+    cam->bnear = v[15];
+    cam->bfar = v[16];
+    if (!(cam->bnear > 0 && cam->bnear <= cam->bfar))
+        return cn_fail(err, errlen,
+                       "%s: row %d: depth bounds must satisfy 0 < near <= far (got %g, %g)", file,
+                       r, cam->bnear, cam->bfar);
+    char why[256];
+    if (cn_pose_check((const double(*)[4])cam->c2w, why, sizeof why) != 0)
+        return cn_fail(err, errlen, "%s: row %d: %s", file, r, why);
+    cam->in = cn_intr_none;
+    cam->in.ref_w = w;
+    cam->in.ref_h = h;
+    cam->in.fx = cam->in.fy = f;
+    cam->in.cx = 0.5 * w;
+    cam->in.cy = 0.5 * h;
+    return 0;
+}
+
+static double cn_normalize3(double v[3])
+{
+    double n = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (n > 0)
+        for (int i = 0; i < 3; i++)
+            v[i] /= n;
+    return n;
+}
+
+static void cn_cross3(const double a[3], const double b[3], double c[3])
+{
+    c[0] = a[1] * b[2] - a[2] * b[1];
+    c[1] = a[2] * b[0] - a[0] * b[2];
+    c[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* NeRF's recentring: the average pose (mean centre, normalised sum of the z axes, up from
+ * the sum of the y axes, made orthonormal) becomes the identity. */
+static int cn_llff_recentre(cn_llff_cam *cams, int n, const char *file, char *err,
+                            size_t errlen)
+{
+    double c[3] = {0}, z[3] = {0}, up[3] = {0}, x[3], y[3];
+    for (int k = 0; k < n; k++)
+        for (int i = 0; i < 3; i++) {
+            c[i] += cams[k].c2w[i][3] / n;
+            up[i] += cams[k].c2w[i][1];
+            z[i] += cams[k].c2w[i][2];
+        }
+    cn_cross3(up, z, x);
+    if (cn_normalize3(z) < 1e-9 || cn_normalize3(x) < 1e-9)
+        return cn_fail(err, errlen,
+                       "%s: cannot recentre: the cameras' average orientation is degenerate",
+                       file);
+    cn_cross3(z, x, y);
+    const double *a[3] = {x, y, z}; /* rows of the average rotation's transpose */
+    for (int k = 0; k < n; k++) {
+        double m[3][4];
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 4; j++) {
+                double s = 0;
+                for (int l = 0; l < 3; l++)
+                    s += a[i][l] * (cams[k].c2w[l][j] - (j == 3 ? c[l] : 0.0));
+                m[i][j] = s;
+            }
+        memcpy(cams[k].c2w, m, sizeof m);
+    }
+    return 0;
+}
+
+/* Reads poses_bounds.npy into NeRF-convention cameras: scaled so that the nearest bound
+ * is 1/0.75, recentred. Sets the dataset's near/far (0.9 x nearest bound, farthest). */
+static int cn_llff_cameras(const char *file, cn_llff_cam **cams, int *n, cn_dataset *ds,
+                           char *err, size_t errlen)
+{
+    *cams = NULL;
+    uint8_t *data;
+    size_t len;
+    if (cn_read_file(file, &data, &len, err, errlen) != 0)
+        return -1;
+    const uint8_t *body;
+    int rc = cn_npy_poses(data, len, file, n, &body, err, errlen);
+    if (rc == 0 && !(*cams = calloc((size_t)*n, sizeof **cams)))
+        rc = cn_fail(err, errlen, "%s: out of memory", file);
+    for (int i = 0; rc == 0 && i < *n; i++)
+        rc = cn_llff_row(body + (size_t)i * 17 * 8, i, file, &(*cams)[i], err, errlen);
+    free(data);
+    if (rc != 0)
+        return -1;
+    double bmin = (*cams)[0].bnear, bmax = (*cams)[0].bfar;
+    for (int i = 1; i < *n; i++) {
+        bmin = fmin(bmin, (*cams)[i].bnear);
+        bmax = fmax(bmax, (*cams)[i].bfar);
+    }
+    double sc = 1.0 / (bmin * 0.75);
+    for (int i = 0; i < *n; i++)
+        for (int r = 0; r < 3; r++)
+            (*cams)[i].c2w[r][3] *= sc;
+    ds->near = bmin * sc * 0.9;
+    ds->far = bmax * sc;
+    return cn_llff_recentre(*cams, *n, file, err, errlen);
+}
+
+static int cn_cmp_name(const void *a, const void *b)
+{
+    return strcmp(*(char *const *)a, *(char *const *)b);
+}
+
+static int cn_has_ext(const char *name, const char *ext)
+{
+    size_t n = strlen(name), e = strlen(ext);
+    return n > e && !strcasecmp(name + n - e, ext);
+}
+
+static void cn_free_names(char **names, int n)
+{
+    for (int i = 0; i < n; i++)
+        free(names[i]);
+    free(names);
+}
+
+/* The PNG files of a directory, sorted by name. */
+static int cn_list_pngs(const char *dir, char ***names, int *n, char *err, size_t errlen)
+{
+    *names = NULL;
+    *n = 0;
+    DIR *d = opendir(dir);
+    if (!d)
+        return cn_fail(err, errlen, "%s: cannot open the directory", dir);
+    int cap = 0, others = 0, rc = 0;
+    struct dirent *e;
+    while (rc == 0 && (e = readdir(d)) != NULL) {
+        if (e->d_name[0] == '.')
+            continue;
+        if (!cn_has_ext(e->d_name, ".png")) {
+            others += cn_has_ext(e->d_name, ".jpg") || cn_has_ext(e->d_name, ".jpeg");
+            continue;
+        }
+        if (*n == cap) {
+            cap = cap ? 2 * cap : 64;
+            char **p = realloc(*names, sizeof *p * (size_t)cap);
+            if (!p) {
+                rc = -1;
+                break;
+            }
+            *names = p;
+        }
+        if (!((*names)[*n] = strdup(e->d_name)))
+            rc = -1;
+        else
+            (*n)++;
+    }
+    closedir(d);
+    if (rc == 0 && *n == 0 && others)
+        rc = cn_fail(err, errlen, "%s: holds JPEG images; only PNG images are supported", dir);
+    else if (rc != 0)
+        cn_fail(err, errlen, "%s: out of memory", dir);
+    if (rc != 0) {
+        cn_free_names(*names, *n);
+        *names = NULL;
+        *n = 0;
+        return -1;
+    }
+    qsort(*names, (size_t)*n, sizeof **names, cn_cmp_name);
+    return 0;
+}
+
+/* images_<8F>/ when it exists (no further downscaling), else images_8/ downscaled by F. */
+static int cn_llff_image_dir(const char *dir, int f, char out[CN_PATH_MAX], int *factor,
+                             char *err, size_t errlen)
+{
+    char name[32];
+    snprintf(name, sizeof name, "images_%d", 8 * f);
+    if (cn_join(out, dir, name, "", err, errlen) != 0)
+        return -1;
+    if (cn_is_dir(out)) {
+        *factor = 1;
+        return 0;
+    }
+    if (cn_join(out, dir, "images_8", "", err, errlen) != 0)
+        return -1;
+    if (cn_is_dir(out)) {
+        *factor = f;
+        return 0;
+    }
+    return cn_fail(err, errlen, "%s: no image directory: looked for %s/ and images_8/", dir,
+                   name);
+}
+
+/* Pairs the sorted images with the cameras; views 0, 8, 16, ... are test views. */
+static int cn_llff_frames(const char *dir, const char *file, const cn_llff_cam *cams, int n,
+                          cn_frames *L, char *err, size_t errlen)
+{
+    char imgdir[CN_PATH_MAX], path[CN_PATH_MAX];
+    char **names;
+    int nimg;
+    if (cn_llff_image_dir(dir, L->factor, imgdir, &L->factor, err, errlen) != 0 ||
+        cn_list_pngs(imgdir, &names, &nimg, err, errlen) != 0)
+        return -1;
+    int rc = 0;
+    if (nimg != n)
+        rc = cn_fail(err, errlen, "%s: %d PNG images for %d poses in %s", imgdir, nimg, n, file);
+    for (int i = 0; rc == 0 && i < n; i++) {
+        int split = i % CN_LLFF_HOLD == 0 ? CN_TEST : CN_TRAIN;
+        rc = cn_join(path, imgdir, names[i], "", err, errlen);
+        if (rc == 0)
+            rc = cn_frames_add(L, path, split, (const double(*)[4])cams[i].c2w, &cams[i].in,
+                               err, errlen);
+    }
+    cn_free_names(names, nimg);
+    return rc;
+}
+
+static int cn_load_llff(const char *dir, cn_dataset *ds, cn_frames *L, char *err,
+                        size_t errlen)
+{
+    char file[CN_PATH_MAX];
+    cn_llff_cam *cams = NULL;
+    int n = 0;
+    ds->ndc = 1;
+    int rc = cn_join(file, dir, "poses_bounds.npy", "", err, errlen);
+    if (rc == 0)
+        rc = cn_llff_cameras(file, &cams, &n, ds, err, errlen);
+    if (rc == 0)
+        rc = cn_llff_frames(dir, file, cams, n, L, err, errlen);
+    free(cams);
+    return rc;
+}
+
+/* ---- the dataset ---- */
+
+static int cn_detect(const char *dir, char *err, size_t errlen)
+{
+    static const struct {
+        const char *file;
+        int kind;
+    } probes[] = {{"transforms_train.json", CN_DS_BLENDER},
+                  {"transforms.json", CN_DS_NGP},
+                  {"poses_bounds.npy", CN_DS_LLFF}};
+    if (!cn_is_dir(dir))
+        return cn_fail(err, errlen, "%s: not a directory", dir);
+    char path[CN_PATH_MAX];
+    for (size_t i = 0; i < sizeof probes / sizeof probes[0]; i++) {
+        if (cn_join(path, dir, probes[i].file, "", err, errlen) != 0)
+            return -1;
+        if (cn_is_file(path))
+            return probes[i].kind;
+    }
+    return cn_fail(err, errlen,
+                   "%s: unknown dataset layout: looked for transforms_train.json (Blender), "
+                   "transforms.json (instant-ngp) and poses_bounds.npy (LLFF)",
+                   dir);
+}
+
+/* Moves the loaded frames into the dataset's split arrays. */
+static int cn_dataset_take(cn_dataset *ds, cn_frames *L, char *err, size_t errlen)
+{
+    cn_view **dst[3] = {&ds->train, &ds->val, &ds->test};
+    int *cnt[3] = {&ds->n_train, &ds->n_val, &ds->n_test};
+    for (int s = 0; s < 3; s++)
+        if (L->count[s] && !(*dst[s] = calloc((size_t)L->count[s], sizeof(cn_view))))
+            return cn_fail(err, errlen, "out of memory");
+    for (int i = 0; i < L->n; i++) {
+        cn_frame *fr = &L->f[i];
+        (*dst[fr->split])[(*cnt[fr->split])++] = fr->v;
+        fr->v.rgb = NULL;
+    }
+    return 0;
+}
+
+static int cn_apply_bounds(cn_dataset *ds, const cn_dataset_opts *o, const char *dir,
+                           char *err, size_t errlen)
+{
+    if (o->near > 0)
+        ds->near = o->near;
+    if (o->far > 0)
+        ds->far = o->far;
+    if (!(isfinite(ds->near) && isfinite(ds->far) && ds->near >= 0 && ds->near < ds->far))
+        return cn_fail(err, errlen, "%s: invalid ray bounds near %g, far %g (need near < far)",
+                       dir, ds->near, ds->far);
+    return 0;
+}
+
+int cn_dataset_load(const char *dir, const cn_dataset_opts *o, cn_dataset *ds, char *err,
+                    size_t errlen)
+{
+    static const cn_dataset_opts defaults = {0};
+    memset(ds, 0, sizeof *ds);
+    if (!o)
+        o = &defaults;
+    int f = o->downscale ? o->downscale : 1;
+    if (f < 1)
+        return cn_fail(err, errlen, "downscale %d: must be an integer >= 1", o->downscale);
+    if (o->max_views < 0)
+        return cn_fail(err, errlen, "max_views %d: must be >= 0", o->max_views);
+    int kind = cn_detect(dir, err, errlen);
+    if (kind < 0)
+        return -1;
+    ds->kind = kind;
+    for (int k = 0; k < 3; k++)
+        ds->bg[k] = o->black_bg ? 0.0f : 1.0f;
+    cn_frames L = {.max_views = o->max_views, .factor = f};
+    int rc = kind == CN_DS_BLENDER ? cn_load_blender(dir, ds, &L, err, errlen)
+             : kind == CN_DS_NGP   ? cn_load_ngp(dir, ds, &L, err, errlen)
+                                   : cn_load_llff(dir, ds, &L, err, errlen);
+    if (rc == 0 && L.count[CN_TRAIN] == 0)
+        rc = cn_fail(err, errlen, "%s: no training views (no usable training frames)", dir);
+    if (rc == 0)
+        rc = cn_apply_bounds(ds, o, dir, err, errlen);
+    if (rc == 0)
+        rc = cn_frames_load_images(&L, ds->bg, err, errlen);
+    if (rc == 0)
+        rc = cn_dataset_take(ds, &L, err, errlen);
+    cn_frames_free(&L);
+    if (rc != 0)
+        cn_dataset_free(ds);
+    return rc;
+}
+
+static void cn_views_free(cn_view *v, int n)
+{
+    for (int i = 0; v && i < n; i++)
+        free(v[i].rgb);
+    free(v);
+}
+
+void cn_dataset_free(cn_dataset *ds)
+{
+    cn_views_free(ds->train, ds->n_train);
+    cn_views_free(ds->val, ds->n_val);
+    cn_views_free(ds->test, ds->n_test);
+    memset(ds, 0, sizeof *ds);
+}
