@@ -1,10 +1,14 @@
 #!/usr/bin/env bash
-# The main job on the bundled default. Until the encoder lands: write a synthetic model of
-# the embedded receiver's size ("tiny") and print its size breakdown.
+# The main job on the bundled default: encode the shared Lego scene (100x100, preset tiny)
+# into out/lego.cnrf, read it back and render its test views (r_0, r_40, ... r_160) with the
+# float reference of the file, then print the stream's size breakdown.
+# DEMO_ITERS sets the training iterations (default 500).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+data=${CNERF_DATA:-../shared/data}
 mkdir -p out
 cmake -S . -B build -DCMAKE_BUILD_TYPE=RelWithDebInfo
 cmake --build build -j"$(nproc 2>/dev/null || echo 2)"
-./build/cnerf synth -o out/tiny-synth.cnrf --preset tiny --seed 1
-./build/cnerf info out/tiny-synth.cnrf
+./build/cnerf encode "$data/lego" -o out/lego.cnrf --lambda 1e-3 --preset tiny --downscale 4 \
+  --iters "${DEMO_ITERS:-500}" --every 40 --log-every 50
+./build/cnerf info out/lego.cnrf

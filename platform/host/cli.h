@@ -4,12 +4,28 @@
 
 #include <stddef.h>
 
+struct cn_dataset;
+struct cn_view;
+struct cn_model;
+struct cn_trainer;
+
 int cmd_info(int argc, char **argv);
 int cmd_synth(int argc, char **argv);
 int cmd_train(int argc, char **argv);
 int cmd_eval(int argc, char **argv);
+int cmd_encode(int argc, char **argv);
 
-struct cn_dataset;
+/* The training loop shared by train and encode: progress, periodic and final atomic
+ * checkpoints to `ckpt`, Ctrl-C saves and sets *stopped. Returns 0 or 1 (error printed). */
+int cli_run_training(const char *cmd, struct cn_trainer *t, const char *ckpt, long ckpt_every,
+                     long log_every, int *stopped);
+/* Renders every `every`-th of views[0..n) with the evaluation rule, prints PSNR, SSIM and
+ * time per view, writes OUTDIR/<name>.png when outdir is not NULL; returns the number of
+ * views (means in the out-parameters) or -1 after printing the error. */
+int cli_eval_views(const struct cn_model *m, const struct cn_view *views, int n, int ndc,
+                   long every, const char *outdir, double *mean_psnr, double *mean_ssim,
+                   double *secs);
+
 /* Loads a dataset with the shared options; prints the error and returns 1 on failure. */
 int cli_load_dataset(const char *cmd, const char *dir, long downscale, int black, double near,
                      double far, struct cn_dataset *ds);

@@ -22,6 +22,16 @@ static const struct {
     const char *help;
 } commands[] = {
     {"info", cmd_info, "info FILE.cnrf            size breakdown, parameters and topology"},
+    {"train", cmd_train,
+     "train DATASET -o model.ckpt [--preset P] [--iters N] [--downscale F] [--threads T]\n"
+     "                                  [--seed S] [--resume]   train the float NeRF"},
+    {"eval", cmd_eval,
+     "eval model.ckpt DATASET [--split test] [--downscale F] [--every N] [-o DIR]\n"
+     "                                  render a split, PSNR and SSIM per view"},
+    {"encode", cmd_encode,
+     "encode DATASET -o scene.cnrf --lambda L [--preset P] [--iters N] [--downscale F]\n"
+     "                                  [--threads T] [--seed S] [--resume CKPT]\n"
+     "                                  train with the entropy penalty, write the stream"},
     {"synth", cmd_synth,
      "synth -o FILE.cnrf [--preset tiny|small|paper] [--seed S] [--spread X]\n"
      "                                  a random model of a preset's topology (tests, demos)"},

@@ -31,8 +31,10 @@ static void fmt_time(char *buf, size_t n, double s)
         snprintf(buf, n, "%ldm%02lds", t / 60, t % 60);
 }
 
-void cli_progress_update(cli_progress *p, long it, double loss, double psnr)
+void cli_progress_update(cli_progress *p, long it, double loss, double psnr, const char *extra)
 {
+    if (!extra)
+        extra = "";
     const double now = cli_now(), el = now - p->t0;
     const long done = it - p->start;
     const double rate = el > 0 ? done / el : 0;
@@ -48,12 +50,12 @@ void cli_progress_update(cli_progress *p, long it, double loss, double psnr)
         for (int i = 0; i < width; i++)
             bar[i] = i < fill ? '#' : '.';
         bar[width] = 0;
-        fprintf(p->out, "\r[%s] %ld/%ld  loss %.5f  psnr %5.2f dB  %.2f it/s  ETA %s   ", bar, it,
-                p->total, loss, psnr, rate, eta);
+        fprintf(p->out, "\r[%s] %ld/%ld  loss %.5g  psnr %5.2f dB%s  %.2f it/s  ETA %s   ", bar,
+                it, p->total, loss, psnr, extra, rate, eta);
         fflush(p->out);
     } else if (it % p->log_every == 0 || it == p->total) {
-        fprintf(p->out, "iter %ld/%ld loss %.5f psnr %.2f dB %.3f s/it ETA %s\n", it, p->total,
-                loss, psnr, rate > 0 ? 1 / rate : 0, eta);
+        fprintf(p->out, "iter %ld/%ld loss %.5g psnr %.2f dB%s %.3f s/it ETA %s\n", it, p->total,
+                loss, psnr, extra, rate > 0 ? 1 / rate : 0, eta);
         fflush(p->out);
     }
 }

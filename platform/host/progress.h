@@ -14,8 +14,9 @@ typedef struct cli_progress {
 /* Monotonic seconds. */
 double cli_now(void);
 void cli_progress_init(cli_progress *p, long start, long total, long log_every);
-/* Iteration `it` (1-based, counts from the start of the run) done. */
-void cli_progress_update(cli_progress *p, long it, double loss, double psnr);
+/* Iteration `it` (1-based, counts from the start of the run) done; `extra` (may be NULL)
+ * is appended to the line. */
+void cli_progress_update(cli_progress *p, long it, double loss, double psnr, const char *extra);
 void cli_progress_done(cli_progress *p);
 
 #endif

@@ -1,0 +1,78 @@
+/*
+ * Training: random ray batches over all training images, MSE on the coarse and fine
+ * renders, Adam with NeRF's exponential learning-rate decay, optional centre crop,
+ * atomic checkpoints with resume, and full-view rendering for evaluation.
+ */
+#ifndef CNERF_ENC_TRAIN_H
+#define CNERF_ENC_TRAIN_H
+
+#include <stdint.h>
+
+#include "cn_dataset.h"
+#include "cn_nerf.h"
+#include "cn_render.h"
+
+typedef struct cn_train_opts {
+    const char *preset; /* "tiny", "small" or "paper" */
+    int depth, width, view_width, n_coarse, n_fine; /* overrides; -1 keeps the preset's */
+    long iters;
+    int batch;             /* rays per iteration */
+    double lr;             /* initial learning rate */
+    double lr_decay_steps; /* lr = lr0 * 0.1^(step / lr_decay_steps) */
+    long precrop_iters;    /* first iterations draw rays from the centre crop only */
+    double precrop_frac;
+    uint64_t seed;
+    /* Compression (cnerf encode): kernels become latents with an entropy penalty.
+     * Objective: D + lambda R, D = squared error summed over all training pixels and
+     * channels (a batch estimates it scaled by pixels / rays), R = bits of all latents. */
+    int compress;
+    double lambda;
+    double levels;   /* initial latent spread in integer steps (a = Glorot limit / levels) */
+    double lr_prior; /* learning rate of the priors */
+} cn_train_opts;
+
+/* NeRF's defaults: 1024 rays, 5e-4 decaying tenfold over 500k steps, preset "small",
+ * 500 centre-crop iterations at 50% for 360-degree scenes. */
+void cn_train_defaults(cn_train_opts *o);
+
+/* The stream header (render parameters and topology) for a dataset and options. */
+int cn_header_for_dataset(const cn_dataset *ds, const cn_train_opts *o, cnerf_info *hdr,
+                          char *err, size_t errlen);
+
+typedef struct cn_trainer {
+    cn_model model;
+    cn_batch batch;
+    const cn_dataset *ds;
+    cn_train_opts opts;
+    long step;        /* iterations done */
+    float *gt;        /* batch x 3 */
+    float *dcolor[2]; /* batch x 3 */
+} cn_trainer;
+
+int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o, char *err,
+                    size_t errlen);
+void cn_trainer_free(cn_trainer *t);
+/* One iteration; returns the loss (coarse MSE + fine MSE) and the fine (or only) MSE;
+ * with compression also the noisy rate estimate in bits (when `bits` is not NULL). */
+double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits);
+/* Pixels in the training views (the distortion's scale). */
+double cn_trainer_pixels(const cn_trainer *t);
+/* Current learning rate. */
+double cn_trainer_lr(const cn_trainer *t);
+
+/* Checkpoints: magic, version, step, options, header, parameters and Adam moments, CRC. */
+int cn_checkpoint_save(const cn_trainer *t, const char *path, char *err, size_t errlen);
+/* Restores parameters, moments and the step into an initialised trainer whose topology
+ * matches. */
+int cn_checkpoint_resume(cn_trainer *t, const char *path, char *err, size_t errlen);
+/* Loads a checkpoint's model alone (for evaluation); m is initialised by this call.
+ * *step receives the iteration count when not NULL. */
+int cn_checkpoint_load_model(const char *path, cn_model *m, long *step, char *err,
+                             size_t errlen);
+
+/* The camera of a dataset view. */
+void cn_view_camera(const cn_view *v, cn_camera *cam);
+/* Renders a whole view (rgb: w*h*3 floats) with the evaluation rule, `chunk` rays at a time. */
+int cn_render_view(const cn_model *m, const cn_camera *cam, int ndc, float *rgb, size_t chunk);
+
+#endif /* CNERF_ENC_TRAIN_H */

@@ -1,0 +1,425 @@
+/* The training loop, Adam, checkpoints and full-view rendering. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../decoder/cn_internal.h"
+#include "cn_stream.h"
+#include "cn_prior.h"
+#include "cn_synth.h"
+#include "cn_train.h"
+
+void cn_train_defaults(cn_train_opts *o)
+{
+    memset(o, 0, sizeof *o);
+    o->preset = "small";
+    o->depth = o->width = o->view_width = o->n_coarse = o->n_fine = -1;
+    o->iters = 1000;
+    o->batch = 1024;
+    o->lr = 5e-4;
+    o->lr_decay_steps = 500000;
+    o->precrop_iters = 500;
+    o->precrop_frac = 0.5;
+    o->seed = 1;
+    o->compress = 0;
+    o->lambda = 0;
+    o->levels = 8;
+    o->lr_prior = 5e-5;
+}
+
+static int32_t q16(double v) { return (int32_t)lround(v * 65536.0); }
+
+int cn_header_for_dataset(const cn_dataset *ds, const cn_train_opts *o, cnerf_info *hdr,
+                          char *err, size_t errlen)
+{
+    if (cn_preset_header(o->preset, hdr)) {
+        snprintf(err, errlen, "unknown preset '%s' (tiny, small, paper)", o->preset);
+        return -1;
+    }
+    for (unsigned n = 0; n < CNERF_MAX_NETS; n++) {
+        cnerf_net_info *N = &hdr->net[n];
+        if (o->depth > 0) {
+            N->depth = (uint8_t)o->depth;
+            N->skip = o->depth >= 3 ? (uint8_t)(o->depth / 2) : CNERF_NO_SKIP;
+            if (N->skip != CNERF_NO_SKIP && N->skip + 1 >= o->depth)
+                N->skip = (uint8_t)(o->depth - 2);
+        }
+        if (o->width > 0)
+            N->width = (uint16_t)o->width;
+        if (o->view_width >= 0)
+            N->view_width = (uint16_t)o->view_width;
+    }
+    if (o->n_coarse > 0)
+        hdr->n_coarse = (uint16_t)o->n_coarse;
+    if (o->n_fine >= 0)
+        hdr->n_fine = (uint16_t)o->n_fine;
+    hdr->n_nets = hdr->n_fine ? 2 : 1;
+    for (int c = 0; c < 3; c++)
+        hdr->background[c] = (uint8_t)lround(ds->bg[c] * 255.0);
+    if (ds->ndc) {
+        /* Rays live in [-1, 1]^3 after the NDC warp; the bounds clip nothing visible. */
+        hdr->coord = CNERF_COORD_NDC;
+        hdr->near_q16 = 0;
+        hdr->far_q16 = CNERF_Q16_ONE;
+        for (int a = 0; a < 3; a++) {
+            hdr->aabb_q16[a] = -2 * CNERF_Q16_ONE;
+            hdr->aabb_q16[a + 3] = 2 * CNERF_Q16_ONE;
+        }
+    } else {
+        hdr->coord = CNERF_COORD_WORLD;
+        hdr->near_q16 = q16(ds->near);
+        hdr->far_q16 = q16(ds->far);
+        /* Scene bounds: a cube of half-size 1.5 (Blender scenes fit in it), grown to reach
+         * the far bound for other layouts, but never beyond the largest Q16.16 value. */
+        double half = ds->kind == CN_DS_BLENDER ? 1.5 : fmin(ds->far, 30000.0);
+        for (int a = 0; a < 3; a++) {
+            hdr->aabb_q16[a] = -q16(half);
+            hdr->aabb_q16[a + 3] = q16(half);
+        }
+    }
+    cnerf_info check = *hdr;
+    cnerf_status st = cnerf_expand_topology(&check);
+    if (st != CNERF_OK || hdr->near_q16 < 0 || hdr->far_q16 <= hdr->near_q16) {
+        snprintf(err, errlen, "invalid model for this dataset (%s; near %g, far %g)",
+                 cnerf_status_str(st), ds->near, ds->far);
+        return -1;
+    }
+    return 0;
+}
+
+int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o, char *err,
+                    size_t errlen)
+{
+    memset(t, 0, sizeof *t);
+    t->ds = ds;
+    t->opts = *o;
+    if (ds->n_train < 1) {
+        snprintf(err, errlen, "no training views");
+        return -1;
+    }
+    if (o->batch < 1 || o->iters < 0) {
+        snprintf(err, errlen, "batch must be >= 1 and iterations >= 0");
+        return -1;
+    }
+    cnerf_info hdr;
+    if (cn_header_for_dataset(ds, o, &hdr, err, errlen))
+        return -1;
+    if (o->compress ? cn_model_init_compressed(&t->model, &hdr, o->seed, o->levels, err, errlen)
+                    : cn_model_init(&t->model, &hdr, o->seed, err, errlen))
+        return -1;
+    const size_t R = (size_t)o->batch;
+    t->gt = malloc(sizeof(float) * R * 3);
+    t->dcolor[0] = malloc(sizeof(float) * R * 3);
+    t->dcolor[1] = malloc(sizeof(float) * R * 3);
+    if (!t->gt || !t->dcolor[0] || !t->dcolor[1] ||
+        cn_batch_init(&t->batch, &t->model.topo, R)) {
+        cn_trainer_free(t);
+        snprintf(err, errlen, "out of memory for a batch of %zu rays", R);
+        return -1;
+    }
+    return 0;
+}
+
+void cn_trainer_free(cn_trainer *t)
+{
+    cn_model_free(&t->model);
+    if (t->batch.cap)
+        cn_batch_free(&t->batch);
+    free(t->gt);
+    free(t->dcolor[0]);
+    free(t->dcolor[1]);
+    t->gt = t->dcolor[0] = t->dcolor[1] = NULL;
+}
+
+double cn_trainer_lr(const cn_trainer *t)
+{
+    return t->opts.lr * pow(0.1, (double)t->step / t->opts.lr_decay_steps);
+}
+
+void cn_view_camera(const cn_view *v, cn_camera *cam)
+{
+    memcpy(cam->c2w, v->c2w, sizeof cam->c2w);
+    cam->fx = v->fx;
+    cam->fy = v->fy;
+    cam->cx = v->cx;
+    cam->cy = v->cy;
+    cam->w = v->w;
+    cam->h = v->h;
+}
+
+/* Draws the batch's rays and ground truth. */
+static void draw_rays(cn_trainer *t, size_t R)
+{
+    const cn_dataset *ds = t->ds;
+    cn_rng rng = cn_rng_seed(t->opts.seed * 0x2545F4914F6CDD1Dull + (uint64_t)t->step);
+    const int crop = t->step < t->opts.precrop_iters && !ds->ndc;
+    for (size_t r = 0; r < R; r++) {
+        const cn_view *v = &ds->train[cn_rng_below(&rng, (uint32_t)ds->n_train)];
+        int x0 = 0, y0 = 0, cw = v->w, ch = v->h;
+        if (crop) {
+            cw = (int)(v->w * t->opts.precrop_frac);
+            ch = (int)(v->h * t->opts.precrop_frac);
+            cw = cw < 1 ? 1 : cw;
+            ch = ch < 1 ? 1 : ch;
+            x0 = (v->w - cw) / 2;
+            y0 = (v->h - ch) / 2;
+        }
+        int x = x0 + (int)cn_rng_below(&rng, (uint32_t)cw);
+        int y = y0 + (int)cn_rng_below(&rng, (uint32_t)ch);
+        cn_camera cam;
+        cn_view_camera(v, &cam);
+        cn_camera_ray(&cam, ds->ndc, x, y, t->batch.o + 3 * r, t->batch.d + 3 * r,
+                      t->batch.vd + 3 * r);
+        memcpy(t->gt + 3 * r, v->rgb + ((size_t)y * v->w + x) * 3, sizeof(float) * 3);
+    }
+}
+
+/* Adam over params[lo, hi) at learning rate lr; zeroes the gradients. */
+static void adam_range(cn_model *m, size_t lo, size_t hi, double lr, long step)
+{
+    const float b1 = 0.9f, b2 = 0.999f, eps = 1e-7f;
+    const float c1 = (float)(1.0 - pow(b1, (double)step)), c2 = (float)(1.0 - pow(b2, (double)step));
+    const float a = (float)lr * sqrtf(c2) / c1;
+    float *p = m->params, *g = m->grads, *mm = m->adam_m, *vv = m->adam_v;
+#pragma omp parallel for schedule(static)
+    for (size_t i = lo; i < hi; i++) {
+        mm[i] = b1 * mm[i] + (1 - b1) * g[i];
+        vv[i] = b2 * vv[i] + (1 - b2) * g[i] * g[i];
+        p[i] -= a * mm[i] / (sqrtf(vv[i]) + eps);
+        g[i] = 0;
+    }
+}
+
+double cn_trainer_pixels(const cn_trainer *t)
+{
+    double n = 0;
+    for (int i = 0; i < t->ds->n_train; i++)
+        n += (double)t->ds->train[i].w * t->ds->train[i].h;
+    return n;
+}
+
+double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
+{
+    const size_t R = (size_t)t->opts.batch;
+    const unsigned nets = t->model.topo.n_nets;
+    cn_model *m = &t->model;
+    draw_rays(t, R);
+    const uint64_t seed = t->opts.seed + 0x9E3779B97F4A7C15ull * (uint64_t)(t->step + 1);
+    cn_model_materialize(m);
+    cn_render_forward(m, &t->batch, R, &seed);
+    double loss = 0, mse = 0;
+    /* Plain training: mean squared error. Compression: the summed squared error over all
+     * training pixels, estimated from the batch, so that lambda has the paper's units. */
+    const float scale = m->compressed ? (float)(2.0 * cn_trainer_pixels(t) / (double)R)
+                                      : 2.0f / (float)(3 * R);
+    for (unsigned n = 0; n < nets; n++) {
+        double se = 0;
+        for (size_t i = 0; i < 3 * R; i++) {
+            float d = t->batch.color[n][i] - t->gt[i];
+            se += (double)d * d;
+            t->dcolor[n][i] = scale * d;
+        }
+        mse = se / (double)(3 * R);
+        loss += mse;
+    }
+    cn_render_backward(m, &t->batch, R, t->dcolor);
+    cn_model_kernels_backward(m);
+    double rate = 0;
+    if (m->compressed && t->opts.lambda > 0)
+        rate = cn_model_rate(m, seed ^ 0xA5A5A5A5ull, (float)t->opts.lambda);
+    t->step++;
+    const double decay = cn_trainer_lr(t) / t->opts.lr;
+    adam_range(m, 0, m->off_prior, cn_trainer_lr(t), t->step);
+    if (m->compressed)
+        adam_range(m, m->off_prior, m->n_params, t->opts.lr_prior * decay, t->step);
+    if (mse_last)
+        *mse_last = mse;
+    if (bits)
+        *bits = rate;
+    return loss;
+}
+
+/* ---- checkpoints ---- */
+
+#define CKPT_MAGIC "CNCK"
+#define CKPT_VERSION 1u
+
+static void put_floats(cn_buf *b, const float *x, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        uint32_t u;
+        memcpy(&u, &x[i], 4);
+        cn_buf_u32(b, u);
+    }
+}
+
+static void put_u64(cn_buf *b, uint64_t v)
+{
+    cn_buf_u32(b, (uint32_t)v);
+    cn_buf_u32(b, (uint32_t)(v >> 32));
+}
+
+int cn_checkpoint_save(const cn_trainer *t, const char *path, char *err, size_t errlen)
+{
+    cn_buf b = {0}, h = {0};
+    cn_buf_put(&b, CKPT_MAGIC, 4);
+    cn_buf_u32(&b, CKPT_VERSION);
+    put_u64(&b, (uint64_t)t->step);
+    put_u64(&b, t->opts.seed);
+    cn_buf_u32(&b, (uint32_t)t->model.compressed);
+    cn_put_head(&h, &t->model.topo);
+    cn_buf_u32(&b, (uint32_t)h.n);
+    cn_buf_put(&b, h.p, h.n);
+    cn_buf_free(&h);
+    put_u64(&b, t->model.n_params);
+    put_floats(&b, t->model.params, t->model.n_params);
+    put_floats(&b, t->model.adam_m, t->model.n_params);
+    put_floats(&b, t->model.adam_v, t->model.n_params);
+    cn_buf_u32(&b, cnerf_crc32(0, b.p, b.n));
+    int rc = b.oom ? -1 : cn_write_file_atomic(path, b.p, b.n, err, errlen);
+    if (b.oom)
+        snprintf(err, errlen, "%s: out of memory", path);
+    cn_buf_free(&b);
+    return rc;
+}
+
+typedef struct ckpt {
+    uint8_t *data;
+    size_t len;
+    uint64_t step, seed, n_params;
+    uint32_t compressed;
+    cnerf_info hdr;
+    const uint8_t *blocks; /* params, m, v */
+} ckpt;
+
+static int ckpt_read(const char *path, ckpt *c, char *err, size_t errlen)
+{
+    memset(c, 0, sizeof *c);
+    if (cn_read_file(path, &c->data, &c->len, err, errlen))
+        return -1;
+    cn_reader r;
+    cn_rd_init(&r, c->data, c->len);
+    const char *why = NULL;
+    if (c->len < 12 || memcmp(c->data, CKPT_MAGIC, 4) != 0)
+        why = "not a cnerf checkpoint";
+    else if (cnerf_crc32(0, c->data, c->len - 4) !=
+             (uint32_t)(c->data[c->len - 4] | c->data[c->len - 3] << 8 |
+                        c->data[c->len - 2] << 16 | (uint32_t)c->data[c->len - 1] << 24))
+        why = "checksum mismatch (truncated or corrupt)";
+    if (!why) {
+        r.p += 4;
+        uint32_t version = cn_rd_u32(&r);
+        c->step = cn_rd_u32(&r);
+        c->step |= (uint64_t)cn_rd_u32(&r) << 32;
+        c->seed = cn_rd_u32(&r);
+        c->seed |= (uint64_t)cn_rd_u32(&r) << 32;
+        c->compressed = cn_rd_u32(&r);
+        uint32_t hl = cn_rd_u32(&r);
+        if (version != CKPT_VERSION)
+            why = "unsupported checkpoint version";
+        else if (r.err || cn_rd_left(&r) < hl ||
+                 cn_parse_head(r.p, hl, &c->hdr) != CNERF_OK)
+            why = "invalid model header";
+        else {
+            r.p += hl;
+            c->n_params = cn_rd_u32(&r);
+            c->n_params |= (uint64_t)cn_rd_u32(&r) << 32;
+            if (r.err || c->n_params > cn_rd_left(&r) / 12 ||
+                cn_rd_left(&r) - 4 != c->n_params * 12)
+                why = "parameter blocks have the wrong size";
+            c->blocks = r.p;
+        }
+    }
+    if (why) {
+        snprintf(err, errlen, "%s: %s", path, why);
+        free(c->data);
+        c->data = NULL;
+        return -1;
+    }
+    return 0;
+}
+
+static void get_floats(float *x, const uint8_t *p, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        uint32_t u = (uint32_t)p[4 * i] | (uint32_t)p[4 * i + 1] << 8 |
+                     (uint32_t)p[4 * i + 2] << 16 | (uint32_t)p[4 * i + 3] << 24;
+        memcpy(&x[i], &u, 4);
+    }
+}
+
+static void ckpt_fill(const ckpt *c, cn_model *m)
+{
+    const size_t n = m->n_params;
+    get_floats(m->params, c->blocks, n);
+    get_floats(m->adam_m, c->blocks + 4 * n, n);
+    get_floats(m->adam_v, c->blocks + 8 * n, n);
+}
+
+int cn_checkpoint_resume(cn_trainer *t, const char *path, char *err, size_t errlen)
+{
+    ckpt c;
+    if (ckpt_read(path, &c, err, errlen))
+        return -1;
+    int rc = 0;
+    if (c.n_params != t->model.n_params || c.compressed != (uint32_t)t->model.compressed ||
+        memcmp(&c.hdr.net, &t->model.topo.net,
+                                                   sizeof c.hdr.net) != 0 ||
+        c.hdr.n_coarse != t->model.topo.n_coarse || c.hdr.n_fine != t->model.topo.n_fine) {
+        snprintf(err, errlen, "%s: checkpoint model differs from the requested one (preset, "
+                 "depth, width, samples or compression)", path);
+        rc = -1;
+    } else {
+        ckpt_fill(&c, &t->model);
+        t->step = (long)c.step;
+    }
+    free(c.data);
+    return rc;
+}
+
+int cn_checkpoint_load_model(const char *path, cn_model *m, long *step, char *err,
+                             size_t errlen)
+{
+    ckpt c;
+    if (ckpt_read(path, &c, err, errlen))
+        return -1;
+    int rc = c.compressed ? cn_model_init_compressed(m, &c.hdr, 0, 1.0, err, errlen)
+                          : cn_model_init(m, &c.hdr, 0, err, errlen);
+    if (rc == 0 && m->n_params != c.n_params) {
+        snprintf(err, errlen, "%s: parameter count does not match its header", path);
+        cn_model_free(m);
+        rc = -1;
+    }
+    if (rc == 0) {
+        ckpt_fill(&c, m);
+        cn_model_materialize(m);
+        if (step)
+            *step = (long)c.step;
+    }
+    free(c.data);
+    return rc;
+}
+
+/* ---- full views ---- */
+
+int cn_render_view(const cn_model *m, const cn_camera *cam, int ndc, float *rgb, size_t chunk)
+{
+    cn_batch b;
+    if (cn_batch_init(&b, &m->topo, chunk))
+        return -1;
+    const size_t total = (size_t)cam->w * cam->h;
+    const unsigned last = m->topo.n_nets - 1;
+    for (size_t start = 0; start < total; start += chunk) {
+        size_t R = total - start < chunk ? total - start : chunk;
+        for (size_t r = 0; r < R; r++) {
+            size_t pix = start + r;
+            cn_camera_ray(cam, ndc, (double)(pix % cam->w), (double)(pix / cam->w), b.o + 3 * r,
+                          b.d + 3 * r, b.vd + 3 * r);
+        }
+        cn_render_forward(m, &b, R, NULL);
+        memcpy(rgb + 3 * start, b.color[last], sizeof(float) * 3 * R);
+    }
+    cn_batch_free(&b);
+    return 0;
+}

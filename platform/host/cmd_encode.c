@@ -1,0 +1,176 @@
+/* cnerf encode DATASET -o scene.cnrf --lambda L: trains the compressed NeRF, writes the
+ * stream, reads it back with the decoder's parser and reports size and test quality of the
+ * float reference render of the file. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "cli.h"
+#include "cli_args.h"
+#include "cn_export.h"
+#include "cn_metrics.h"
+#include "cn_report.h"
+#include "cn_train.h"
+
+#define ENCODE_USAGE                                                                          \
+    "usage: cnerf encode DATASET -o scene.cnrf --lambda L [--preset tiny|small|paper]\n"     \
+    "       [--iters N] [--downscale F] [--threads T] [--seed S] [--resume CKPT]\n"          \
+    "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N] [--log-every N]\n" \
+    "       [--depth D] [--width W] [--coarse N] [--fine N]"
+
+int cmd_encode(int argc, char **argv)
+{
+    cn_train_opts o;
+    cn_train_defaults(&o);
+    o.compress = 1;
+    const char *out = NULL, *resume = NULL, *pos[1];
+    long iters = o.iters, downscale = 1, threads = 0, batch = o.batch, every = 1;
+    long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 1000, log_every = 100;
+    double lambda = -1, levels = o.levels;
+    uint64_t seed = o.seed;
+    int black = 0, n_pos;
+    const cli_opt opts[] = {
+        {"-o", CLI_STR, &out, 0, 0},
+        {"--lambda", CLI_DOUBLE, &lambda, 0, 1e3},
+        {"--preset", CLI_STR, &o.preset, 0, 0},
+        {"--iters", CLI_LONG, &iters, 0, 1e9},
+        {"--downscale", CLI_LONG, &downscale, 1, 64},
+        {"--threads", CLI_LONG, &threads, 1, 256},
+        {"--seed", CLI_U64, &seed, 0, 0},
+        {"--resume", CLI_STR, &resume, 0, 0},
+        {"--levels", CLI_DOUBLE, &levels, 0.5, 10000},
+        {"--batch", CLI_LONG, &batch, 1, 65536},
+        {"--every", CLI_LONG, &every, 1, 1e6},
+        {"--black", CLI_FLAG, &black, 0, 0},
+        {"--ckpt-every", CLI_LONG, &ckpt_every, 1, 1e9},
+        {"--log-every", CLI_LONG, &log_every, 1, 1e9},
+        {"--depth", CLI_LONG, &depth, 1, CNERF_MAX_DEPTH},
+        {"--width", CLI_LONG, &width, 1, CNERF_MAX_WIDTH},
+        {"--coarse", CLI_LONG, &coarse, 1, CNERF_MAX_SAMPLES},
+        {"--fine", CLI_LONG, &fine, 0, CNERF_MAX_SAMPLES},
+    };
+    if (cli_parse("encode", ENCODE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
+                  &n_pos))
+        return 1;
+    if (n_pos != 1 || !out || lambda < 0)
+        return cli_fail("encode", "need a dataset directory, -o FILE and --lambda L\n%s",
+                        ENCODE_USAGE);
+    cli_set_threads(threads);
+    o.iters = iters;
+    o.seed = seed;
+    o.batch = (int)batch;
+    o.depth = (int)depth;
+    o.width = (int)width;
+    o.n_coarse = (int)coarse;
+    o.n_fine = (int)fine;
+    o.lambda = lambda;
+    o.levels = levels;
+    char ckpt[4096];
+    snprintf(ckpt, sizeof ckpt, "%s", resume ? resume : out);
+    if (!resume)
+        strncat(ckpt, ".ckpt", sizeof ckpt - strlen(ckpt) - 1);
+    cn_dataset ds;
+    if (cli_load_dataset("encode", pos[0], downscale, black, 0, 0, &ds))
+        return 1;
+    char err[1024];
+    cn_trainer t;
+    if (cn_trainer_init(&t, &ds, &o, err, sizeof err)) {
+        cn_dataset_free(&ds);
+        return cli_fail("encode", "%s", err);
+    }
+    int rc = 0, stopped = 0;
+    if (resume) {
+        if (access(resume, F_OK) != 0)
+            rc = cli_fail("encode", "%s: no such checkpoint", resume);
+        else if (cn_checkpoint_resume(&t, resume, err, sizeof err))
+            rc = cli_fail("encode", "%s", err);
+        else
+            printf("resumed %s at iteration %ld\n", resume, t.step);
+    }
+    if (rc == 0) {
+        printf("encoding %s: %d train views %dx%d, lambda %g, %zu latents, checkpoint %s\n",
+               pos[0], ds.n_train, ds.train[0].w, ds.train[0].h, lambda,
+               (size_t)t.model.topo.n_params, ckpt);
+        rc = cli_run_training("encode", &t, ckpt, ckpt_every, log_every, &stopped);
+    }
+    if (rc == 0 && stopped) {
+        printf("interrupted: resume with --resume %s\n", ckpt);
+        rc = 130;
+    }
+    cn_export e;
+    cn_buf b = {0};
+    cn_write_report rep;
+    char meta[1024];
+    snprintf(meta, sizeof meta,
+             "encoder=cnerf %s; command=encode; dataset=%s; preset=%s; iters=%ld; lambda=%g; "
+             "downscale=%ld; seed=%llu; levels=%g",
+             CNERF_VERSION_STRING, pos[0], o.preset, t.step, lambda, downscale,
+             (unsigned long long)seed, levels);
+    if (rc == 0 && (cn_model_snap(&t.model, err, sizeof err) ||
+                    cn_export_compressed(&t.model, meta, &e, err, sizeof err)))
+        rc = cli_fail("encode", "%s", err);
+    else if (rc == 0) {
+        if (cn_write_stream(&e.src, &b, &rep, err, sizeof err) ||
+            cn_write_file_atomic(out, b.p, b.n, err, sizeof err))
+            rc = cli_fail("encode", "%s", err);
+        cn_export_free(&e);
+    }
+    /* The closed loop: read the file back through the decoder's parser. */
+    uint8_t *file = NULL;
+    size_t len = 0;
+    cnerf_decoder *dec = malloc(sizeof *dec);
+    void *ws = NULL;
+    cn_model ref;
+    memset(&ref, 0, sizeof ref);
+    if (rc == 0 && (!dec || cn_read_file(out, &file, &len, err, sizeof err)))
+        rc = cli_fail("encode", "%s", dec ? err : "out of memory");
+    if (rc == 0) {
+        cnerf_status st = cnerf_peek(file, len, &dec->info);
+        size_t need = st == CNERF_OK ? cnerf_workspace_size(&dec->info) : 0;
+        ws = st == CNERF_OK ? aligned_alloc(CNERF_WS_ALIGN, (need + 7) & ~(size_t)7) : NULL;
+        if (st == CNERF_OK)
+            st = ws ? cnerf_open(dec, file, len, ws, need) : CNERF_E_WS_SMALL;
+        if (st != CNERF_OK)
+            rc = cli_fail("encode", "%s: the decoder refuses the written stream: %s", out,
+                          cnerf_status_str(st));
+        else if (cn_model_from_stream(dec, &ref, err, sizeof err))
+            rc = cli_fail("encode", "%s", err);
+    }
+    if (rc == 0) {
+        cn_totals tot;
+        cn_breakdown(&dec->info, &tot);
+        const uint64_t overhead = tot.total - tot.payload;
+        int prior = 0, counts = 0;
+        for (uint32_t l = 0; l < dec->info.n_layers; l++) {
+            prior += rep.table_source[l] == CN_TABLE_PRIOR;
+            counts += rep.table_source[l] == CN_TABLE_COUNTS;
+        }
+        printf("wrote %s: %zu bytes = latent payload %llu + overhead %llu (tables %llu, affine "
+               "%llu, biases %llu, headers %llu); %.3f bits per parameter\n",
+               out, len, (unsigned long long)tot.payload, (unsigned long long)overhead,
+               (unsigned long long)tot.tables, (unsigned long long)tot.affine,
+               (unsigned long long)tot.biases,
+               (unsigned long long)(tot.layer_hdr + tot.stream_hdr + tot.ancillary),
+               8.0 * (double)len / dec->info.n_params);
+        printf("tables: %d from the prior, %d from counts, %u constant layers\n", prior, counts,
+               dec->info.n_layers - prior - counts);
+        double psnr = 0, ssim = 0, secs = 0;
+        printf("float reference render of %s, test views:\n", out);
+        int n = cli_eval_views(&ref, ds.test, ds.n_test, ds.ndc, every, NULL, &psnr, &ssim, &secs);
+        if (n < 0)
+            rc = 1;
+        else if (n > 0)
+            printf("test: %d views, psnr %.2f dB, ssim %.4f, file %zu bytes\n", n, psnr, ssim,
+                   len);
+    }
+    if (ref.params)
+        cn_model_free(&ref);
+    free(ws);
+    free(dec);
+    free(file);
+    cn_buf_free(&b);
+    cn_trainer_free(&t);
+    cn_dataset_free(&ds);
+    return rc;
+}

@@ -1,0 +1,157 @@
+/* cnerf train DATASET -o model.ckpt: trains the float NeRF. */
+#include <signal.h>
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "cli.h"
+#include "cli_args.h"
+#include "cn_metrics.h"
+#include "cn_train.h"
+#include "progress.h"
+
+#define TRAIN_USAGE                                                                            \
+    "usage: cnerf train DATASET -o model.ckpt [--preset tiny|small|paper] [--iters N]\n"       \
+    "       [--downscale F] [--threads T] [--seed S] [--resume] [--batch R] [--depth D]\n"     \
+    "       [--width W] [--coarse N] [--fine N] [--lr X] [--precrop-iters N] [--black]\n"     \
+    "       [--near X] [--far X] [--ckpt-every N] [--log-every N]"
+
+static volatile sig_atomic_t interrupted;
+static void on_sigint(int sig)
+{
+    (void)sig;
+    interrupted = 1;
+}
+
+int cli_load_dataset(const char *cmd, const char *dir, long downscale, int black, double near,
+                     double far, cn_dataset *ds)
+{
+    cn_dataset_opts o;
+    memset(&o, 0, sizeof o);
+    o.downscale = (int)downscale;
+    o.black_bg = black;
+    o.near = near;
+    o.far = far;
+    char err[1024];
+    if (cn_dataset_load(dir, &o, ds, err, sizeof err))
+        return cli_fail(cmd, "%s", err);
+    return 0;
+}
+
+int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt_every,
+                     long log_every, int *stopped)
+{
+    char err[1024];
+    int rc = 0;
+    struct sigaction sa, old;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_sigint;
+    interrupted = 0;
+    sigaction(SIGINT, &sa, &old);
+    cli_progress p;
+    cli_progress_init(&p, t->step, t->opts.iters, log_every);
+    double mse = 0, loss = 0, bits = 0;
+    const double t0 = cli_now();
+    const long first = t->step;
+    while (rc == 0 && t->step < t->opts.iters && !interrupted) {
+        loss = cn_trainer_step(t, &mse, &bits);
+        char extra[64] = "";
+        if (t->model.compressed)
+            snprintf(extra, sizeof extra, "  rate %.1f kB", bits / 8000.0);
+        cli_progress_update(&p, t->step, loss, cn_psnr_from_mse(mse), extra);
+        if (t->step % ckpt_every == 0 && t->step < t->opts.iters &&
+            cn_checkpoint_save(t, ckpt, err, sizeof err))
+            rc = cli_fail(cmd, "%s", err);
+    }
+    cli_progress_done(&p);
+    sigaction(SIGINT, &old, NULL);
+    *stopped = interrupted;
+    if (rc == 0 && cn_checkpoint_save(t, ckpt, err, sizeof err))
+        rc = cli_fail(cmd, "%s", err);
+    if (rc == 0) {
+        const double el = cli_now() - t0;
+        printf("%s %s at iteration %ld: %.1f s, %.3f s/it, train psnr %.2f dB\n",
+               interrupted ? "interrupted: saved" : "saved", ckpt, t->step, el,
+               t->step > first ? el / (double)(t->step - first) : 0.0, cn_psnr_from_mse(mse));
+    }
+    return rc;
+}
+
+int cmd_train(int argc, char **argv)
+{
+    cn_train_opts o;
+    cn_train_defaults(&o);
+    const char *out = NULL, *pos[1];
+    long iters = o.iters, downscale = 1, threads = 0, batch = o.batch, depth = -1, width = -1;
+    long coarse = -1, fine = -1, precrop = -1, ckpt_every = 1000, log_every = 100;
+    double lr = o.lr, near = 0, far = 0;
+    uint64_t seed = o.seed;
+    int resume = 0, black = 0, n_pos;
+    const cli_opt opts[] = {
+        {"-o", CLI_STR, &out, 0, 0},
+        {"--preset", CLI_STR, &o.preset, 0, 0},
+        {"--iters", CLI_LONG, &iters, 0, 1e9},
+        {"--downscale", CLI_LONG, &downscale, 1, 64},
+        {"--threads", CLI_LONG, &threads, 1, 256},
+        {"--seed", CLI_U64, &seed, 0, 0},
+        {"--resume", CLI_FLAG, &resume, 0, 0},
+        {"--batch", CLI_LONG, &batch, 1, 65536},
+        {"--depth", CLI_LONG, &depth, 1, CNERF_MAX_DEPTH},
+        {"--width", CLI_LONG, &width, 1, CNERF_MAX_WIDTH},
+        {"--coarse", CLI_LONG, &coarse, 1, CNERF_MAX_SAMPLES},
+        {"--fine", CLI_LONG, &fine, 0, CNERF_MAX_SAMPLES},
+        {"--lr", CLI_DOUBLE, &lr, 1e-8, 1},
+        {"--precrop-iters", CLI_LONG, &precrop, 0, 1e9},
+        {"--black", CLI_FLAG, &black, 0, 0},
+        {"--near", CLI_DOUBLE, &near, 1e-6, 1e4},
+        {"--far", CLI_DOUBLE, &far, 1e-6, 1e4},
+        {"--ckpt-every", CLI_LONG, &ckpt_every, 1, 1e9},
+        {"--log-every", CLI_LONG, &log_every, 1, 1e9},
+    };
+    if (cli_parse("train", TRAIN_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
+                  &n_pos))
+        return 1;
+    if (n_pos != 1 || !out)
+        return cli_fail("train", "need a dataset directory and -o FILE\n%s", TRAIN_USAGE);
+    cli_set_threads(threads);
+    o.iters = iters;
+    o.seed = seed;
+    o.batch = (int)batch;
+    o.depth = (int)depth;
+    o.width = (int)width;
+    o.n_coarse = (int)coarse;
+    o.n_fine = (int)fine;
+    o.lr = lr;
+    if (precrop >= 0)
+        o.precrop_iters = precrop;
+    cn_dataset ds;
+    if (cli_load_dataset("train", pos[0], downscale, black, near, far, &ds))
+        return 1;
+    printf("dataset %s: %d train, %d val, %d test views, %dx%d, %s\n", pos[0], ds.n_train,
+           ds.n_val, ds.n_test, ds.train[0].w, ds.train[0].h,
+           ds.ndc ? "forward-facing (NDC)" : "360 degrees");
+    char err[1024];
+    cn_trainer t;
+    if (cn_trainer_init(&t, &ds, &o, err, sizeof err)) {
+        cn_dataset_free(&ds);
+        return cli_fail("train", "%s", err);
+    }
+    int rc = 0;
+    if (resume && access(out, F_OK) == 0) {
+        if (cn_checkpoint_resume(&t, out, err, sizeof err))
+            rc = cli_fail("train", "%s", err);
+        else
+            printf("resumed %s at iteration %ld\n", out, t.step);
+    }
+    const cnerf_info *T = &t.model.topo;
+    if (rc == 0)
+        printf("model: %u networks, depth %u, width %u, %u+%u samples, %zu parameters\n",
+               T->n_nets, T->net[0].depth, T->net[0].width, T->n_coarse, T->n_fine,
+               t.model.n_params);
+    int stopped = 0;
+    if (rc == 0)
+        rc = cli_run_training("train", &t, out, ckpt_every, log_every, &stopped);
+    cn_trainer_free(&t);
+    cn_dataset_free(&ds);
+    return rc ? rc : stopped ? 130 : 0;
+}
