@@ -28,7 +28,8 @@ void cn_relu_forward(float *y, size_t ld, size_t P, size_t n);
 void cn_relu_backward(float *dy, size_t lddy, const float *y, size_t ldy, size_t P, size_t n);
 
 /* Positional encoding of n 3-vectors into rows of width 3*inc + 6*L (row stride ld):
- * [v if inc], then for each octave l: sin(2^l pi v_xyz), cos(2^l pi v_xyz). */
+ * [v if inc], then for each octave l: sin(2^l v_xyz), cos(2^l v_xyz) (radians, as NeRF's
+ * public code; docs/rendering.md). */
 void cn_posenc(float *out, size_t ld, const float *v, size_t n, unsigned L, int inc);
 
 /* ---- the model ---- */

@@ -92,8 +92,8 @@ void cn_posenc(float *out, size_t ld, const float *v, size_t n, unsigned L, int 
         }
         double s[3], c[3];
         for (int a = 0; a < 3; a++) {
-            s[a] = sin(M_PI * x[a]);
-            c[a] = cos(M_PI * x[a]);
+            s[a] = sin((double)x[a]);
+            c[a] = cos((double)x[a]);
         }
         for (unsigned l = 0; l < L; l++) {
             for (int a = 0; a < 3; a++)

@@ -335,7 +335,7 @@ static void test_posenc_values(void **state)
             assert_float_equal(out[p * 63 + a], v[p * 3 + a], 0);
         for (int l = 0; l < 10; l++)
             for (int a = 0; a < 3; a++) {
-                double arg = ldexp(M_PI * v[p * 3 + a], l);
+                double arg = ldexp((double)v[p * 3 + a], l);
                 assert_float_equal(out[p * 63 + 3 + 6 * l + a], sin(arg), 2e-6);
                 assert_float_equal(out[p * 63 + 6 + 6 * l + a], cos(arg), 2e-6);
             }
