@@ -14,16 +14,15 @@
 
 /* ---- layer primitives: outputs first, gradients accumulate (+=) ---- */
 
-/* y[p][o] = sum_i x[p][i] * w[o][i] + b[o] for p < P; x has row stride ldx, y ldy. */
+/* y[p][o] = sum_i x[p][i] * w[o][i] + b[o] for p < P, then max(y, 0) when relu; x has row
+ * stride ldx, y ldy. */
 void cn_linear_forward(float *y, size_t ldy, const float *x, size_t ldx, const float *w,
-                       const float *b, size_t P, size_t n_in, size_t n_out);
+                       const float *b, size_t P, size_t n_in, size_t n_out, int relu);
 /* dw += dy^T x, db += column sums of dy; if dx: dx[:, 0:nx] (+)= dy w[:, x0:x0+nx]
  * (accumulate when dx_accum, else overwrite). */
 void cn_linear_backward(float *dx, size_t lddx, size_t x0, size_t nx, int dx_accum, float *dw,
                         float *db, const float *dy, size_t lddy, const float *x, size_t ldx,
                         const float *w, size_t P, size_t n_in, size_t n_out);
-/* In place: y = max(y, 0) over P rows of n columns (stride ld). */
-void cn_relu_forward(float *y, size_t ld, size_t P, size_t n);
 /* dy *= (y > 0), with y the ReLU output. */
 void cn_relu_backward(float *dy, size_t lddy, const float *y, size_t ldy, size_t P, size_t n);
 

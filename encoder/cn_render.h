@@ -64,6 +64,14 @@ typedef struct cn_batch {
     float *pts;                 /* cap x ns x 3 */
     uint8_t *inside[2];         /* per network: cap x nc, cap x ns */
     float *color[2];            /* cap x 3 per network */
+    /* Only samples inside the scene bounds go through a network: rows[net][j] is the sample
+     * (ray * n + i) of compacted row j, n_rows[net] their count; raw/draw hold every
+     * sample's (r, g, b, sigma) and its gradient, outside ones as zero density. */
+    uint32_t *rows[2];
+    size_t n_rows[2];
+    float *raw[2], *draw[2];
+    float *pts_in;              /* compacted points */
+    float *vpe;                 /* cap x in_dir: each ray's encoded view direction */
     cn_net_buf nb[2];
 } cn_batch;
 

@@ -167,10 +167,17 @@ int cn_batch_init(cn_batch *b, const cnerf_info *topo, size_t cap)
     b->inside[1] = malloc(cap * ns);
     int bad = !b->o || !b->d || !b->vd || !b->t_c || !b->t_f || !b->w_c || !b->pts ||
               !b->inside[0] || !b->inside[1];
+    b->pts_in = malloc(sizeof(float) * cap * ns * 3);
+    b->vpe = malloc(sizeof(float) * cap * (topo->in_dir ? topo->in_dir : 1));
+    bad |= !b->pts_in || !b->vpe;
     for (unsigned n = 0; n < topo->n_nets && !bad; n++) {
+        const size_t rows = cap * (n ? ns : b->nc);
         b->color[n] = malloc(sizeof(float) * cap * 3);
-        bad |= !b->color[n] ||
-               cn_net_buf_init(&b->nb[n], topo, n, cap * (n ? ns : b->nc)) != 0;
+        b->rows[n] = malloc(sizeof(uint32_t) * rows);
+        b->raw[n] = malloc(sizeof(float) * rows * 4);
+        b->draw[n] = malloc(sizeof(float) * rows * 4);
+        bad |= !b->color[n] || !b->rows[n] || !b->raw[n] || !b->draw[n] ||
+               cn_net_buf_init(&b->nb[n], topo, n, rows) != 0;
     }
     if (bad) {
         cn_batch_free(b);
@@ -188,7 +195,12 @@ void cn_batch_free(cn_batch *b)
     free(b->t_f);
     free(b->w_c);
     free(b->pts);
+    free(b->pts_in);
+    free(b->vpe);
     for (int n = 0; n < 2; n++) {
+        free(b->rows[n]);
+        free(b->raw[n]);
+        free(b->draw[n]);
         free(b->inside[n]);
         free(b->color[n]);
         if (b->nb[n].cap)
@@ -197,7 +209,8 @@ void cn_batch_free(cn_batch *b)
     memset(b, 0, sizeof *b);
 }
 
-/* Points o + t d of every sample, their inside-the-bounds flags, and both encodings. */
+/* Points o + t d of every sample and their inside-the-bounds flags; the inside ones are
+ * compacted into rows and encoded into the network's inputs. */
 static void prepare_net_inputs(const cnerf_info *T, unsigned net, cn_batch *b, size_t R,
                                const float *t, unsigned n)
 {
@@ -206,6 +219,7 @@ static void prepare_net_inputs(const cnerf_info *T, unsigned net, cn_batch *b, s
         lo[a] = (float)T->aabb_q16[a] / 65536.0f;
         hi[a] = (float)T->aabb_q16[a + 3] / 65536.0f;
     }
+    uint8_t *inside = b->inside[net];
 #pragma omp parallel for schedule(static)
     for (size_t r = 0; r < R; r++) {
         for (unsigned i = 0; i < n; i++) {
@@ -215,23 +229,45 @@ static void prepare_net_inputs(const cnerf_info *T, unsigned net, cn_batch *b, s
                 p[a] = b->o[r * 3 + a] + t[r * n + i] * b->d[r * 3 + a];
                 in &= p[a] >= lo[a] && p[a] <= hi[a];
             }
-            b->inside[net][r * n + i] = (uint8_t)in;
+            inside[r * n + i] = (uint8_t)in;
         }
     }
+    size_t P = 0;
+    for (size_t s = 0; s < R * n; s++)
+        if (inside[s]) {
+            b->rows[net][P] = (uint32_t)s;
+            memcpy(b->pts_in + 3 * P, b->pts + 3 * s, sizeof(float) * 3);
+            P++;
+        }
+    b->n_rows[net] = P;
     cn_net_buf *nb = &b->nb[net];
     const int inc = T->pe_flags & CNERF_PE_INCLUDE_INPUT;
-    cn_posenc(nb->in, nb->ld_in, b->pts, R * n, T->l_pos, inc);
+    cn_posenc(nb->in, nb->ld_in, b->pts_in, P, T->l_pos, inc);
     const cnerf_net_info *N = &T->net[net];
-    if (N->view_width) {
+    if (N->view_width && T->in_dir) {
         const size_t lv = (size_t)N->width + T->in_dir;
+        cn_posenc(b->vpe, T->in_dir, b->vd, R, T->l_dir, inc);
 #pragma omp parallel for schedule(static)
-        for (size_t r = 0; r < R; r++) {
-            float *first = nb->view_in + r * n * lv + N->width;
-            cn_posenc(first, lv, b->vd + r * 3, 1, T->l_dir, inc);
-            for (unsigned i = 1; i < n; i++)
-                memcpy(first + i * lv, first, sizeof(float) * T->in_dir);
-        }
+        for (size_t j = 0; j < P; j++)
+            memcpy(nb->view_in + j * lv + N->width, b->vpe + (b->rows[net][j] / n) * T->in_dir,
+                   sizeof(float) * T->in_dir);
     }
+}
+
+/* Every sample's raw outputs: the network's for inside rows, zero density outside. */
+static void scatter_outputs(cn_batch *b, unsigned net, size_t samples)
+{
+    float *raw = b->raw[net];
+    const float *out = b->nb[net].out;
+    const uint32_t *rows = b->rows[net];
+#pragma omp parallel for schedule(static)
+    for (size_t s = 0; s < samples; s++) {
+        raw[4 * s + 0] = raw[4 * s + 1] = raw[4 * s + 2] = 0.0f;
+        raw[4 * s + 3] = -1.0f;
+    }
+#pragma omp parallel for schedule(static)
+    for (size_t j = 0; j < b->n_rows[net]; j++)
+        memcpy(raw + 4 * (size_t)rows[j], out + 4 * j, sizeof(float) * 4);
 }
 
 static float norm3(const float *v) { return sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
@@ -255,10 +291,11 @@ void cn_render_forward(const cn_model *m, cn_batch *b, size_t R, const uint64_t 
         cn_sample_coarse(b->t_c + r * nc, nc, near, far, seed ? &rng : NULL);
     }
     prepare_net_inputs(T, 0, b, R, b->t_c, nc);
-    cn_net_forward(m, 0, &b->nb[0], R * nc);
+    cn_net_forward(m, 0, &b->nb[0], b->n_rows[0]);
+    scatter_outputs(b, 0, R * nc);
 #pragma omp parallel for schedule(static)
     for (size_t r = 0; r < R; r++)
-        cn_volume_forward(b->nb[0].out + r * nc * 4, 4, b->t_c + r * nc, b->inside[0] + r * nc, nc,
+        cn_volume_forward(b->raw[0] + r * nc * 4, 4, b->t_c + r * nc, b->inside[0] + r * nc, nc,
                           far, norm3(b->d + r * 3), bg, b->color[0] + r * 3, b->w_c + r * nc);
     if (T->n_nets < 2)
         return;
@@ -271,10 +308,11 @@ void cn_render_forward(const cn_model *m, cn_batch *b, size_t R, const uint64_t 
         cn_merge_sorted(b->t_f + r * ns, b->t_c + r * nc, nc, tf, nf);
     }
     prepare_net_inputs(T, 1, b, R, b->t_f, ns);
-    cn_net_forward(m, 1, &b->nb[1], R * ns);
+    cn_net_forward(m, 1, &b->nb[1], b->n_rows[1]);
+    scatter_outputs(b, 1, R * ns);
 #pragma omp parallel for schedule(static)
     for (size_t r = 0; r < R; r++)
-        cn_volume_forward(b->nb[1].out + r * ns * 4, 4, b->t_f + r * ns, b->inside[1] + r * ns, ns,
+        cn_volume_forward(b->raw[1] + r * ns * 4, 4, b->t_f + r * ns, b->inside[1] + r * ns, ns,
                           far, norm3(b->d + r * 3), bg, b->color[1] + r * 3, NULL);
 }
 
@@ -292,9 +330,13 @@ void cn_render_backward(cn_model *m, cn_batch *b, size_t R, float *const dcolor[
         cn_net_buf *nb = &b->nb[net];
 #pragma omp parallel for schedule(static)
         for (size_t r = 0; r < R; r++)
-            cn_volume_backward(nb->d_out + r * n * 4, 4, nb->out + r * n * 4, t + r * n,
+            cn_volume_backward(b->draw[net] + r * n * 4, 4, b->raw[net] + r * n * 4, t + r * n,
                                b->inside[net] + r * n, n, far, norm3(b->d + r * 3), bg,
                                dcolor[net] + r * 3);
-        cn_net_backward(m, net, nb, R * n);
+        const uint32_t *rows = b->rows[net];
+#pragma omp parallel for schedule(static)
+        for (size_t j = 0; j < b->n_rows[net]; j++)
+            memcpy(nb->d_out + 4 * j, b->draw[net] + 4 * (size_t)rows[j], sizeof(float) * 4);
+        cn_net_backward(m, net, nb, b->n_rows[net]);
     }
 }

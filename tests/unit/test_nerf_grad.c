@@ -43,8 +43,7 @@ static float lx[LP * LIN], lw[LOUT * LIN], lb[LOUT], lg[LP * LOUT];
 static double linear_loss(void)
 {
     float y[LP * LOUT];
-    cn_linear_forward(y, LOUT, lx, LIN, lw, lb, LP, LIN, LOUT);
-    cn_relu_forward(y, LOUT, LP, LOUT);
+    cn_linear_forward(y, LOUT, lx, LIN, lw, lb, LP, LIN, LOUT, 1);
     return dot(y, lg, LP * LOUT);
 }
 
@@ -76,8 +75,7 @@ static void test_linear_relu(void **state)
     fill(lb, LOUT, &r, 0.3);
     fill(lg, LP * LOUT, &r, 1.0);
     float y[LP * LOUT], dy[LP * LOUT], dw[LOUT * LIN] = {0}, db[LOUT] = {0}, dx[LP * LIN];
-    cn_linear_forward(y, LOUT, lx, LIN, lw, lb, LP, LIN, LOUT);
-    cn_relu_forward(y, LOUT, LP, LOUT);
+    cn_linear_forward(y, LOUT, lx, LIN, lw, lb, LP, LIN, LOUT, 1);
     memcpy(dy, lg, sizeof dy);
     cn_relu_backward(dy, LOUT, y, LOUT, LP, LOUT);
     cn_linear_backward(dx, LIN, 0, LIN, 0, dw, db, dy, LOUT, lx, LIN, lw, LP, LIN, LOUT);
@@ -258,6 +256,38 @@ static void test_render_grads_no_view(void **state)
     cn_model_free(&gm);
 }
 
+/* Rays that never enter the scene bounds run no network rows: the colour is the background
+ * and no parameter receives a gradient. */
+static void test_render_all_outside(void **state)
+{
+    (void)state;
+    setup_small_model(1, 0);
+    for (int i = 0; i < GR; i++) {
+        const float o[3] = {50.0f + (float)i, 50.0f, 50.0f}, d[3] = {1.0f, 0.0f, 0.0f};
+        memcpy(gb.o + 3 * i, o, sizeof o);
+        memcpy(gb.d + 3 * i, d, sizeof d);
+        memcpy(gb.vd + 3 * i, d, sizeof d);
+    }
+    memset(gm.grads, 0, sizeof(float) * gm.n_params);
+    render_loss(1);
+    assert_int_equal(gb.n_rows[0], 0);
+    assert_int_equal(gb.n_rows[1], 0);
+    float bg[3];
+    for (int a = 0; a < 3; a++)
+        bg[a] = (float)gm.topo.background[a] / 255.0f;
+    for (int i = 0; i < GR; i++)
+        for (int a = 0; a < 3; a++) {
+            assert_float_equal(gb.color[0][3 * i + a], bg[a], 1e-6);
+            assert_float_equal(gb.color[1][3 * i + a], bg[a], 1e-6);
+        }
+    float *dcol[2] = {gg[0], gg[1]};
+    cn_render_backward(&gm, &gb, GR, dcol);
+    for (size_t k = 0; k < gm.n_params; k++)
+        assert_true(gm.grads[k] == 0.0f);
+    cn_batch_free(&gb);
+    cn_model_free(&gm);
+}
+
 /* Compressed kernels: W = a round(Phi) + b; finite differences through a and b; the
  * straight-through gradient of Phi is a dW exactly. */
 static void test_compressed_kernels(void **state)
@@ -386,6 +416,7 @@ int main(void)
         cmocka_unit_test(test_fine_sampling),
         cmocka_unit_test(test_render_grads_view),
         cmocka_unit_test(test_render_grads_no_view),
+        cmocka_unit_test(test_render_all_outside),
         cmocka_unit_test(test_compressed_kernels),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
