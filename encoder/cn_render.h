@@ -11,6 +11,7 @@
 #include <stdint.h>
 
 #include "cn_nerf.h"
+#include "cn_occ.h"
 #include "cn_rng.h"
 
 /* A pinhole camera: camera-to-world [R | t] with OpenGL axes (x right, y up, looking
@@ -73,10 +74,17 @@ typedef struct cn_batch {
     float *pts_in;              /* compacted points */
     float *vpe;                 /* cap x in_dir: each ray's encoded view direction */
     cn_net_buf nb[2];
+    /* Training may skip samples in empty cells: per network an occupancy grid or NULL. */
+    const cn_occ *occ[2];
 } cn_batch;
 
 int cn_batch_init(cn_batch *b, const cnerf_info *topo, size_t cap);
 void cn_batch_free(cn_batch *b);
+
+/* Encodes P points and their view directions into a network's inputs: row j's direction is
+ * vpe[rows[j] / n] (already encoded, in_dir wide), or vpe[0] for every row when rows is NULL. */
+void cn_net_inputs(const cnerf_info *T, unsigned net, cn_net_buf *nb, const float *pts, size_t P,
+                   const float *vpe, const uint32_t *rows, unsigned n);
 
 /* Renders rays b->o/d/vd[0..R) through the coarse network (and the fine one when the model
  * has it). Training (rng not NULL) jitters the samples with per-ray streams derived from

@@ -10,6 +10,7 @@
 
 #include "cn_dataset.h"
 #include "cn_nerf.h"
+#include "cn_occ.h"
 #include "cn_render.h"
 
 typedef struct cn_train_opts {
@@ -22,6 +23,10 @@ typedef struct cn_train_opts {
     long precrop_iters;    /* first iterations draw rays from the centre crop only */
     double precrop_frac;
     uint64_t seed;
+    /* Occupancy grids (cn_occ.h): cells per axis (0: off), the iteration of the first
+     * estimate, and the iterations between updates. */
+    int occ_grid;
+    long occ_start, occ_every;
     /* Compression (cnerf encode): kernels become latents with an entropy penalty.
      * Objective: D + lambda R, D = squared error summed over all training pixels and
      * channels (a batch estimates it scaled by pixels / rays), R = bits of all latents. */
@@ -47,6 +52,8 @@ typedef struct cn_trainer {
     long step;        /* iterations done */
     float *gt;        /* batch x 3 */
     float *dcolor[2]; /* batch x 3 */
+    cn_occ occ[2];
+    double occ_frac[2]; /* occupied fraction after the last update */
 } cn_trainer;
 
 int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o, char *err,

@@ -209,7 +209,8 @@ void cn_batch_free(cn_batch *b)
     memset(b, 0, sizeof *b);
 }
 
-/* Points o + t d of every sample and their inside-the-bounds flags; the inside ones are
+/* Points o + t d of every sample and their inside flags (within the bounds and, when the
+ * batch has an occupancy grid for this network, in an occupied cell); the inside ones are
  * compacted into rows and encoded into the network's inputs. */
 static void prepare_net_inputs(const cnerf_info *T, unsigned net, cn_batch *b, size_t R,
                                const float *t, unsigned n)
@@ -220,6 +221,7 @@ static void prepare_net_inputs(const cnerf_info *T, unsigned net, cn_batch *b, s
         hi[a] = (float)T->aabb_q16[a + 3] / 65536.0f;
     }
     uint8_t *inside = b->inside[net];
+    const cn_occ *occ = b->occ[net];
 #pragma omp parallel for schedule(static)
     for (size_t r = 0; r < R; r++) {
         for (unsigned i = 0; i < n; i++) {
@@ -229,7 +231,7 @@ static void prepare_net_inputs(const cnerf_info *T, unsigned net, cn_batch *b, s
                 p[a] = b->o[r * 3 + a] + t[r * n + i] * b->d[r * 3 + a];
                 in &= p[a] >= lo[a] && p[a] <= hi[a];
             }
-            inside[r * n + i] = (uint8_t)in;
+            inside[r * n + i] = (uint8_t)(in && cn_occ_test(occ, p));
         }
     }
     size_t P = 0;
@@ -240,16 +242,22 @@ static void prepare_net_inputs(const cnerf_info *T, unsigned net, cn_batch *b, s
             P++;
         }
     b->n_rows[net] = P;
-    cn_net_buf *nb = &b->nb[net];
+    if (T->in_dir)
+        cn_posenc(b->vpe, T->in_dir, b->vd, R, T->l_dir, T->pe_flags & CNERF_PE_INCLUDE_INPUT);
+    cn_net_inputs(T, net, &b->nb[net], b->pts_in, P, b->vpe, b->rows[net], n);
+}
+
+void cn_net_inputs(const cnerf_info *T, unsigned net, cn_net_buf *nb, const float *pts, size_t P,
+                   const float *vpe, const uint32_t *rows, unsigned n)
+{
     const int inc = T->pe_flags & CNERF_PE_INCLUDE_INPUT;
-    cn_posenc(nb->in, nb->ld_in, b->pts_in, P, T->l_pos, inc);
+    cn_posenc(nb->in, nb->ld_in, pts, P, T->l_pos, inc);
     const cnerf_net_info *N = &T->net[net];
     if (N->view_width && T->in_dir) {
         const size_t lv = (size_t)N->width + T->in_dir;
-        cn_posenc(b->vpe, T->in_dir, b->vd, R, T->l_dir, inc);
 #pragma omp parallel for schedule(static)
         for (size_t j = 0; j < P; j++)
-            memcpy(nb->view_in + j * lv + N->width, b->vpe + (b->rows[net][j] / n) * T->in_dir,
+            memcpy(nb->view_in + j * lv + N->width, vpe + (rows ? rows[j] / n : 0) * T->in_dir,
                    sizeof(float) * T->in_dir);
     }
 }

@@ -21,6 +21,9 @@ void cn_train_defaults(cn_train_opts *o)
     o->lr_decay_steps = 500000;
     o->precrop_iters = 500;
     o->precrop_frac = 0.5;
+    o->occ_grid = 32;
+    o->occ_start = 100;
+    o->occ_every = 16;
     o->seed = 1;
     o->compress = 0;
     o->lambda = 0;
@@ -118,6 +121,13 @@ int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o,
         snprintf(err, errlen, "out of memory for a batch of %zu rays", R);
         return -1;
     }
+    for (unsigned n = 0; n < t->model.topo.n_nets && o->occ_grid > 0; n++)
+        if (cn_occ_init(&t->occ[n], &t->model.topo, o->occ_grid)) {
+            cn_trainer_free(t);
+            snprintf(err, errlen, "occupancy grid of %d cells per axis: out of range (1..256) "
+                     "or out of memory", o->occ_grid);
+            return -1;
+        }
     return 0;
 }
 
@@ -130,6 +140,9 @@ void cn_trainer_free(cn_trainer *t)
     free(t->dcolor[0]);
     free(t->dcolor[1]);
     t->gt = t->dcolor[0] = t->dcolor[1] = NULL;
+    for (int n = 0; n < 2; n++)
+        if (t->occ[n].g)
+            cn_occ_free(&t->occ[n]);
 }
 
 double cn_trainer_lr(const cn_trainer *t)
@@ -199,6 +212,24 @@ double cn_trainer_pixels(const cn_trainer *t)
     return n;
 }
 
+/* From occ_start on, every occ_every iterations (and on the first step after a resume),
+ * re-estimates each network's grid with the current model and lets the batch use it. */
+static void update_occupancy(cn_trainer *t)
+{
+    const cn_train_opts *o = &t->opts;
+    if (o->occ_grid <= 0 || t->step < o->occ_start)
+        return;
+    const long every = o->occ_every > 0 ? o->occ_every : 1;
+    for (unsigned n = 0; n < t->model.topo.n_nets; n++) {
+        if (!t->occ[n].valid || (t->step - o->occ_start) % every == 0) {
+            cn_rng rng = cn_rng_seed(o->seed * 0x9E3779B97F4A7C15ull + (uint64_t)t->step * 2 + n);
+            t->occ_frac[n] = cn_occ_update(&t->occ[n], &t->model, n, &t->batch.nb[n], &rng,
+                                           0.95f, cn_occ_threshold(&t->model.topo));
+        }
+        t->batch.occ[n] = &t->occ[n];
+    }
+}
+
 double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
 {
     const size_t R = (size_t)t->opts.batch;
@@ -207,6 +238,7 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
     draw_rays(t, R);
     const uint64_t seed = t->opts.seed + 0x9E3779B97F4A7C15ull * (uint64_t)(t->step + 1);
     cn_model_materialize(m);
+    update_occupancy(t);
     cn_render_forward(m, &t->batch, R, &seed);
     double loss = 0, mse = 0;
     /* Plain training: mean squared error. Compression: the summed squared error over all

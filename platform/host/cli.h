@@ -3,6 +3,9 @@
 #define CNERF_CLI_H
 
 #include <stddef.h>
+#include <stdint.h>
+
+#include "cnerf/cnerf.h"
 
 struct cn_dataset;
 struct cn_view;
@@ -14,6 +17,7 @@ int cmd_synth(int argc, char **argv);
 int cmd_train(int argc, char **argv);
 int cmd_eval(int argc, char **argv);
 int cmd_encode(int argc, char **argv);
+int cmd_quantize(int argc, char **argv);
 
 /* The training loop shared by train and encode: progress, periodic and final atomic
  * checkpoints to `ckpt`, Ctrl-C saves and sets *stopped. Returns 0 or 1 (error printed). */
@@ -33,6 +37,20 @@ int cli_load_dataset(const char *cmd, const char *dir, long downscale, int black
 int cli_write_png(const char *path, const float *rgb, int w, int h, char *err, size_t errlen);
 /* mkdir that accepts an existing directory; prints the error and returns 1 on failure. */
 int cli_make_dir(const char *cmd, const char *dir);
+
+/* A stream file opened by the decoder. */
+typedef struct cli_stream {
+    uint8_t *file;
+    size_t len;
+    cnerf_decoder *dec;
+    void *ws;
+} cli_stream;
+/* Reads and opens `path`, and builds its float reference model into *ref (when not NULL);
+ * prints the error and returns 1 on failure. */
+int cli_stream_open(const char *cmd, const char *path, cli_stream *s, struct cn_model *ref);
+void cli_stream_free(cli_stream *s);
+/* One line: file bytes = latent payload + overhead (tables, affine, biases, headers). */
+void cli_print_sizes(const char *path, const cli_stream *s);
 
 /* Prints "cnerf <cmd>: <message>" to stderr and returns 1. */
 int cli_fail(const char *cmd, const char *fmt, ...);

@@ -117,44 +117,22 @@ int cmd_encode(int argc, char **argv)
         cn_export_free(&e);
     }
     /* The closed loop: read the file back through the decoder's parser. */
-    uint8_t *file = NULL;
-    size_t len = 0;
-    cnerf_decoder *dec = malloc(sizeof *dec);
-    void *ws = NULL;
+    cli_stream st;
     cn_model ref;
+    memset(&st, 0, sizeof st);
     memset(&ref, 0, sizeof ref);
-    if (rc == 0 && (!dec || cn_read_file(out, &file, &len, err, sizeof err)))
-        rc = cli_fail("encode", "%s", dec ? err : "out of memory");
+    if (rc == 0 && cli_stream_open("encode", out, &st, &ref))
+        rc = 1;
     if (rc == 0) {
-        cnerf_status st = cnerf_peek(file, len, &dec->info);
-        size_t need = st == CNERF_OK ? cnerf_workspace_size(&dec->info) : 0;
-        ws = st == CNERF_OK ? aligned_alloc(CNERF_WS_ALIGN, (need + 7) & ~(size_t)7) : NULL;
-        if (st == CNERF_OK)
-            st = ws ? cnerf_open(dec, file, len, ws, need) : CNERF_E_WS_SMALL;
-        if (st != CNERF_OK)
-            rc = cli_fail("encode", "%s: the decoder refuses the written stream: %s", out,
-                          cnerf_status_str(st));
-        else if (cn_model_from_stream(dec, &ref, err, sizeof err))
-            rc = cli_fail("encode", "%s", err);
-    }
-    if (rc == 0) {
-        cn_totals tot;
-        cn_breakdown(&dec->info, &tot);
-        const uint64_t overhead = tot.total - tot.payload;
+        printf("wrote ");
+        cli_print_sizes(out, &st);
         int prior = 0, counts = 0;
-        for (uint32_t l = 0; l < dec->info.n_layers; l++) {
+        for (uint32_t l = 0; l < st.dec->info.n_layers; l++) {
             prior += rep.table_source[l] == CN_TABLE_PRIOR;
             counts += rep.table_source[l] == CN_TABLE_COUNTS;
         }
-        printf("wrote %s: %zu bytes = latent payload %llu + overhead %llu (tables %llu, affine "
-               "%llu, biases %llu, headers %llu); %.3f bits per parameter\n",
-               out, len, (unsigned long long)tot.payload, (unsigned long long)overhead,
-               (unsigned long long)tot.tables, (unsigned long long)tot.affine,
-               (unsigned long long)tot.biases,
-               (unsigned long long)(tot.layer_hdr + tot.stream_hdr + tot.ancillary),
-               8.0 * (double)len / dec->info.n_params);
         printf("tables: %d from the prior, %d from counts, %u constant layers\n", prior, counts,
-               dec->info.n_layers - prior - counts);
+               st.dec->info.n_layers - prior - counts);
         double psnr = 0, ssim = 0, secs = 0;
         printf("float reference render of %s, test views:\n", out);
         int n = cli_eval_views(&ref, ds.test, ds.n_test, ds.ndc, every, NULL, &psnr, &ssim, &secs);
@@ -162,13 +140,11 @@ int cmd_encode(int argc, char **argv)
             rc = 1;
         else if (n > 0)
             printf("test: %d views, psnr %.2f dB, ssim %.4f, file %zu bytes\n", n, psnr, ssim,
-                   len);
+                   st.len);
     }
     if (ref.params)
         cn_model_free(&ref);
-    free(ws);
-    free(dec);
-    free(file);
+    cli_stream_free(&st);
     cn_buf_free(&b);
     cn_trainer_free(&t);
     cn_dataset_free(&ds);

@@ -1,4 +1,5 @@
-/* cnerf eval model.ckpt DATASET: renders a split and reports PSNR and SSIM. */
+/* cnerf eval MODEL DATASET: renders a split with a checkpoint's model or with the float
+ * reference model of a stream, and reports PSNR and SSIM. */
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -13,7 +14,7 @@
 #include "progress.h"
 
 #define EVAL_USAGE                                                                          \
-    "usage: cnerf eval model.ckpt DATASET [--split test|val|train] [--downscale F]\n"      \
+    "usage: cnerf eval model.ckpt|scene.cnrf DATASET [--split test|val|train] [--downscale F]\n"      \
     "       [--every N] [-o DIR] [--threads T] [--black] [--chunk R]"
 
 /* Writes rgb floats in [0, 1] as an 8-bit PNG. */
@@ -82,6 +83,19 @@ int cli_eval_views(const cn_model *m, const cn_view *views, int n, int ndc, long
     return count;
 }
 
+/* A stream starts with the format's magic; anything else is taken for a checkpoint. */
+static int is_stream(const char *path)
+{
+    unsigned char m[4] = {0};
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return 0;
+    size_t n = fread(m, 1, 4, f);
+    fclose(f);
+    return n == 4 && m[0] == CNERF_MAGIC_0 && m[1] == CNERF_MAGIC_1 && m[2] == CNERF_MAGIC_2 &&
+           m[3] == CNERF_MAGIC_3;
+}
+
 int cmd_eval(int argc, char **argv)
 {
     const char *outdir = NULL, *split = "test", *pos[2];
@@ -100,12 +114,19 @@ int cmd_eval(int argc, char **argv)
                   &n_pos))
         return 1;
     if (n_pos != 2)
-        return cli_fail("eval", "need a checkpoint and a dataset directory\n%s", EVAL_USAGE);
+        return cli_fail("eval", "need a checkpoint or stream and a dataset directory\n%s",
+                        EVAL_USAGE);
     cli_set_threads(threads);
     char err[1024];
     cn_model m;
-    long step = 0;
-    if (cn_checkpoint_load_model(pos[0], &m, &step, err, sizeof err))
+    long step = -1;
+    if (is_stream(pos[0])) {
+        cli_stream st;
+        if (cli_stream_open("eval", pos[0], &st, &m))
+            return 1;
+        cli_print_sizes(pos[0], &st);
+        cli_stream_free(&st);
+    } else if (cn_checkpoint_load_model(pos[0], &m, &step, err, sizeof err))
         return cli_fail("eval", "%s", err);
     cn_dataset ds;
     if (cli_load_dataset("eval", pos[1], downscale, black, 0, 0, &ds)) {
@@ -132,9 +153,12 @@ int cmd_eval(int argc, char **argv)
         int count = cli_eval_views(&m, views, n, ds.ndc, every, outdir, &psnr, &ssim, &secs);
         if (count < 0)
             rc = 1;
-        else
+        else if (step >= 0)
             printf("mean over %d %s views (iteration %ld): psnr %.2f dB  ssim %.4f  %.2f s/view\n",
                    count, split, step, psnr, ssim, secs);
+        else
+            printf("mean over %d %s views (stream): psnr %.2f dB  ssim %.4f  %.2f s/view\n", count,
+                   split, psnr, ssim, secs);
     }
     cn_dataset_free(&ds);
     cn_model_free(&m);

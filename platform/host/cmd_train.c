@@ -14,7 +14,8 @@
     "usage: cnerf train DATASET -o model.ckpt [--preset tiny|small|paper] [--iters N]\n"       \
     "       [--downscale F] [--threads T] [--seed S] [--resume] [--batch R] [--depth D]\n"     \
     "       [--width W] [--coarse N] [--fine N] [--lr X] [--precrop-iters N] [--black]\n"     \
-    "       [--near X] [--far X] [--ckpt-every N] [--log-every N]"
+    "       [--near X] [--far X] [--ckpt-every N] [--log-every N] [--occupancy G]\n"     \
+    "       [--occupancy-start N]"
 
 static volatile sig_atomic_t interrupted;
 static void on_sigint(int sig)
@@ -58,6 +59,8 @@ int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt
         char extra[64] = "";
         if (t->model.compressed)
             snprintf(extra, sizeof extra, "  rate %.1f kB", bits / 8000.0);
+        else if (t->occ[0].valid)
+            snprintf(extra, sizeof extra, "  occupied %.0f%%", 100.0 * t->occ_frac[t->model.topo.n_nets - 1]);
         cli_progress_update(&p, t->step, loss, cn_psnr_from_mse(mse), extra);
         if (t->step % ckpt_every == 0 && t->step < t->opts.iters &&
             cn_checkpoint_save(t, ckpt, err, sizeof err))
@@ -84,6 +87,7 @@ int cmd_train(int argc, char **argv)
     const char *out = NULL, *pos[1];
     long iters = o.iters, downscale = 1, threads = 0, batch = o.batch, depth = -1, width = -1;
     long coarse = -1, fine = -1, precrop = -1, ckpt_every = 1000, log_every = 100;
+    long occ = o.occ_grid, occ_start = o.occ_start;
     double lr = o.lr, near = 0, far = 0;
     uint64_t seed = o.seed;
     int resume = 0, black = 0, n_pos;
@@ -107,6 +111,8 @@ int cmd_train(int argc, char **argv)
         {"--far", CLI_DOUBLE, &far, 1e-6, 1e4},
         {"--ckpt-every", CLI_LONG, &ckpt_every, 1, 1e9},
         {"--log-every", CLI_LONG, &log_every, 1, 1e9},
+        {"--occupancy", CLI_LONG, &occ, 0, 256},
+        {"--occupancy-start", CLI_LONG, &occ_start, 0, 1e9},
     };
     if (cli_parse("train", TRAIN_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
                   &n_pos))
@@ -124,6 +130,8 @@ int cmd_train(int argc, char **argv)
     o.lr = lr;
     if (precrop >= 0)
         o.precrop_iters = precrop;
+    o.occ_grid = (int)occ;
+    o.occ_start = occ_start;
     cn_dataset ds;
     if (cli_load_dataset("train", pos[0], downscale, black, near, far, &ds))
         return 1;

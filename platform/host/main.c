@@ -26,12 +26,15 @@ static const struct {
      "train DATASET -o model.ckpt [--preset P] [--iters N] [--downscale F] [--threads T]\n"
      "                                  [--seed S] [--resume]   train the float NeRF"},
     {"eval", cmd_eval,
-     "eval model.ckpt DATASET [--split test] [--downscale F] [--every N] [-o DIR]\n"
+     "eval model.ckpt|scene.cnrf DATASET [--split test] [--downscale F] [--every N] [-o DIR]\n"
      "                                  render a split, PSNR and SSIM per view"},
     {"encode", cmd_encode,
      "encode DATASET -o scene.cnrf --lambda L [--preset P] [--iters N] [--downscale F]\n"
      "                                  [--threads T] [--seed S] [--resume CKPT]\n"
      "                                  train with the entropy penalty, write the stream"},
+    {"quantize", cmd_quantize,
+     "quantize model.ckpt -o scene.cnrf [--bits B]\n"
+     "                                  post-training uniform quantization (the baseline)"},
     {"synth", cmd_synth,
      "synth -o FILE.cnrf [--preset tiny|small|paper] [--seed S] [--spread X]\n"
      "                                  a random model of a preset's topology (tests, demos)"},

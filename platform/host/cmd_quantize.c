@@ -1,0 +1,65 @@
+/* cnerf quantize model.ckpt -o scene.cnrf [--bits B]: the naive baseline. A float model's
+ * kernels are quantized uniformly after training (each layer's range split into 2^B - 1
+ * levels) and coded with the same entropy coder and format as cnerf encode's streams. */
+#include <stdio.h>
+#include <string.h>
+
+#include "cli.h"
+#include "cli_args.h"
+#include "cn_export.h"
+#include "cn_stream.h"
+#include "cn_train.h"
+
+#define QUANTIZE_USAGE "usage: cnerf quantize model.ckpt -o scene.cnrf [--bits B]"
+
+int cmd_quantize(int argc, char **argv)
+{
+    const char *out = NULL, *pos[1];
+    long bits = 8;
+    int n_pos;
+    const cli_opt opts[] = {
+        {"-o", CLI_STR, &out, 0, 0},
+        {"--bits", CLI_LONG, &bits, 2, 16},
+    };
+    if (cli_parse("quantize", QUANTIZE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos,
+                  1, &n_pos))
+        return 1;
+    if (n_pos != 1 || !out)
+        return cli_fail("quantize", "need a checkpoint and -o FILE\n%s", QUANTIZE_USAGE);
+    char err[1024];
+    cn_model m;
+    long step = 0;
+    if (cn_checkpoint_load_model(pos[0], &m, &step, err, sizeof err))
+        return cli_fail("quantize", "%s", err);
+    int rc = 0;
+    if (m.compressed)
+        rc = cli_fail("quantize", "%s: a compressed model; its stream comes from cnerf encode",
+                      pos[0]);
+    char meta[1024];
+    snprintf(meta, sizeof meta,
+             "encoder=cnerf %s; command=quantize; checkpoint=%s; iters=%ld; bits=%ld",
+             CNERF_VERSION_STRING, pos[0], step, bits);
+    cn_export e;
+    cn_buf b = {0};
+    cn_write_report rep;
+    if (rc == 0 && cn_export_quantized(&m, (unsigned)bits, meta, &e, err, sizeof err))
+        rc = cli_fail("quantize", "%s", err);
+    else if (rc == 0) {
+        if (cn_write_stream(&e.src, &b, &rep, err, sizeof err) ||
+            cn_write_file_atomic(out, b.p, b.n, err, sizeof err))
+            rc = cli_fail("quantize", "%s", err);
+        cn_export_free(&e);
+    }
+    cli_stream st;
+    if (rc == 0 && cli_stream_open("quantize", out, &st, NULL) == 0) {
+        printf("wrote ");
+        cli_print_sizes(out, &st);
+        printf("float model: %zu parameters, %zu bytes as float32\n", (size_t)m.topo.n_params +
+               m.topo.n_biases, 4 * ((size_t)m.topo.n_params + m.topo.n_biases));
+        cli_stream_free(&st);
+    } else if (rc == 0)
+        rc = 1;
+    cn_buf_free(&b);
+    cn_model_free(&m);
+    return rc;
+}

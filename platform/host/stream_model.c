@@ -1,0 +1,62 @@
+/* The float reference model of a stream file: read, opened by the decoder's parser and
+ * rebuilt with exactly the file's numbers. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli.h"
+#include "cn_export.h"
+#include "cn_report.h"
+#include "cn_stream.h"
+
+int cli_stream_open(const char *cmd, const char *path, cli_stream *s, cn_model *ref)
+{
+    char err[1024];
+    memset(s, 0, sizeof *s);
+    if (ref)
+        memset(ref, 0, sizeof *ref);
+    if (cn_read_file(path, &s->file, &s->len, err, sizeof err))
+        return cli_fail(cmd, "%s", err);
+    s->dec = malloc(sizeof *s->dec);
+    if (!s->dec) {
+        cli_stream_free(s);
+        return cli_fail(cmd, "out of memory");
+    }
+    cnerf_status st = cnerf_peek(s->file, s->len, &s->dec->info);
+    size_t need = st == CNERF_OK ? cnerf_workspace_size(&s->dec->info) : 0;
+    if (st == CNERF_OK) {
+        s->ws = aligned_alloc(CNERF_WS_ALIGN, (need + CNERF_WS_ALIGN - 1) & ~(size_t)(CNERF_WS_ALIGN - 1));
+        st = s->ws ? cnerf_open(s->dec, s->file, s->len, s->ws, need) : CNERF_E_WS_SMALL;
+    }
+    if (st != CNERF_OK) {
+        cli_stream_free(s);
+        return cli_fail(cmd, "%s: the decoder refuses the stream: %s", path, cnerf_status_str(st));
+    }
+    if (ref && cn_model_from_stream(s->dec, ref, err, sizeof err)) {
+        cli_stream_free(s);
+        return cli_fail(cmd, "%s: %s", path, err);
+    }
+    return 0;
+}
+
+void cli_stream_free(cli_stream *s)
+{
+    free(s->ws);
+    free(s->dec);
+    free(s->file);
+    memset(s, 0, sizeof *s);
+}
+
+void cli_print_sizes(const char *path, const cli_stream *s)
+{
+    cn_totals tot;
+    cn_breakdown(&s->dec->info, &tot);
+    const uint64_t overhead = tot.total - tot.payload;
+    printf("%s: %zu bytes = latent payload %llu + overhead %llu (tables %llu, affine %llu, "
+           "biases %llu, headers %llu); %.3f bits per parameter\n",
+           path, s->len, (unsigned long long)tot.payload, (unsigned long long)overhead,
+           (unsigned long long)tot.tables, (unsigned long long)tot.affine,
+           (unsigned long long)tot.biases,
+           (unsigned long long)(tot.layer_hdr + tot.stream_hdr + tot.ancillary),
+           8.0 * (double)s->len / s->dec->info.n_params);
+}

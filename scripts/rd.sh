@@ -1,0 +1,97 @@
+#!/usr/bin/env bash
+# Rate-distortion sweep of one scene: cnerf encode at several lambdas, the same architecture
+# trained without compression (float32, 4 bytes a parameter), and the naive baseline
+# (post-training uniform quantization of that float model to B bits, coded with the same
+# entropy coder). Writes OUT/rd.csv and, with gnuplot, OUT/rd.png.
+#   scripts/rd.sh DATASET OUT [--downscale F] [--iters N] [--preset P] [--every N]
+#                 [--lambdas "L1 L2 ..."] [--bits "B1 B2 ..."] [--jobs J]
+# Each run uses one thread when --jobs is 2 (two runs side by side), else every core.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+data=${1:?dataset directory}; out=${2:?output directory}; shift 2
+downscale=4 iters=1000 preset=small every=40 jobs=1
+lambdas="1e-5 3e-5 1e-4 3e-4 1e-3" bits="4 5 6 8"
+while [ $# -gt 0 ]; do
+  case $1 in
+    --downscale) downscale=$2 ;; --iters) iters=$2 ;; --preset) preset=$2 ;;
+    --every) every=$2 ;; --lambdas) lambdas=$2 ;; --bits) bits=$2 ;; --jobs) jobs=$2 ;;
+    *) echo "rd.sh: unknown option $1" >&2; exit 2 ;;
+  esac
+  shift 2
+done
+cnerf=build/cnerf
+[ -x $cnerf ] || { echo "rd.sh: build first (scripts/test.sh or cmake --build build)" >&2; exit 1; }
+mkdir -p "$out/log"
+threads=$(( jobs > 1 ? 1 : $(nproc) ))
+common=(--preset "$preset" --iters "$iters" --downscale "$downscale" --threads "$threads")
+
+# The mean test PSNR / SSIM line that eval and encode print.
+psnr_of() { sed -n 's/.*mean over .* psnr \([0-9.]*\) dB  ssim \([0-9.]*\).*/\1 \2/p; s/^test: .* psnr \([0-9.]*\) dB, ssim \([0-9.]*\),.*/\1 \2/p' "$1" | tail -1; }
+bytes_of() { stat -c %s "$1"; }
+
+run_lambda() {
+  local l=$1
+  $cnerf encode "$data" -o "$out/lambda-$l.cnrf" --lambda "$l" "${common[@]}" --every "$every" \
+    --log-every 250 > "$out/log/lambda-$l.log" 2>&1
+  rm -f "$out/lambda-$l.cnrf.ckpt"
+}
+run_float() {
+  $cnerf train "$data" -o "$out/float.ckpt" "${common[@]}" --log-every 250 > "$out/log/float.log" 2>&1
+  $cnerf eval "$out/float.ckpt" "$data" --downscale "$downscale" --every "$every" \
+    --threads "$threads" >> "$out/log/float.log" 2>&1
+  for b in $bits; do
+    $cnerf quantize "$out/float.ckpt" -o "$out/q$b.cnrf" --bits "$b" > "$out/log/q$b.log" 2>&1
+    $cnerf eval "$out/q$b.cnrf" "$data" --downscale "$downscale" --every "$every" \
+      --threads "$threads" >> "$out/log/q$b.log" 2>&1
+  done
+}
+
+# Jobs: the float model (and its quantized copies) first, then the lambdas, J at a time.
+tasks=(float)
+for l in $lambdas; do tasks+=("lambda:$l"); done
+running=0
+for t in "${tasks[@]}"; do
+  case $t in
+    float) run_float & ;;
+    lambda:*) run_lambda "${t#lambda:}" & ;;
+  esac
+  running=$((running + 1))
+  if [ $running -ge "$jobs" ]; then wait -n; running=$((running - 1)); fi
+  echo "rd.sh: started $t"
+done
+wait
+
+csv=$out/rd.csv
+echo "method,setting,bytes,psnr,ssim" > "$csv"
+params=$(sed -n 's/^float model: \([0-9]*\) parameters.*/\1/p' "$out/log/q$(set -- $bits; echo $1).log")
+read -r p s <<< "$(psnr_of "$out/log/float.log")"
+echo "float32,,$((4 * params)),$p,$s" >> "$csv"
+for b in $bits; do
+  read -r p s <<< "$(psnr_of "$out/log/q$b.log")"
+  echo "uniform,$b bits,$(bytes_of "$out/q$b.cnrf"),$p,$s" >> "$csv"
+done
+for l in $lambdas; do
+  read -r p s <<< "$(psnr_of "$out/log/lambda-$l.log")"
+  echo "cnerf,lambda $l,$(bytes_of "$out/lambda-$l.cnrf"),$p,$s" >> "$csv"
+done
+cat "$csv"
+
+if command -v gnuplot > /dev/null; then
+  gnuplot <<GP
+set terminal pngcairo size 800,520 noenhanced
+set output "$out/rd.png"
+set datafile separator ","
+set logscale x
+set xlabel "file size (bytes)"
+set ylabel "test PSNR (dB)"
+set key bottom right
+set grid
+set title "$(basename "$data"), preset $preset, $iters iterations, downscale $downscale"
+plot "< grep '^cnerf,' $csv" using 3:4 with linespoints lw 2 pt 7 title "cnerf (lambda sweep)", \
+     "< grep '^uniform,' $csv" using 3:4 with linespoints lw 2 pt 5 title "uniform quantization (4-8 bits) + same entropy coder", \
+     "< grep '^float32,' $csv" using 3:4 with points pt 9 ps 2 title "float32"
+GP
+  echo "rd.sh: wrote $out/rd.png"
+else
+  echo "rd.sh: gnuplot not found (apt-get install gnuplot-nox): no chart" >&2
+fi
