@@ -35,23 +35,44 @@ void cn_linear_forward(float *y, size_t ldy, const float *x, size_t ldx, const f
 }
 
 /* db += column sums of dy (P x n, stride ld), summed in double per thread. */
+/* db += column sums of dy (P x n). Rows are summed in fixed blocks whose partial sums are
+ * then added in block order, so the result does not depend on the thread count. */
 static void colsum_acc(float *db, const float *dy, size_t ld, size_t P, size_t n)
 {
-#pragma omp parallel
-    {
-        double acc[CNERF_MAX_LAYER_IN];
+    enum { BLOCK = 2048 };
+    const size_t nblk = (P + BLOCK - 1) / BLOCK;
+    double *part = malloc(sizeof(double) * nblk * n);
+    if (!part) { /* the same sums, one thread */
+        for (size_t o = 0; o < n; o++) {
+            double acc = 0;
+            for (size_t k = 0; k < nblk; k++) {
+                double s = 0;
+                for (size_t p = k * BLOCK; p < P && p < (k + 1) * BLOCK; p++)
+                    s += dy[p * ld + o];
+                acc += s;
+            }
+            db[o] += (float)acc;
+        }
+        return;
+    }
+#pragma omp parallel for schedule(static)
+    for (size_t k = 0; k < nblk; k++) {
+        double *acc = part + k * n;
         for (size_t o = 0; o < n; o++)
             acc[o] = 0;
-#pragma omp for schedule(static) nowait
-        for (size_t p = 0; p < P; p++) {
+        for (size_t p = k * BLOCK; p < P && p < (k + 1) * BLOCK; p++) {
             const float *row = dy + p * ld;
             for (size_t o = 0; o < n; o++)
                 acc[o] += row[o];
         }
-#pragma omp critical
-        for (size_t o = 0; o < n; o++)
-            db[o] += (float)acc[o];
     }
+    for (size_t o = 0; o < n; o++) {
+        double acc = 0;
+        for (size_t k = 0; k < nblk; k++)
+            acc += part[k * n + o];
+        db[o] += (float)acc;
+    }
+    free(part);
 }
 
 void cn_linear_backward(float *dx, size_t lddx, size_t x0, size_t nx, int dx_accum, float *dw,

@@ -14,11 +14,14 @@ extra=("$@")
 data=$(cd ../shared/data/lego && pwd)
 ref=../shared/reference/nerf-pytorch/run.sh
 mkdir -p "$out"
+# The reference's loader imports OpenCV, which its run.sh does not install.
+dpkg -s python3-opencv > /dev/null 2>&1 || apt-get install -y -qq python3-opencv > /dev/null
 cmake -S . -B build-rel -DCMAKE_BUILD_TYPE=Release > /dev/null
 cmake --build build-rel -j"$(nproc)" > /dev/null
 
 echo "bench_train: reference, $iters iterations" >&2
-ref_line=$("$ref" "$iters" 4 small | grep '^FINAL')
+ref_out=$("$ref" "$iters" 4 small)
+ref_line=$(grep '^FINAL' <<< "$ref_out") || { echo "bench_train: the reference failed: $ref_out" >&2; exit 1; }
 echo "$ref_line" > "$out/reference.txt"
 ref_spi=$(sed -n 's/.* s_per_it \([0-9.]*\).*/\1/p' <<< "$ref_line")
 ref_psnr=$(sed -n 's/.* test_psnr \([0-9.]*\).*/\1/p' <<< "$ref_line")

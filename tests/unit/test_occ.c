@@ -50,6 +50,7 @@ static void test_cells(void **state)
     assert_false(cn_occ_test(&o, p));
     o.occupied[(3 * 4 + 2) * 4 + 1] = 1;
     assert_true(cn_occ_test(&o, p));
+    cn_occ_free(&o);
     assert_int_equal(cn_occ_init(&o, &m.topo, 0), -1);
     assert_int_equal(cn_occ_init(&o, &m.topo, 257), -1);
     cn_model_free(&m);
