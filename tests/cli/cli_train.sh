@@ -35,6 +35,17 @@ out=$("$cnerf" encode "$data/lego" -o "$work/s.cnrf" --lambda 1e-3 --iters 3 --e
 grep -q "wrote $work/s.cnrf: [0-9]* bytes = latent payload" <<<"$out" || fail "encode: $out"
 grep -q "test: 2 views, psnr" <<<"$out" || fail "encode test views: $out"
 "$cnerf" info "$work/s.cnrf" | grep -q "samples: 8 coarse + 8 fine" || fail "info of encoded file"
+# eval of a stream renders its float reference model: the same PSNR that encode printed.
+enc_psnr=$(sed -n 's/^test: 2 views, psnr \([0-9.]*\) dB.*/\1/p' <<<"$out")
+out=$("$cnerf" eval "$work/s.cnrf" "$data/lego" --downscale 16 --every 100)
+grep -q "mean over 2 test views (stream): psnr $enc_psnr dB" <<<"$out" || fail "eval of stream ($enc_psnr): $out"
+
+# quantize: the baseline stream of a float checkpoint, readable by eval and info.
+out=$("$cnerf" quantize "$work/m.ckpt" -o "$work/q.cnrf" --bits 6)
+grep -q "wrote $work/q.cnrf: [0-9]* bytes" <<<"$out" || fail "quantize: $out"
+"$cnerf" info "$work/q.cnrf" > /dev/null || fail "info of quantized file"
+"$cnerf" eval "$work/q.cnrf" "$data/lego" --downscale 16 --every 100 | grep -q "mean over 2 test views (stream)" \
+  || fail "eval of quantized file"
 
 # Bad input: clear messages, non-zero exits, nothing written.
 set +e
@@ -50,4 +61,18 @@ set +e
 msg=$("$cnerf" train "$data/lego" -o "$work/z.ckpt" --iters -5 2>&1); rc=$?
 set -e
 [ $rc -ne 0 ] && grep -q -- "--iters" <<<"$msg" || fail "negative iters: $rc $msg"
+set +e
+msg=$("$cnerf" quantize "$work/s.cnrf" -o "$work/q2.cnrf" 2>&1); rc=$?
+set -e
+[ $rc -ne 0 ] && grep -q "not a cnerf checkpoint" <<<"$msg" || fail "quantize of a stream: $rc $msg"
+[ ! -e "$work/q2.cnrf" ] || fail "quantize wrote a file for bad input"
+set +e
+msg=$("$cnerf" quantize "$work/m.ckpt" -o "$work/q3.cnrf" --bits 1 2>&1); rc=$?
+set -e
+[ $rc -ne 0 ] && grep -q -- "--bits" <<<"$msg" || fail "quantize --bits 1: $rc $msg"
+printf 'garbage' > "$work/bad.cnrf"
+set +e
+msg=$("$cnerf" eval "$work/bad.cnrf" "$data/lego" --downscale 16 2>&1); rc=$?
+set -e
+[ $rc -ne 0 ] && grep -q "bad.cnrf" <<<"$msg" || fail "eval of garbage: $rc $msg"
 echo "cli_train: all checks passed"
