@@ -55,9 +55,9 @@ for t in "${tasks[@]}"; do
     float) run_float & ;;
     lambda:*) run_lambda "${t#lambda:}" & ;;
   esac
+  echo "rd.sh: started $t"
   running=$((running + 1))
   if [ $running -ge "$jobs" ]; then wait -n; running=$((running - 1)); fi
-  echo "rd.sh: started $t"
 done
 wait
 

@@ -75,4 +75,10 @@ set +e
 msg=$("$cnerf" eval "$work/bad.cnrf" "$data/lego" --downscale 16 2>&1); rc=$?
 set -e
 [ $rc -ne 0 ] && grep -q "bad.cnrf" <<<"$msg" || fail "eval of garbage: $rc $msg"
+head -c 100 "$work/s.cnrf" > "$work/cut.cnrf"
+set +e
+msg=$("$cnerf" eval "$work/cut.cnrf" "$data/lego" --downscale 16 2>&1); rc=$?
+set -e
+[ $rc -ne 0 ] && grep -q "cut.cnrf: the decoder refuses the stream: CNERF_E_TRUNCATED" <<<"$msg" \
+  || fail "eval of a truncated stream: $rc $msg"
 echo "cli_train: all checks passed"
