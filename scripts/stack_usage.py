@@ -13,7 +13,8 @@ import re
 import sys
 
 ENTRIES = ["cnerf_peek", "cnerf_open", "cnerf_workspace_size", "cnerf_expand_topology",
-           "cnerf_latent", "cnerf_crc32", "cnerf_status_str"]
+           "cnerf_latent", "cnerf_crc32", "cnerf_status_str",
+           "cnerf_render_scratch_size", "cnerf_render_defaults", "cnerf_render_tile"]
 
 
 def load(build_dir):

@@ -140,6 +140,42 @@ cnerf_status cnerf_expand_topology(cnerf_info *info);
 /* Latent k[o][i] of layer `l` (no bounds checks beyond an assert-free clamp to 0). */
 int32_t cnerf_latent(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t i);
 
+/* ---- rendering (decoder/render.c; formats and error analysis in docs/fixed-point.md) ---- */
+
+/* A pinhole camera in fixed point. Camera-to-world rotation with OpenGL axes (x right, y up,
+ * looking down -z), row-major in Q30 (|entry| <= 2^30); the camera centre in world units in
+ * Q32; intrinsics in pixels in Q16. cnerf_camera_from_float (host side, encoder library)
+ * builds one from doubles. */
+typedef struct cnerf_camera {
+    int32_t rot[9];
+    int64_t pos[3];
+    int32_t fx, fy, cx, cy;
+    uint16_t width, height;
+} cnerf_camera;
+
+/* Speed-versus-error knobs; cnerf_render_defaults gives the quality setting. */
+typedef struct cnerf_render_opts {
+    uint16_t n_coarse; /* 1 .. the stream's n_coarse */
+    uint16_t n_fine;   /* 0 .. the stream's n_fine; 0 renders the coarse network's image */
+    uint32_t t_stop;   /* early ray termination: stop a ray once its transmittance is below
+                          t_stop / 2^30 (the rest of the ray shows the background); 0 = never */
+} cnerf_render_opts;
+
+/* The stream's sample counts and t_stop = 2^30 / 4096 (an error below 1/4096 per channel). */
+void cnerf_render_defaults(const cnerf_info *info, cnerf_render_opts *opts);
+
+/* Caller scratch bytes that cnerf_render_tile needs for this stream with any options
+ * (8-byte aligned, like the workspace). */
+size_t cnerf_render_scratch_size(const cnerf_info *info);
+
+/* Renders the tile x0 <= x < x0 + w, y0 <= y < y0 + h of `cam`'s image into rgb (RGB888,
+ * `stride` bytes between rows; the tile's first pixel at rgb[0]). opts NULL = defaults.
+ * The result is the same bits on every platform. */
+cnerf_status cnerf_render_tile(const cnerf_decoder *dec, const cnerf_camera *cam,
+                               const cnerf_render_opts *opts, uint32_t x0, uint32_t y0,
+                               uint32_t w, uint32_t h, uint8_t *rgb, size_t stride,
+                               void *scratch, size_t scratch_size);
+
 /* CRC-32 (ISO-HDLC, as zlib and PNG) of `len` bytes, continuing from `crc` (start at 0). */
 uint32_t cnerf_crc32(uint32_t crc, const uint8_t *p, size_t len);
 

@@ -18,6 +18,7 @@ int cmd_train(int argc, char **argv);
 int cmd_eval(int argc, char **argv);
 int cmd_encode(int argc, char **argv);
 int cmd_quantize(int argc, char **argv);
+int cmd_render(int argc, char **argv);
 
 /* The training loop shared by train and encode: progress, periodic and final atomic
  * checkpoints to `ckpt`, Ctrl-C saves and sets *stopped. Returns 0 or 1 (error printed). */
@@ -33,6 +34,10 @@ int cli_eval_views(const struct cn_model *m, const struct cn_view *views, int n,
 /* Loads a dataset with the shared options; prints the error and returns 1 on failure. */
 int cli_load_dataset(const char *cmd, const char *dir, long downscale, int black, double near,
                      double far, struct cn_dataset *ds);
+/* The views of a split ("test", "val" or "train"); prints the error and returns 1 for an
+ * unknown or empty split. */
+int cli_split_views(const char *cmd, const struct cn_dataset *ds, const char *dir,
+                    const char *split, const struct cn_view **views, int *n);
 /* Writes float RGB in [0, 1] as an 8-bit PNG (atomically). */
 int cli_write_png(const char *path, const float *rgb, int w, int h, char *err, size_t errlen);
 /* mkdir that accepts an existing directory; prints the error and returns 1 on failure. */

@@ -83,6 +83,22 @@ int cli_eval_views(const cn_model *m, const cn_view *views, int n, int ndc, long
     return count;
 }
 
+int cli_split_views(const char *cmd, const cn_dataset *ds, const char *dir, const char *split,
+                    const cn_view **views, int *n)
+{
+    if (!strcmp(split, "test"))
+        *views = ds->test, *n = ds->n_test;
+    else if (!strcmp(split, "val"))
+        *views = ds->val, *n = ds->n_val;
+    else if (!strcmp(split, "train"))
+        *views = ds->train, *n = ds->n_train;
+    else
+        return cli_fail(cmd, "unknown split '%s' (test, val, train)", split);
+    if (*n == 0)
+        return cli_fail(cmd, "%s: the %s split has no views", dir, split);
+    return 0;
+}
+
 /* A stream starts with the format's magic; anything else is taken for a checkpoint. */
 static int is_stream(const char *path)
 {
@@ -135,17 +151,7 @@ int cmd_eval(int argc, char **argv)
     }
     const cn_view *views = NULL;
     int n = 0;
-    if (!strcmp(split, "test"))
-        views = ds.test, n = ds.n_test;
-    else if (!strcmp(split, "val"))
-        views = ds.val, n = ds.n_val;
-    else if (!strcmp(split, "train"))
-        views = ds.train, n = ds.n_train;
-    int rc = 0;
-    if (!views && strcmp(split, "test") && strcmp(split, "val") && strcmp(split, "train"))
-        rc = cli_fail("eval", "unknown split '%s' (test, val, train)", split);
-    else if (n == 0)
-        rc = cli_fail("eval", "%s: the %s split has no views", pos[1], split);
+    int rc = cli_split_views("eval", &ds, pos[1], split, &views, &n);
     if (rc == 0 && outdir)
         rc = cli_make_dir("eval", outdir);
     if (rc == 0) {

@@ -35,6 +35,11 @@ static const struct {
     {"quantize", cmd_quantize,
      "quantize model.ckpt -o scene.cnrf [--bits B]\n"
      "                                  post-training uniform quantization (the baseline)"},
+    {"render", cmd_render,
+     "render scene.cnrf --dataset DIR [--split test] [--downscale F] [-o DIR] [--float]\n"
+     "                                  [--verify MD5] | --orbit N [--size PX]\n"
+     "                                  fixed-point decoder render, checked against the float\n"
+     "                                  reference and the ground truth"},
     {"synth", cmd_synth,
      "synth -o FILE.cnrf [--preset tiny|small|paper] [--seed S] [--spread X]\n"
      "                                  a random model of a preset's topology (tests, demos)"},

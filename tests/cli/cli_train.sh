@@ -40,6 +40,27 @@ enc_psnr=$(sed -n 's/^test: 2 views, psnr \([0-9.]*\) dB.*/\1/p' <<<"$out")
 out=$("$cnerf" eval "$work/s.cnrf" "$data/lego" --downscale 16 --every 100)
 grep -q "mean over 2 test views (stream): psnr $enc_psnr dB" <<<"$out" || fail "eval of stream ($enc_psnr): $out"
 
+# render: the fixed-point decoder on the same file; its float reference is eval's render, so
+# the reference PSNR it prints is the one encode printed. --verify checks the frames' md5.
+out=$("$cnerf" render "$work/s.cnrf" --dataset "$data/lego" --downscale 16 --every 100 -o "$work/r")
+grep -q "mean over 2 views (fixed point, 8+8 samples.*(float reference $enc_psnr dB)  vs float" <<<"$out" \
+  || fail "render ($enc_psnr): $out"
+[ -s "$work/r/r_0.png" ] && [ -s "$work/r/r_100.png" ] || fail "render wrote no PNGs"
+md5=$(sed -n 's/^md5 of all frames: //p' <<<"$out")
+"$cnerf" render "$work/s.cnrf" --dataset "$data/lego" --downscale 16 --every 100 --verify "$md5" \
+  | grep -q "verified: $md5" || fail "render --verify of its own md5"
+set +e
+msg=$("$cnerf" render "$work/s.cnrf" --dataset "$data/lego" --downscale 16 --every 100 \
+      --verify 00000000000000000000000000000000 2>&1); rc=$?
+set -e
+[ $rc -ne 0 ] && grep -q "verification failed" <<<"$msg" || fail "render --verify mismatch: $rc $msg"
+out=$("$cnerf" render "$work/s.cnrf" --orbit 2 --size 12)
+grep -q "mean over 2 views (fixed point" <<<"$out" || fail "render --orbit: $out"
+set +e
+msg=$("$cnerf" render "$work/s.cnrf" --orbit 2 --coarse 9 2>&1); rc=$?
+set -e
+[ $rc -ne 0 ] && grep -q "asks for more" <<<"$msg" || fail "render with too many samples: $rc $msg"
+
 # quantize: the baseline stream of a float checkpoint, readable by eval and info.
 out=$("$cnerf" quantize "$work/m.ckpt" -o "$work/q.cnrf" --bits 6)
 grep -q "wrote $work/q.cnrf: [0-9]* bytes" <<<"$out" || fail "quantize: $out"

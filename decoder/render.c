@@ -1,0 +1,486 @@
+/*
+ * Fixed-point tile renderer: the rules of docs/rendering.md in integers only. Formats
+ * (docs/fixed-point.md):
+ *   Q32  int64  positions, ray parameters t, unit view directions
+ *   Q28  int32  ray directions (|component| < 8)
+ *   Q16  int32  network activations, PE values, densities, optical depths (int64 sums)
+ *   Q30  uint32 transmittance and weights, table values
+ *   turns uint32 encoding phases: 2^32 = one period of sin / cos
+ * One ray at a time, one sample at a time; all state lives in the caller's scratch.
+ */
+#include "cn_fixed.h"
+#include "cn_internal.h"
+#include "cn_tables.h"
+
+#define Q30_ONE ((int64_t)1 << 30)
+#define INV_2PI_Q32 683565276u  /* round(2^32 / (2 pi)) */
+#define LOG2E_Q30 1549082005    /* round(log2(e) 2^30) */
+#define PDF_EPS_Q30 10737u      /* round(1e-5 2^30): the fine pdf's floor (CN_PDF_EPS) */
+#define MAX_UV_Q28 ((int64_t)2 << 28) /* |u|, |v| <= 2 at the image corners */
+#define MAX_POS_Q32 ((int64_t)1 << 47) /* camera centre within +-2^15 world units */
+#define MAX_DEPTH_Q16 ((int64_t)32 << 16) /* optical depth beyond which T is 0 in Q30 */
+
+/* Accumulator bounds (docs/fixed-point.md): a layer sums at most CNERF_MAX_LAYER_IN products
+ * of a latent (|k| <= 2^15) and an activation (|x| <= 2^31): < 2^11 2^15 2^31 = 2^57. */
+typedef char cn_acc_bound_holds[(CNERF_MAX_LAYER_IN < 2048u && CNERF_MAX_ABS_K < 32768) ? 1 : -1];
+
+/* ---- tables ---- */
+
+/* sin(2 pi p / 2^32) in Q16, from the quarter-wave table with linear interpolation. */
+static int32_t sin_turns(uint32_t p)
+{
+    const uint32_t quad = p >> 30;
+    uint32_t x = p & 0x3FFFFFFFu;
+    if (quad & 1u)
+        x = 0x40000000u - x; /* sin(pi/2 + a) = sin(pi/2 - a) */
+    const uint32_t i = x >> 22, f = x & 0x3FFFFFu;
+    uint32_t v = cn_sin_q30[i];
+    if (i < CN_SIN_STEPS)
+        v += (uint32_t)((((uint64_t)(cn_sin_q30[i + 1] - v)) * f + (1u << 21)) >> 22);
+    const int32_t q16 = (int32_t)((v + (1u << 13)) >> 14);
+    return quad & 2u ? -q16 : q16;
+}
+
+/* e^(-x) in Q30 for an optical depth x >= 0 in Q16; non-increasing in x, exactly 2^30 at 0. */
+static uint32_t exp_neg(int64_t x)
+{
+    if (x >= MAX_DEPTH_Q16)
+        return 0;
+    const uint64_t y = ((uint64_t)x * LOG2E_Q30 + (1u << 29)) >> 30; /* x log2 e, Q16 */
+    const uint32_t n = (uint32_t)(y >> 16), f = (uint32_t)(y & 0xFFFFu);
+    const uint32_t i = f >> 8, fr = f & 0xFFu;
+    const uint32_t a = cn_exp2_q30[i], b = cn_exp2_q30[i + 1];
+    const uint32_t v = a - (uint32_t)(((uint64_t)(a - b) * fr + 128u) >> 8);
+    if (n == 0)
+        return v;
+    return n >= 31 ? 0 : (uint32_t)(((uint64_t)v + ((uint64_t)1 << (n - 1))) >> n);
+}
+
+/* sigmoid(z) in Q16 for z in Q16. */
+static int32_t sigmoid_q16(int32_t z)
+{
+    const uint32_t a = z < 0 ? 0u - (uint32_t)z : (uint32_t)z;
+    uint32_t v;
+    if (a >= (CN_SIGMOID_STEPS << 11)) {
+        v = cn_sigmoid_q30[CN_SIGMOID_STEPS];
+    } else {
+        const uint32_t i = a >> 11, f = a & 0x7FFu;
+        v = cn_sigmoid_q30[i] +
+            (uint32_t)(((uint64_t)(cn_sigmoid_q30[i + 1] - cn_sigmoid_q30[i]) * f + 1024u) >> 11);
+    }
+    if (z < 0)
+        v = (1u << 30) - v;
+    return (int32_t)((v + (1u << 13)) >> 14);
+}
+
+/* ---- positional encoding ---- */
+
+/* Phase of p (Q32 world units) in turns, p / (2 pi) modulo 1, as a 32-bit fraction. */
+static uint32_t turns_of(int64_t p)
+{
+    const int64_t hi = cn_asr64(p, 32); /* |hi| < 2^31 */
+    const uint64_t lo = (uint64_t)p & 0xFFFFFFFFu;
+    const uint64_t a = (uint64_t)(hi * (int64_t)INV_2PI_Q32); /* modulo 2^64 */
+    const uint64_t b = (lo * INV_2PI_Q32 + 0x80000000u) >> 32;
+    return (uint32_t)(a + b);
+}
+
+static int32_t q32_to_q16(int64_t v)
+{
+    return (int32_t)cn_clamp64(cn_asr64(v + 0x8000, 16), INT32_MIN, INT32_MAX);
+}
+
+/* PE(v) of a 3-vector in Q32 into out (3 inc + 6 L values, Q16). */
+static void posenc(int32_t *out, const int64_t v[3], unsigned L, int inc)
+{
+    uint32_t ph[3];
+    unsigned n = 0;
+    for (unsigned a = 0; a < 3; a++) {
+        ph[a] = turns_of(v[a]);
+        if (inc)
+            out[n++] = q32_to_q16(v[a]);
+    }
+    for (unsigned l = 0; l < L; l++) {
+        for (unsigned a = 0; a < 3; a++)
+            out[n + a] = sin_turns(ph[a] << l);
+        for (unsigned a = 0; a < 3; a++)
+            out[n + 3 + a] = sin_turns((ph[a] << l) + 0x40000000u);
+        n += 6;
+    }
+}
+
+/* ---- one linear layer: y = a (sum k x) + b (sum x) + bias, in Q16 ---- */
+
+static void linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, int32_t *y, int relu)
+{
+    const cnerf_layer_info *L = &dec->info.layer[l];
+    const uint32_t n_in = L->n_in;
+    int64_t sx = 0;
+    for (uint32_t i = 0; i < n_in; i++)
+        sx += x[i];
+    const int64_t tb = cn_mul_exp(sx, L->b_m, L->b_e);
+    const int32_t *bias = dec->bias[l];
+    for (uint32_t o = 0; o < L->n_out; o++) {
+        int64_t acc = 0;
+        if (L->latent_bytes == 1u) {
+            const int8_t *k = (const int8_t *)dec->latent[l] + (size_t)o * n_in;
+            for (uint32_t i = 0; i < n_in; i++)
+                acc += (int64_t)x[i] * k[i];
+        } else {
+            const int16_t *k = (const int16_t *)dec->latent[l] + (size_t)o * n_in;
+            for (uint32_t i = 0; i < n_in; i++)
+                acc += (int64_t)x[i] * k[i];
+        }
+        int64_t v = cn_mul_exp(acc, L->a_m, L->a_e) + tb;
+        if (L->bias_bits)
+            v += cn_mul_exp(bias[o], 1, L->bias_e + 16);
+        v = cn_clamp64(v, relu ? 0 : INT32_MIN, INT32_MAX);
+        y[o] = (int32_t)v;
+    }
+}
+
+/* ---- scratch layout ---- */
+
+typedef struct scratch {
+    int64_t *t_c, *t_f, *t_all; /* coarse, fine and merged sample positions */
+    uint32_t *w_c;              /* coarse weights */
+    int32_t *buf[2];            /* [PE(x) | h] for the trunk, alternating */
+    int32_t *view_in, *view_h;  /* [feature | PE(d)], view hidden */
+    int32_t *vpe;               /* the ray's encoded view direction */
+} scratch;
+
+static uint32_t max_width(const cnerf_info *I, int view)
+{
+    uint32_t m = 1;
+    for (unsigned n = 0; n < I->n_nets; n++) {
+        const uint32_t v = view ? I->net[n].view_width : I->net[n].width;
+        m = v > m ? v : m;
+    }
+    return m;
+}
+
+static size_t round8(size_t n) { return (n + 7u) & ~(size_t)7u; }
+
+/* Carves the scratch; returns the bytes used (NULL base: only counts). */
+static size_t carve(const cnerf_info *I, uint8_t *base, scratch *s)
+{
+    const size_t nc = I->n_coarse, nf = I->n_fine, W = max_width(I, 0), V = max_width(I, 1);
+    const size_t sizes[8] = {8 * nc, 8 * (nf ? nf : 1), 8 * (nc + nf), 4 * nc,
+                             4 * (I->in_pos + W), 4 * (I->in_pos + W), 4 * (W + I->in_dir),
+                             4 * V + 4 * (size_t)I->in_dir};
+    void *p[8];
+    size_t off = 0;
+    for (unsigned i = 0; i < 8; i++) {
+        p[i] = base ? base + off : (void *)0;
+        off += round8(sizes[i]);
+    }
+    if (s) {
+        s->t_c = (int64_t *)p[0];
+        s->t_f = (int64_t *)p[1];
+        s->t_all = (int64_t *)p[2];
+        s->w_c = (uint32_t *)p[3];
+        s->buf[0] = (int32_t *)p[4];
+        s->buf[1] = (int32_t *)p[5];
+        s->view_in = (int32_t *)p[6];
+        s->view_h = (int32_t *)p[7];
+        s->vpe = s->view_h + V;
+    }
+    return off;
+}
+
+size_t cnerf_render_scratch_size(const cnerf_info *info)
+{
+    return info ? carve(info, (uint8_t *)0, (scratch *)0) : 0;
+}
+
+void cnerf_render_defaults(const cnerf_info *info, cnerf_render_opts *opts)
+{
+    if (!opts)
+        return;
+    opts->n_coarse = info ? info->n_coarse : 0;
+    opts->n_fine = info ? info->n_fine : 0;
+    opts->t_stop = 1u << 18; /* 2^30 / 4096 */
+}
+
+/* ---- one network at one point: raw (r, g, b, sigma) in Q16 ---- */
+
+static void net_eval(const cnerf_decoder *dec, unsigned net, const scratch *s, int32_t raw[4])
+{
+    const cnerf_info *I = &dec->info;
+    const cnerf_net_info *N = &I->net[net];
+    const uint32_t P = I->in_pos;
+    /* buf[0] and buf[1] both start with PE(x) (the caller wrote it into both). */
+    for (unsigned i = 0; i < N->depth; i++) {
+        const int32_t *in = s->buf[i & 1u];
+        const int skip_in = i == 0 || (N->skip != CNERF_NO_SKIP && i == N->skip + 1u);
+        linear(dec, N->first_layer + i, skip_in ? in : in + P, s->buf[(i + 1u) & 1u] + P, 1);
+    }
+    const int32_t *h = s->buf[N->depth & 1u] + P;
+    const unsigned l = N->first_layer + N->depth;
+    if (N->view_width) {
+        linear(dec, l, h, raw + 3, 0);
+        linear(dec, l + 1, h, s->view_in, 0);
+        linear(dec, l + 2, s->view_in, s->view_h, 1);
+        linear(dec, l + 3, s->view_h, raw, 0);
+    } else {
+        linear(dec, l, h, raw, 0);
+    }
+}
+
+/* ---- rays ---- */
+
+typedef struct ray {
+    int64_t o[3];   /* origin, Q32 */
+    int32_t d[3];   /* direction, Q28 */
+    int64_t vd[3];  /* unit view direction, Q32 */
+    int32_t dn;     /* |d| in Q27 */
+} ray;
+
+/* |v| of a Q28 vector in Q28 (< 2^32). */
+static uint32_t norm_q28(const int64_t v[3])
+{
+    uint64_t s = 0;
+    for (unsigned a = 0; a < 3; a++)
+        s += (uint64_t)(v[a] * v[a]); /* |v_a| < 2^31: each < 2^62, the sum < 2^64 */
+    return cn_isqrt64(s);
+}
+
+/* The ray through pixel (x, y); 0 when it cannot be represented (then the pixel shows the
+ * background: NDC rays parallel to the image plane or leaving the Q28 range). */
+static int make_ray(const cnerf_info *I, const cnerf_camera *c, int64_t sx_q28, int64_t sy_q28,
+                    uint32_t x, uint32_t y, ray *r)
+{
+    const int64_t u = cn_sdiv_frac((int64_t)x * 65536 + 32768 - c->cx, c->fx, 28);
+    const int64_t v = -cn_sdiv_frac((int64_t)y * 65536 + 32768 - c->cy, c->fy, 28);
+    int64_t d[3];
+    for (unsigned a = 0; a < 3; a++) {
+        const int64_t acc = (int64_t)c->rot[3 * a] * u + (int64_t)c->rot[3 * a + 1] * v -
+                            (int64_t)c->rot[3 * a + 2] * ((int64_t)1 << 28);
+        d[a] = cn_asr64(acc + ((int64_t)1 << 29), 30); /* |d_a| <= 5 2^28 */
+        r->o[a] = c->pos[a];
+    }
+    const uint32_t n = norm_q28(d);
+    if (n == 0)
+        return 0;
+    for (unsigned a = 0; a < 3; a++)
+        r->vd[a] = cn_sdiv_frac(d[a], n, 32);
+    if (I->coord == CNERF_COORD_NDC) {
+        /* Move to the near plane z = -1, then warp (docs/rendering.md). */
+        if (d[2] == 0)
+            return 0;
+        const int64_t tn = cn_sdiv_frac(-((int64_t)1 << 32) - r->o[2], d[2], 28); /* Q32 */
+        int64_t o[3];
+        for (unsigned a = 0; a < 3; a++)
+            o[a] = r->o[a] + cn_mul_exp(tn, (int32_t)d[a], -28);
+        if (o[2] == 0)
+            return 0;
+        const int64_t rx = cn_sdiv_frac(o[0], o[2], 32), ry = cn_sdiv_frac(o[1], o[2], 32);
+        const int64_t dx = cn_sdiv_frac(d[0], d[2], 32), dy = cn_sdiv_frac(d[1], d[2], 32);
+        const int32_t sx = (int32_t)sx_q28, sy = (int32_t)sy_q28;
+        r->o[0] = -cn_mul_exp(rx, sx, -28);
+        r->o[1] = -cn_mul_exp(ry, sy, -28);
+        r->o[2] = ((int64_t)1 << 32) + cn_sdiv_frac((int64_t)2 << 32, o[2], 32);
+        d[0] = -cn_mul_exp(dx - rx, sx, -32);
+        d[1] = -cn_mul_exp(dy - ry, sy, -32);
+        d[2] = -cn_sdiv_frac((int64_t)2 << 32, o[2], 28);
+        for (unsigned a = 0; a < 3; a++)
+            if (d[a] <= INT32_MIN || d[a] > INT32_MAX || cn_abs64(r->o[a]) > (uint64_t)MAX_POS_Q32)
+                return 0;
+    }
+    for (unsigned a = 0; a < 3; a++)
+        r->d[a] = (int32_t)d[a];
+    const int64_t dd[3] = {r->d[0], r->d[1], r->d[2]};
+    r->dn = (int32_t)(norm_q28(dd) >> 1);
+    return 1;
+}
+
+/* ---- sampling ---- */
+
+/* Fine samples from the coarse weights (docs/rendering.md): quantile j = (2j + 1) / (2 nf)
+ * of the pdf (w_i + eps) / sum, compared in integers as (2j + 1) W >= 2 nf U_i. */
+static void sample_fine(int64_t *t, unsigned nf, const uint32_t *w, unsigned nc, int64_t near,
+                        int64_t step)
+{
+    uint64_t total = 0;
+    for (unsigned i = 0; i < nc; i++)
+        total += (uint64_t)w[i] + PDF_EPS_Q30; /* < 2^31 + 2^24 */
+    unsigned i = 0;
+    uint64_t below = 0; /* sum over bins before i */
+    const uint64_t two_nf = 2u * (uint64_t)nf;
+    for (unsigned j = 0; j < nf; j++) {
+        const uint64_t target = (2u * (uint64_t)j + 1u) * total; /* < 2^43 */
+        while (i + 1 < nc && target >= two_nf * (below + w[i] + PDF_EPS_Q30)) {
+            below += (uint64_t)w[i] + PDF_EPS_Q30;
+            i++;
+        }
+        const uint64_t num = target - two_nf * below, den = two_nf * ((uint64_t)w[i] + PDF_EPS_Q30);
+        const uint64_t f = num >= den ? (uint64_t)1 << 24 : cn_udiv_frac(num, den, 24);
+        t[j] = near + (int64_t)i * step + cn_mul_exp(step, (int32_t)f, -24);
+    }
+}
+
+/* ---- marching one ray through one network ---- */
+
+typedef struct march {
+    uint32_t T;       /* transmittance after the last sample, Q30 */
+    int64_t rgb[3];   /* sum w c, Q46 */
+} march;
+
+static int inside(const cnerf_info *I, const int64_t p[3])
+{
+    for (unsigned a = 0; a < 3; a++)
+        if (p[a] < (int64_t)I->aabb_q16[a] * 65536 || p[a] > (int64_t)I->aabb_q16[a + 3] * 65536)
+            return 0;
+    return 1;
+}
+
+static void march_ray(const cnerf_decoder *dec, unsigned net, const scratch *s, const ray *r,
+                      const int64_t *t, unsigned n, int64_t far, uint32_t t_stop, uint32_t *w,
+                      march *m)
+{
+    const cnerf_info *I = &dec->info;
+    int64_t depth = 0; /* optical depth before sample i, Q16, at most MAX_DEPTH_Q16 */
+    uint32_t T = 1u << 30;
+    m->rgb[0] = m->rgb[1] = m->rgb[2] = 0;
+    for (unsigned i = 0; i < n; i++) {
+        if (w)
+            w[i] = 0;
+        if (T < t_stop || T == 0) {
+            continue;
+        }
+        int64_t p[3];
+        for (unsigned a = 0; a < 3; a++)
+            p[a] = r->o[a] + cn_mul_exp(t[i], r->d[a], -28);
+        if (!inside(I, p))
+            continue;
+        posenc(s->buf[0], p, I->l_pos, I->pe_flags & CNERF_PE_INCLUDE_INPUT);
+        for (uint32_t k = 0; k < I->in_pos; k++)
+            s->buf[1][k] = s->buf[0][k];
+        if (I->net[net].view_width)
+            for (uint32_t k = 0; k < I->in_dir; k++)
+                s->view_in[I->net[net].width + k] = s->vpe[k];
+        int32_t raw[4];
+        net_eval(dec, net, s, raw);
+        if (raw[3] <= 0)
+            continue;
+        const int64_t delta = (i + 1 < n ? t[i + 1] : far) - t[i];        /* Q32, >= 0 */
+        const int64_t dd = cn_mul_exp(delta, r->dn, -27);                  /* delta |d|, Q32 */
+        const int64_t sdep = cn_mul_exp(dd, raw[3], -32);                  /* Q16 */
+        depth = depth + sdep > MAX_DEPTH_Q16 ? MAX_DEPTH_Q16 : depth + sdep;
+        const uint32_t T1 = exp_neg(depth);
+        const uint32_t wi = T - T1;
+        T = T1;
+        if (w)
+            w[i] = wi;
+        for (unsigned c = 0; c < 3; c++)
+            m->rgb[c] += (int64_t)wi * sigmoid_q16(raw[c]);
+    }
+    m->T = T;
+}
+
+static uint8_t to_u8(int64_t rgb_q46, uint32_t T, uint8_t bg)
+{
+    const int64_t v = 255 * rgb_q46 + (int64_t)T * bg * 65536; /* Q46 of 255 C */
+    const int64_t q = (v + ((int64_t)1 << 45)) >> 46;          /* v >= 0 */
+    return (uint8_t)(q > 255 ? 255 : q);
+}
+
+static cnerf_status check_camera(const cnerf_info *I, const cnerf_camera *c)
+{
+    if (c->fx <= 0 || c->fy <= 0 || c->width == 0 || c->height == 0)
+        return CNERF_E_ARG;
+    if (I->coord == CNERF_COORD_NDC && (c->cx <= 0 || c->cy <= 0))
+        return CNERF_E_ARG;
+    for (unsigned i = 0; i < 9; i++)
+        if (c->rot[i] < -(1 << 30) || c->rot[i] > (1 << 30))
+            return CNERF_E_ARG;
+    for (unsigned a = 0; a < 3; a++)
+        if (cn_abs64(c->pos[a]) > (uint64_t)MAX_POS_Q32)
+            return CNERF_E_ARG;
+    /* u, v are affine in the pixel: their extremes are at the image corners. */
+    const int64_t xs[2] = {32768 - (int64_t)c->cx, (int64_t)c->width * 65536 - 32768 - c->cx};
+    const int64_t ys[2] = {32768 - (int64_t)c->cy, (int64_t)c->height * 65536 - 32768 - c->cy};
+    for (unsigned i = 0; i < 2; i++)
+        if (cn_abs64(cn_sdiv_frac(xs[i], c->fx, 28)) > (uint64_t)MAX_UV_Q28 ||
+            cn_abs64(cn_sdiv_frac(ys[i], c->fy, 28)) > (uint64_t)MAX_UV_Q28)
+            return CNERF_E_ARG;
+    return CNERF_OK;
+}
+
+cnerf_status cnerf_render_tile(const cnerf_decoder *dec, const cnerf_camera *cam,
+                               const cnerf_render_opts *opts, uint32_t x0, uint32_t y0,
+                               uint32_t w, uint32_t h, uint8_t *rgb, size_t stride,
+                               void *scratch_mem, size_t scratch_size)
+{
+    if (!dec || !cam || !rgb || !scratch_mem)
+        return CNERF_E_NULL;
+    const cnerf_info *I = &dec->info;
+    if (I->n_layers == 0 || !dec->latent[0])
+        return CNERF_E_ARG; /* not opened */
+    if (((uintptr_t)scratch_mem & (CNERF_WS_ALIGN - 1u)) != 0)
+        return CNERF_E_WS_ALIGN;
+    if (scratch_size < cnerf_render_scratch_size(I))
+        return CNERF_E_WS_SMALL;
+    cnerf_render_opts o;
+    cnerf_render_defaults(I, &o);
+    if (opts)
+        o = *opts;
+    if (o.n_coarse < 1u || o.n_coarse > I->n_coarse || o.n_fine > I->n_fine)
+        return CNERF_E_ARG;
+    if (w == 0 || h == 0 || x0 >= cam->width || y0 >= cam->height || w > cam->width - x0 ||
+        h > cam->height - y0)
+        return CNERF_E_ARG;
+    if (stride / 3u < w)
+        return CNERF_E_BUF_SMALL;
+    cnerf_status st = check_camera(I, cam);
+    if (st != CNERF_OK)
+        return st;
+
+    scratch s;
+    carve(I, (uint8_t *)scratch_mem, &s);
+    const unsigned nc = o.n_coarse, nf = I->n_nets > 1 ? o.n_fine : 0;
+    const unsigned net = nf ? 1u : 0u;
+    const int64_t near = (int64_t)I->near_q16 * 65536, far = (int64_t)I->far_q16 * 65536;
+    /* bin width (far - near) / nc in Q32, floored: far - near < 2^31 in Q16 */
+    const int64_t step =
+        (int64_t)cn_udiv_frac((uint64_t)((int64_t)I->far_q16 - I->near_q16), nc, 16);
+    for (unsigned i = 0; i < nc; i++)
+        s.t_c[i] = near + (int64_t)i * step + step / 2;
+    /* NDC scale factors fx / cx, fy / cy in Q28 (only used by NDC streams) */
+    int64_t sx = 0, sy = 0;
+    if (I->coord == CNERF_COORD_NDC) {
+        sx = cn_sdiv_frac(cam->fx, cam->cx, 28);
+        sy = cn_sdiv_frac(cam->fy, cam->cy, 28);
+        if (sx > INT32_MAX || sy > INT32_MAX)
+            return CNERF_E_ARG;
+    }
+
+    for (uint32_t yy = 0; yy < h; yy++) {
+        uint8_t *row = rgb + (size_t)yy * stride;
+        for (uint32_t xx = 0; xx < w; xx++) {
+            ray r;
+            march m;
+            m.T = 1u << 30;
+            m.rgb[0] = m.rgb[1] = m.rgb[2] = 0;
+            if (make_ray(I, cam, sx, sy, x0 + xx, y0 + yy, &r)) {
+                posenc(s.vpe, r.vd, I->l_dir, I->pe_flags & CNERF_PE_INCLUDE_INPUT);
+                march_ray(dec, 0, &s, &r, s.t_c, nc, far, o.t_stop, s.w_c, &m);
+                if (net == 1) {
+                    sample_fine(s.t_f, nf, s.w_c, nc, near, step);
+                    unsigned i = 0, j = 0, k = 0;
+                    while (i < nc && j < nf)
+                        s.t_all[k++] = s.t_c[i] <= s.t_f[j] ? s.t_c[i++] : s.t_f[j++];
+                    while (i < nc)
+                        s.t_all[k++] = s.t_c[i++];
+                    while (j < nf)
+                        s.t_all[k++] = s.t_f[j++];
+                    march_ray(dec, 1, &s, &r, s.t_all, nc + nf, far, o.t_stop, (uint32_t *)0,
+                              &m);
+                }
+            }
+            for (unsigned c = 0; c < 3; c++)
+                row[3 * xx + c] = to_u8(m.rgb[c], m.T, I->background[c]);
+        }
+    }
+    return CNERF_OK;
+}

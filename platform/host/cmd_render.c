@@ -1,0 +1,316 @@
+/* cnerf render scene.cnrf: renders views with the fixed-point decoder (tile by tile), compares
+ * them with the float reference renderer of the same file and, with a dataset, with the
+ * ground truth. Without a dataset it renders an orbit around the scene's centre. */
+#include <math.h>
+#include <md5.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli.h"
+#include "cli_args.h"
+#include "cn_dataset.h"
+#include "cn_fixcam.h"
+#include "cn_image.h"
+#include "cn_metrics.h"
+#include "cn_train.h"
+#include "progress.h"
+
+#define RENDER_USAGE                                                                          \
+    "usage: cnerf render scene.cnrf [--dataset DIR [--split test|val|train] [--downscale F]\n" \
+    "       [--every N]] [--orbit N [--size PX] [--radius R] [--elevation DEG] [--fov DEG]]\n" \
+    "       [-o DIR] [--float] [--verify MD5] [--coarse N] [--fine N] [--t-stop X]\n"        \
+    "       [--tile PX] [--threads T]"
+
+typedef struct render_cfg {
+    cnerf_render_opts opts;
+    long tile;
+} render_cfg;
+
+/* The fixed-point render of one camera, tile by tile (tiles in parallel). */
+static int render_fixed(const cnerf_decoder *dec, const cnerf_camera *cam, const render_cfg *cfg,
+                        uint8_t *px, char *err, size_t errlen)
+{
+    const size_t need = cnerf_render_scratch_size(&dec->info);
+    const int W = cam->width, H = cam->height, T = (int)cfg->tile;
+    const int tx = (W + T - 1) / T, ty = (H + T - 1) / T;
+    int bad = 0;
+    cnerf_status first = CNERF_OK;
+#pragma omp parallel
+    {
+        void *scratch = aligned_alloc(CNERF_WS_ALIGN, (need + 7) & ~(size_t)7);
+#pragma omp for schedule(dynamic, 1)
+        for (int k = 0; k < tx * ty; k++) {
+            const int x0 = k % tx * T, y0 = k / tx * T;
+            const int w = x0 + T > W ? W - x0 : T, h = y0 + T > H ? H - y0 : T;
+            cnerf_status st = scratch ? cnerf_render_tile(dec, cam, &cfg->opts, (uint32_t)x0,
+                                                          (uint32_t)y0, (uint32_t)w, (uint32_t)h,
+                                                          px + ((size_t)y0 * W + x0) * 3,
+                                                          (size_t)W * 3, scratch, need)
+                                      : CNERF_E_WS_SMALL;
+            if (st != CNERF_OK) {
+#pragma omp critical
+                {
+                    bad = 1;
+                    first = st;
+                }
+            }
+        }
+        free(scratch);
+    }
+    if (bad)
+        snprintf(err, errlen, "the decoder refuses to render: %s", cnerf_status_str(first));
+    return bad ? -1 : 0;
+}
+
+static double psnr_u8(const uint8_t *a, const uint8_t *b, size_t n, int *maxdiff)
+{
+    double s = 0;
+    int md = 0;
+    for (size_t i = 0; i < n; i++) {
+        const int d = (int)a[i] - (int)b[i];
+        s += (double)d * d;
+        md = abs(d) > md ? abs(d) : md;
+    }
+    *maxdiff = md;
+    return s == 0 ? INFINITY : 10.0 * log10(255.0 * 255.0 / (s / (double)n));
+}
+
+static void to_u8(const float *rgb, uint8_t *px, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        float v = rgb[i] * 255.0f + 0.5f;
+        px[i] = (uint8_t)(v < 0 ? 0 : v > 255 ? 255 : v);
+    }
+}
+
+static void to_float(const uint8_t *px, float *rgb, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        rgb[i] = px[i] / 255.0f;
+}
+
+/* An orbit camera: view k of n on a circle of `radius` at `elev` degrees, looking at the
+ * origin with the z axis up (Blender scenes). */
+static void orbit_camera(int k, int n, double radius, double elev, double fov, int size,
+                         cn_camera *c)
+{
+    const double th = 2.0 * M_PI * k / n, ph = elev * M_PI / 180.0;
+    const double pos[3] = {radius * cos(ph) * cos(th), radius * cos(ph) * sin(th),
+                           radius * sin(ph)};
+    double back[3], right[3], up[3];
+    const double r = sqrt(pos[0] * pos[0] + pos[1] * pos[1] + pos[2] * pos[2]);
+    for (int a = 0; a < 3; a++)
+        back[a] = pos[a] / r;
+    /* right = (0, 0, 1) x back, normalised; up = back x right */
+    right[0] = -back[1], right[1] = back[0], right[2] = 0;
+    const double rn = sqrt(right[0] * right[0] + right[1] * right[1]);
+    for (int a = 0; a < 3; a++)
+        right[a] /= rn;
+    up[0] = back[1] * right[2] - back[2] * right[1];
+    up[1] = back[2] * right[0] - back[0] * right[2];
+    up[2] = back[0] * right[1] - back[1] * right[0];
+    for (int a = 0; a < 3; a++) {
+        c->c2w[a][0] = right[a];
+        c->c2w[a][1] = up[a];
+        c->c2w[a][2] = back[a];
+        c->c2w[a][3] = pos[a];
+    }
+    c->w = c->h = size;
+    c->fx = c->fy = 0.5 * size / tan(0.5 * fov * M_PI / 180.0);
+    c->cx = c->cy = 0.5 * size;
+}
+
+int cmd_render(int argc, char **argv)
+{
+    const char *dataset = NULL, *split = "test", *outdir = NULL, *verify = NULL, *pos[1];
+    long downscale = 1, every = 1, threads = 0, orbit = 0, size = 100, coarse = -1, fine = -1;
+    long tile = 32;
+    double radius = 4.0, elev = 30.0, fov = 40.0, t_stop = -1;
+    int use_float = 0, n_pos;
+    const cli_opt opts[] = {
+        {"--dataset", CLI_STR, &dataset, 0, 0},
+        {"--split", CLI_STR, &split, 0, 0},
+        {"--downscale", CLI_LONG, &downscale, 1, 64},
+        {"--every", CLI_LONG, &every, 1, 1e6},
+        {"--orbit", CLI_LONG, &orbit, 1, 10000},
+        {"--size", CLI_LONG, &size, 1, 65535},
+        {"--radius", CLI_DOUBLE, &radius, 1e-3, 1e4},
+        {"--elevation", CLI_DOUBLE, &elev, -89, 89},
+        {"--fov", CLI_DOUBLE, &fov, 1, 120},
+        {"-o", CLI_STR, &outdir, 0, 0},
+        {"--float", CLI_FLAG, &use_float, 0, 0},
+        {"--verify", CLI_STR, &verify, 0, 0},
+        {"--coarse", CLI_LONG, &coarse, 1, CNERF_MAX_SAMPLES},
+        {"--fine", CLI_LONG, &fine, 0, CNERF_MAX_SAMPLES},
+        {"--t-stop", CLI_DOUBLE, &t_stop, 0, 1},
+        {"--tile", CLI_LONG, &tile, 1, 65535},
+        {"--threads", CLI_LONG, &threads, 1, 256},
+    };
+    if (cli_parse("render", RENDER_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
+                  &n_pos))
+        return 1;
+    if (n_pos != 1)
+        return cli_fail("render", "need a stream file\n%s", RENDER_USAGE);
+    if (!dataset == !orbit)
+        return cli_fail("render", "give either --dataset DIR or --orbit N\n%s", RENDER_USAGE);
+    if (verify && (strlen(verify) != 32 || strspn(verify, "0123456789abcdef") != 32))
+        return cli_fail("render", "--verify takes 32 lower-case hex digits, not '%s'", verify);
+    cli_set_threads(threads);
+
+    cli_stream st;
+    cn_model ref;
+    if (cli_stream_open("render", pos[0], &st, &ref))
+        return 1;
+    const cnerf_info *I = &st.dec->info;
+    render_cfg cfg = {.tile = tile};
+    cnerf_render_defaults(I, &cfg.opts);
+    if (coarse >= 0)
+        cfg.opts.n_coarse = (uint16_t)coarse;
+    if (fine >= 0)
+        cfg.opts.n_fine = (uint16_t)fine;
+    if (t_stop >= 0)
+        cfg.opts.t_stop = (uint32_t)llround(t_stop * 1073741824.0);
+    int rc = 0;
+    if (cfg.opts.n_coarse > I->n_coarse || cfg.opts.n_fine > I->n_fine)
+        rc = cli_fail("render", "%s has %u coarse and %u fine samples: --coarse %u --fine %u "
+                      "asks for more", pos[0], I->n_coarse, I->n_fine, cfg.opts.n_coarse,
+                      cfg.opts.n_fine);
+    /* The float reference with the same sample counts. */
+    ref.topo.n_coarse = cfg.opts.n_coarse;
+    ref.topo.n_fine = cfg.opts.n_fine;
+    if (ref.topo.n_fine == 0)
+        ref.topo.n_nets = 1;
+
+    cn_dataset ds;
+    memset(&ds, 0, sizeof ds);
+    const cn_view *views = NULL;
+    int n = orbit ? (int)orbit : 0;
+    const int black = I->background[0] == 0 && I->background[1] == 0 && I->background[2] == 0;
+    if (rc == 0 && dataset) {
+        if (cli_load_dataset("render", dataset, downscale, black, 0, 0, &ds))
+            rc = 1;
+        else
+            rc = cli_split_views("render", &ds, dataset, split, &views, &n);
+        if (rc == 0 && ds.ndc != (I->coord == CNERF_COORD_NDC))
+            rc = cli_fail("render", "%s is %s but %s was encoded %s", dataset,
+                          ds.ndc ? "forward-facing (NDC)" : "a 360-degree scene", pos[0],
+                          I->coord == CNERF_COORD_NDC ? "in NDC" : "in world coordinates");
+    }
+    if (rc == 0 && outdir)
+        rc = cli_make_dir("render", outdir);
+
+    MD5_CTX all;
+    MD5Init(&all);
+    double sum_gt = 0, sum_ref_gt = 0, sum_ssim = 0, sum_vs = 0, sum_ms = 0;
+    int count = 0, worst = 0, inf_count = 0;
+    char err[1024];
+    for (int i = 0; rc == 0 && i < n; i += dataset ? (int)every : 1) {
+        cn_camera cam;
+        char name[80];
+        if (dataset) {
+            cn_view_camera(&views[i], &cam);
+            snprintf(name, sizeof name, "%s", views[i].name);
+        } else {
+            orbit_camera(i, n, radius, elev, fov, (int)size, &cam);
+            snprintf(name, sizeof name, "orbit_%03d", i);
+        }
+        cnerf_camera fc;
+        if (cnerf_camera_from_float(&cam, &fc, err, sizeof err)) {
+            rc = cli_fail("render", "%s: %s", name, err);
+            break;
+        }
+        const size_t npx = (size_t)cam.w * cam.h, nv = 3 * npx;
+        uint8_t *px = malloc(nv), *refpx = malloc(nv);
+        float *rgb = malloc(sizeof(float) * nv);
+        if (!px || !refpx || !rgb) {
+            free(px), free(refpx), free(rgb);
+            rc = cli_fail("render", "out of memory");
+            break;
+        }
+        double t0 = cli_now();
+        if (!use_float && render_fixed(st.dec, &fc, &cfg, px, err, sizeof err)) {
+            free(px), free(refpx), free(rgb);
+            rc = cli_fail("render", "%s: %s", name, err);
+            break;
+        }
+        const double ms = (cli_now() - t0) * 1e3;
+        if (cn_render_view(&ref, &cam, I->coord == CNERF_COORD_NDC, rgb, 4096)) {
+            free(px), free(refpx), free(rgb);
+            rc = cli_fail("render", "out of memory");
+            break;
+        }
+        to_u8(rgb, refpx, nv);
+        if (use_float)
+            memcpy(px, refpx, nv);
+        char hex[33];
+        MD5_CTX one;
+        MD5Init(&one);
+        MD5Update(&one, px, nv);
+        MD5End(&one, hex);
+        MD5Update(&all, px, nv);
+        int md;
+        const double vs = psnr_u8(px, refpx, nv, &md);
+        printf("  %-12s", name);
+        if (dataset) {
+            to_float(px, rgb, nv);
+            const double g = cn_psnr_from_mse(cn_mse(rgb, views[i].rgb, nv));
+            const double s = cn_ssim(rgb, views[i].rgb, cam.w, cam.h);
+            to_float(refpx, rgb, nv);
+            const double rg = cn_psnr_from_mse(cn_mse(rgb, views[i].rgb, nv));
+            printf(" psnr %6.2f dB  ssim %.4f (float reference %6.2f dB)", g, s, rg);
+            sum_gt += g, sum_ssim += s, sum_ref_gt += rg;
+        }
+        if (!use_float) {
+            printf("  vs float %6.2f dB, max diff %d", vs, md);
+            printf("  %8.1f ms", ms);
+        }
+        printf("  md5 %s\n", hex);
+        fflush(stdout);
+        if (isinf(vs))
+            inf_count++;
+        else
+            sum_vs += vs;
+        worst = md > worst ? md : worst;
+        sum_ms += ms;
+        count++;
+        if (outdir) {
+            char path[4096];
+            snprintf(path, sizeof path, "%s/%s.png", outdir, name);
+            if (cn_png_write_rgb8(path, px, cam.w, cam.h, (size_t)cam.w * 3, err, sizeof err))
+                rc = cli_fail("render", "%s", err);
+        }
+        free(px), free(refpx), free(rgb);
+    }
+    if (rc == 0 && count) {
+        printf("mean over %d views (%s, %u+%u samples, t_stop %.3g):", count,
+               use_float ? "float reference" : "fixed point", cfg.opts.n_coarse,
+               I->n_nets > 1 ? cfg.opts.n_fine : 0, cfg.opts.t_stop / 1073741824.0);
+        if (dataset)
+            printf(" psnr %.2f dB  ssim %.4f (float reference %.2f dB)", sum_gt / count,
+                   sum_ssim / count, sum_ref_gt / count);
+        if (!use_float) {
+            if (inf_count == count)
+                printf("  vs float: identical");
+            else
+                printf("  vs float %.2f dB (%d identical views)", sum_vs / (count - inf_count),
+                       inf_count);
+            printf(", max diff %d  %.1f ms/frame", worst, sum_ms / count);
+        }
+        printf("\n");
+        char hex[33];
+        MD5End(&all, hex);
+        printf("md5 of all frames: %s\n", hex);
+        if (verify && strcmp(hex, verify)) {
+            rc = cli_fail("render", "verification failed: the frames' md5 is %s, expected %s",
+                          hex, verify);
+        } else if (verify) {
+            printf("verified: %s\n", hex);
+        }
+    }
+    cn_dataset_free(&ds);
+    cn_model_free(&ref);
+    cli_stream_free(&st);
+    return rc;
+}
