@@ -34,6 +34,7 @@ typedef struct cn_train_opts {
     double lambda;
     double levels;   /* initial latent spread in integer steps (a = Glorot limit / levels) */
     double lr_prior; /* learning rate of the priors */
+    double lr_affine; /* learning rate of the affine decoders (a, b) */
 } cn_train_opts;
 
 /* NeRF's defaults: 1024 rays, 5e-4 decaying tenfold over 500k steps, preset "small",

@@ -29,6 +29,7 @@ void cn_train_defaults(cn_train_opts *o)
     o->lambda = 0;
     o->levels = 8;
     o->lr_prior = 5e-5;
+    o->lr_affine = getenv("CNERF_LR_AFFINE") ? atof(getenv("CNERF_LR_AFFINE")) : 5e-4;
 }
 
 static int32_t q16(double v) { return (int32_t)lround(v * 65536.0); }
@@ -262,7 +263,12 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
         rate = cn_model_rate(m, seed ^ 0xA5A5A5A5ull, (float)t->opts.lambda);
     t->step++;
     const double decay = cn_trainer_lr(t) / t->opts.lr;
-    adam_range(m, 0, m->off_prior, cn_trainer_lr(t), t->step);
+    if (m->compressed) {
+        adam_range(m, 0, m->off_ab, cn_trainer_lr(t), t->step);
+        adam_range(m, m->off_ab, m->off_prior, t->opts.lr_affine * decay, t->step);
+    } else {
+        adam_range(m, 0, m->off_prior, cn_trainer_lr(t), t->step);
+    }
     if (m->compressed)
         adam_range(m, m->off_prior, m->n_params, t->opts.lr_prior * decay, t->step);
     if (mse_last)

@@ -99,17 +99,33 @@ typedef struct scene {
 
 /* A trained-looking scene is not needed to test arithmetic: a synthetic model whose
  * latents are spread like a trained one, opened by the decoder, and its float reference. */
-static void make_scene(scene *s, const cnerf_info *hdr, double spread, uint64_t seed)
+/* Optional edit of the synthetic model before it is written. */
+typedef void (*edit_fn)(cn_synth *syn, const cnerf_info *I);
+
+static void make_scene_edit(scene *s, const cnerf_info *hdr, double spread, uint64_t seed,
+                            edit_fn edit)
 {
     cn_synth syn;
+    char err[256];
     memset(s, 0, sizeof *s);
-    tu_synth_stream(hdr, seed, spread, &s->buf, &syn);
+    if (cn_synth_make(&syn, hdr, seed, spread, err, sizeof err))
+        fail_msg("synth: %s", err);
+    cnerf_info I = *hdr; /* with the expanded topology */
+    assert_int_equal(cnerf_expand_topology(&I), CNERF_OK);
+    if (edit)
+        edit(&syn, &I);
+    if (cn_write_stream(&syn.src, &s->buf, NULL, err, sizeof err))
+        fail_msg("write: %s", err);
     cn_synth_free(&syn);
     assert_int_equal(tu_open(&s->dec, s->buf.p, s->buf.n, &s->ws), CNERF_OK);
-    char err[256];
     assert_int_equal(cn_model_from_stream(&s->dec, &s->ref, err, sizeof err), 0);
     s->scratch_size = cnerf_render_scratch_size(&s->dec.info);
     s->scratch = aligned_alloc(8, (s->scratch_size + 7) & ~(size_t)7);
+}
+
+static void make_scene(scene *s, const cnerf_info *hdr, double spread, uint64_t seed)
+{
+    make_scene_edit(s, hdr, spread, seed, NULL);
 }
 
 static void free_scene(scene *s)
@@ -149,6 +165,7 @@ static void look_at(cn_camera *c, double px, double py, double pz, int w, int h,
 typedef struct cmp {
     double psnr;
     int maxdiff, n_over2;
+    size_t n_scene; /* pixels that are not the background: the test saw the scene */
 } cmp;
 
 /* Renders cam with both renderers, the fixed one in tiles of `tile` pixels. */
@@ -171,7 +188,9 @@ static cmp compare(scene *s, const cn_camera *cam, unsigned tile, uint8_t *out)
         }
     assert_int_equal(cn_render_view(&s->ref, cam, s->dec.info.coord == CNERF_COORD_NDC, rgb,
                                     4096), 0);
-    cmp c = {0, 0, 0};
+    cmp c = {0, 0, 0, 0};
+    for (size_t i = 0; i < n; i += 3)
+        c.n_scene += memcmp(px + i, s->dec.info.background, 3) != 0;
     double se = 0;
     for (size_t i = 0; i < n; i++) {
         const float v = rgb[i] * 255.0f + 0.5f;
@@ -205,12 +224,371 @@ static void test_matches_float(void **state)
     free_scene(&s);
 }
 
+
+/* Renders the whole image of cam in one tile; returns a malloc'd RGB buffer. */
+static uint8_t *render_all(scene *s, const cn_camera *cam, const cnerf_render_opts *o)
+{
+    cnerf_camera fc;
+    char err[256];
+    assert_int_equal(cnerf_camera_from_float(cam, &fc, err, sizeof err), 0);
+    uint8_t *px = malloc((size_t)cam->w * cam->h * 3);
+    assert_int_equal(cnerf_render_tile(&s->dec, &fc, o, 0, 0, (uint32_t)cam->w,
+                                       (uint32_t)cam->h, px, (size_t)cam->w * 3, s->scratch,
+                                       s->scratch_size),
+                     CNERF_OK);
+    return px;
+}
+
+static void expect_background(const scene *s, const uint8_t *px, size_t npx)
+{
+    for (size_t i = 0; i < npx; i++)
+        for (int c = 0; c < 3; c++)
+            assert_int_equal(px[3 * i + c], s->dec.info.background[c]);
+}
+
+/* Rays that miss the bounds: every pixel is exactly the background. */
+static void test_rays_miss(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    tu_small_header(&hdr, 2, 8, 1);
+    scene s;
+    make_scene(&s, &hdr, 3.0, 3);
+    cn_camera cam;
+    look_at(&cam, 0, 0, 4.0, 9, 9, 30);
+    for (int a = 0; a < 3; a++) /* turn around: look away from the scene */
+        cam.c2w[a][2] = -cam.c2w[a][2], cam.c2w[a][0] = -cam.c2w[a][0];
+    uint8_t *px = render_all(&s, &cam, NULL);
+    expect_background(&s, px, 81);
+    free(px);
+    free_scene(&s);
+}
+
+static int density_e = -5;
+
+/* Raises the density heads' biases to 32767 2^density_e. */
+static void dense(cn_synth *syn, const cnerf_info *I)
+{
+    for (unsigned n = 0; n < I->n_nets; n++) {
+        const unsigned l = I->net[n].first_layer + I->net[n].depth;
+        syn->bias[l][0] = 32767;
+        syn->src.layer[l].bias_e = (int8_t)density_e;
+    }
+}
+
+/* The camera inside the volume, and rays along each axis (exact 0 / +-1 rotations): the
+ * fixed-point image stays within the float reference's tolerance. */
+static void test_inside_and_axes(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    tu_small_header(&hdr, 3, 16, 1);
+    hdr.near_q16 = 0; /* so that a camera inside the bounds sees its surroundings */
+    scene s;
+    density_e = -15; /* sigma about 1 plus the network's own: a fog with structure */
+    make_scene_edit(&s, &hdr, 3.0, 21, dense);
+    const double at[][3] = {{0.3, -0.2, 0.1}, {4, 0, 0}, {0, -4, 0}, {0, 0, 4}, {-4, 0, 0}};
+    for (unsigned k = 0; k < sizeof at / sizeof at[0]; k++) {
+        cn_camera cam;
+        look_at(&cam, at[k][0], at[k][1], at[k][2], 15, 13, k == 0 ? 90 : 30);
+        const cmp c = compare(&s, &cam, 15, NULL);
+        printf("camera %u: %.2f dB, max diff %d, %zu scene pixels\n", k, c.psnr, c.maxdiff,
+               c.n_scene);
+        assert_true(c.n_scene > 15 * 13 / 4);
+        assert_true(c.psnr >= 50.0);
+        assert_true(c.maxdiff <= 2);
+    }
+    free_scene(&s);
+}
+
+/* near = far - 2^-16: one tiny interval; both renderers give nearly the background. */
+static void test_near_far(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    tu_small_header(&hdr, 2, 8, 1);
+    hdr.near_q16 = 3 * 65536;
+    hdr.far_q16 = hdr.near_q16 + 1;
+    scene s;
+    make_scene(&s, &hdr, 3.0, 4);
+    cn_camera cam;
+    look_at(&cam, 0, 0, 3.5, 8, 8, 30);
+    const cmp c = compare(&s, &cam, 8, NULL);
+    assert_true(c.maxdiff <= 1);
+    free_scene(&s);
+}
+
+/* Huge densities: the first sample inside the bounds takes the whole weight; no overflow. */
+static void test_saturation(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    tu_small_header(&hdr, 2, 8, 1);
+    scene s;
+    density_e = -5; /* sigma about 1024: every ray saturates in its first sample */
+    make_scene_edit(&s, &hdr, 3.0, 5, dense);
+    cn_camera cam;
+    look_at(&cam, 2, 3, 1, 12, 12, 40);
+    const cmp c = compare(&s, &cam, 5, NULL);
+    printf("saturated: %.2f dB, max diff %d, %zu scene pixels\n", c.psnr, c.maxdiff, c.n_scene);
+    assert_true(c.n_scene > 12 * 12 / 4);
+    assert_true(c.maxdiff <= 2);
+    free_scene(&s);
+}
+
+static void zero_layers(cn_synth *syn, const cnerf_info *I)
+{
+    for (unsigned l = 0; l < I->n_layers; l++) {
+        const cnerf_layer_info *L = &I->layer[l];
+        memset(syn->k[l], 0, sizeof(int32_t) * L->n_in * L->n_out);
+        memset(syn->bias[l], 0, sizeof(int32_t) * L->n_out);
+        syn->src.layer[l].a_m = syn->src.layer[l].b_m = 0;
+    }
+}
+
+/* All-zero layers: zero density everywhere, so the image is the background. */
+static void test_zero_layers(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    tu_small_header(&hdr, 3, 8, 1);
+    scene s;
+    make_scene_edit(&s, &hdr, 3.0, 6, zero_layers);
+    cn_camera cam;
+    look_at(&cam, 2, -3, 1, 10, 10, 40);
+    uint8_t *px = render_all(&s, &cam, NULL);
+    expect_background(&s, px, 100);
+    free(px);
+    free_scene(&s);
+}
+
+static int extreme_sign;
+
+static void extreme(cn_synth *syn, const cnerf_info *I)
+{
+    for (unsigned l = 0; l < I->n_layers; l++) {
+        const cnerf_layer_info *L = &I->layer[l];
+        for (size_t i = 0; i < (size_t)L->n_in * L->n_out; i++)
+            syn->k[l][i] = i % 3 == 0 ? CNERF_MAX_ABS_K : -CNERF_MAX_ABS_K;
+        syn->src.layer[l].a_m = extreme_sign * CNERF_M24_ABS_MAX;
+        syn->src.layer[l].a_e = (int8_t)(extreme_sign > 0 ? CNERF_EXP_MAX : CNERF_EXP_MIN);
+        syn->src.layer[l].b_m = -CNERF_M24_ABS_MAX;
+        syn->src.layer[l].b_e = CNERF_EXP_MAX;
+        for (unsigned j = 0; j < L->n_out; j++)
+            syn->bias[l][j] = j & 1 ? 32767 : -32768;
+        syn->src.layer[l].bias_e = CNERF_EXP_MAX;
+    }
+}
+
+/* The largest latents and the most extreme affine decoders and biases the parser accepts:
+ * every sum saturates instead of overflowing (UBSan would report it), the image is the same
+ * every time and every tiling. */
+static void test_extreme_values(void **state)
+{
+    (void)state;
+    for (extreme_sign = -1; extreme_sign <= 1; extreme_sign += 2) {
+        cnerf_info hdr;
+        tu_small_header(&hdr, 3, 8, 1);
+        scene s;
+        make_scene_edit(&s, &hdr, 3.0, 7, extreme);
+        cn_camera cam;
+        look_at(&cam, 2, -3, 1, 6, 6, 40);
+        uint8_t *a = render_all(&s, &cam, NULL), *b = render_all(&s, &cam, NULL);
+        assert_memory_equal(a, b, 6 * 6 * 3);
+        free(a), free(b);
+        free_scene(&s);
+    }
+}
+
+/* Points far outside the encoding's usual range: a scene 30,000 units wide seen from the
+ * edge of the camera range. No overflow; the phases wrap. */
+static void test_far_points(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    tu_small_header(&hdr, 2, 8, 1);
+    for (int a = 0; a < 3; a++) {
+        hdr.aabb_q16[a] = -30000 * 65536;
+        hdr.aabb_q16[a + 3] = 30000 * 65536;
+    }
+    hdr.near_q16 = 1 * 65536;
+    hdr.far_q16 = 32000 * 65536;
+    scene s;
+    make_scene(&s, &hdr, 3.0, 8);
+    cn_camera cam;
+    look_at(&cam, 20000, -20000, 5000, 6, 6, 40);
+    uint8_t *a = render_all(&s, &cam, NULL);
+    free(a);
+    free_scene(&s);
+}
+
+/* 1x1 tiles, odd tiles clipped at the borders and one image-sized tile give the same bytes. */
+static void test_tilings(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    tu_small_header(&hdr, 3, 16, 1);
+    scene s;
+    make_scene(&s, &hdr, 3.0, 9);
+    cn_camera cam;
+    look_at(&cam, 2.5, 3, 1.5, 17, 11, 40);
+    const size_t n = 17 * 11 * 3;
+    uint8_t *whole = render_all(&s, &cam, NULL), *tiled = malloc(n);
+    const unsigned sizes[] = {1, 4, 7, 16};
+    for (unsigned k = 0; k < 4; k++) {
+        memset(tiled, 0, n);
+        compare(&s, &cam, sizes[k], tiled);
+        assert_memory_equal(whole, tiled, n);
+    }
+    free(whole), free(tiled);
+    free_scene(&s);
+}
+
+/* Every bad argument gets its status and leaves the output untouched. */
+static void test_bad_arguments(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    tu_small_header(&hdr, 2, 8, 1);
+    scene s;
+    make_scene(&s, &hdr, 3.0, 10);
+    cn_camera cam;
+    look_at(&cam, 2, 3, 1, 8, 8, 40);
+    cnerf_camera fc;
+    char err[256];
+    assert_int_equal(cnerf_camera_from_float(&cam, &fc, err, sizeof err), 0);
+    uint8_t px[8 * 8 * 3], ref[8 * 8 * 3];
+    memset(px, 0xAB, sizeof px);
+    memcpy(ref, px, sizeof px);
+    void *sc = s.scratch;
+    const size_t ss = s.scratch_size;
+    assert_int_equal(cnerf_render_tile(NULL, &fc, NULL, 0, 0, 8, 8, px, 24, sc, ss), CNERF_E_NULL);
+    assert_int_equal(cnerf_render_tile(&s.dec, NULL, NULL, 0, 0, 8, 8, px, 24, sc, ss), CNERF_E_NULL);
+    assert_int_equal(cnerf_render_tile(&s.dec, &fc, NULL, 0, 0, 8, 8, NULL, 24, sc, ss), CNERF_E_NULL);
+    assert_int_equal(cnerf_render_tile(&s.dec, &fc, NULL, 0, 0, 8, 8, px, 24, NULL, ss), CNERF_E_NULL);
+    assert_int_equal(cnerf_render_tile(&s.dec, &fc, NULL, 0, 0, 8, 8, px, 24, (char *)sc + 4, ss),
+                     CNERF_E_WS_ALIGN);
+    assert_int_equal(cnerf_render_tile(&s.dec, &fc, NULL, 0, 0, 8, 8, px, 24, sc, ss - 1),
+                     CNERF_E_WS_SMALL);
+    assert_int_equal(cnerf_render_tile(&s.dec, &fc, NULL, 0, 0, 8, 8, px, 23, sc, ss),
+                     CNERF_E_BUF_SMALL);
+    assert_int_equal(cnerf_render_tile(&s.dec, &fc, NULL, 1, 0, 8, 8, px, 24, sc, ss), CNERF_E_ARG);
+    assert_int_equal(cnerf_render_tile(&s.dec, &fc, NULL, 0, 8, 1, 1, px, 24, sc, ss), CNERF_E_ARG);
+    assert_int_equal(cnerf_render_tile(&s.dec, &fc, NULL, 0, 0, 0, 8, px, 24, sc, ss), CNERF_E_ARG);
+    cnerf_render_opts o;
+    cnerf_render_defaults(&s.dec.info, &o);
+    o.n_coarse = 0;
+    assert_int_equal(cnerf_render_tile(&s.dec, &fc, &o, 0, 0, 8, 8, px, 24, sc, ss), CNERF_E_ARG);
+    cnerf_render_defaults(&s.dec.info, &o);
+    o.n_fine = (uint16_t)(s.dec.info.n_fine + 1);
+    assert_int_equal(cnerf_render_tile(&s.dec, &fc, &o, 0, 0, 8, 8, px, 24, sc, ss), CNERF_E_ARG);
+    cnerf_camera bad = fc;
+    bad.fx = 0;
+    assert_int_equal(cnerf_render_tile(&s.dec, &bad, NULL, 0, 0, 8, 8, px, 24, sc, ss), CNERF_E_ARG);
+    bad = fc;
+    bad.fx = bad.fy = 65536; /* 8 pixels at focal length 1: |u| = 4, beyond the Q28 range */
+    assert_int_equal(cnerf_render_tile(&s.dec, &bad, NULL, 0, 0, 8, 8, px, 24, sc, ss), CNERF_E_ARG);
+    bad = fc;
+    bad.rot[4] = (1 << 30) + 1;
+    assert_int_equal(cnerf_render_tile(&s.dec, &bad, NULL, 0, 0, 8, 8, px, 24, sc, ss), CNERF_E_ARG);
+    bad = fc;
+    bad.pos[2] = ((int64_t)1 << 47) + 1;
+    assert_int_equal(cnerf_render_tile(&s.dec, &bad, NULL, 0, 0, 8, 8, px, 24, sc, ss), CNERF_E_ARG);
+    assert_memory_equal(px, ref, sizeof px);
+    cnerf_decoder closed;
+    memset(&closed, 0, sizeof closed);
+    assert_int_equal(cnerf_render_tile(&closed, &fc, NULL, 0, 0, 8, 8, px, 24, sc, ss), CNERF_E_ARG);
+    free_scene(&s);
+}
+
+/* Fewer samples and early termination are approximations of the full render: their error
+ * against it shrinks as the knobs approach the defaults. */
+static void test_knobs(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    tu_small_header(&hdr, 3, 16, 1);
+    scene s;
+    make_scene(&s, &hdr, 3.0, 11);
+    cn_camera cam;
+    look_at(&cam, 2.5, -3, 1.5, 12, 12, 40);
+    cnerf_render_opts o;
+    cnerf_render_defaults(&s.dec.info, &o);
+    o.t_stop = 0;
+    uint8_t *exact = render_all(&s, &cam, &o);
+    o.t_stop = 1u << 18;
+    uint8_t *stop = render_all(&s, &cam, &o);
+    for (size_t i = 0; i < 12 * 12 * 3; i++) /* the bound of docs/fixed-point.md: 1/4096 */
+        assert_true(abs((int)exact[i] - (int)stop[i]) <= 1);
+    o.t_stop = 0;
+    o.n_fine = 0; /* the coarse network's image */
+    uint8_t *coarse = render_all(&s, &cam, &o);
+    s.ref.topo.n_nets = 1;
+    s.ref.topo.n_fine = 0;
+    cnerf_camera fc;
+    char err[256];
+    assert_int_equal(cnerf_camera_from_float(&cam, &fc, err, sizeof err), 0);
+    float rgb[12 * 12 * 3];
+    assert_int_equal(cn_render_view(&s.ref, &cam, 0, rgb, 4096), 0);
+    for (size_t i = 0; i < 12 * 12 * 3; i++) {
+        const float v = rgb[i] * 255.0f + 0.5f;
+        assert_true(abs((int)v - (int)coarse[i]) <= 2);
+    }
+    free(exact), free(stop), free(coarse);
+    free_scene(&s);
+}
+
+/* A forward-facing scene in NDC. */
+static void test_ndc(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    tu_small_header(&hdr, 3, 16, 1);
+    hdr.coord = CNERF_COORD_NDC;
+    hdr.near_q16 = 0;
+    hdr.far_q16 = 65536;
+    for (int a = 0; a < 3; a++) {
+        hdr.aabb_q16[a] = -2 * 65536;
+        hdr.aabb_q16[a + 3] = 2 * 65536;
+    }
+    scene s;
+    make_scene(&s, &hdr, 3.0, 12);
+    cn_camera cam;
+    memset(&cam, 0, sizeof cam);
+    const double c = cos(0.1), sn = sin(0.1);
+    const double R[3][3] = {{c, 0, sn}, {0, 1, 0}, {-sn, 0, c}};
+    for (int a = 0; a < 3; a++) {
+        for (int b = 0; b < 3; b++)
+            cam.c2w[a][b] = R[a][b];
+    }
+    cam.c2w[0][3] = 0.1, cam.c2w[1][3] = -0.05, cam.c2w[2][3] = 0.2;
+    cam.w = 20, cam.h = 15;
+    cam.fx = cam.fy = 18;
+    cam.cx = 10, cam.cy = 7.5;
+    const cmp r = compare(&s, &cam, 6, NULL);
+    printf("ndc: %.2f dB, max diff %d\n", r.psnr, r.maxdiff);
+    assert_true(r.psnr >= 50.0);
+    assert_true(r.maxdiff <= 2);
+    free_scene(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_mul_exp),
         cmocka_unit_test(test_div_sqrt),
         cmocka_unit_test(test_matches_float),
+        cmocka_unit_test(test_rays_miss),
+        cmocka_unit_test(test_inside_and_axes),
+        cmocka_unit_test(test_near_far),
+        cmocka_unit_test(test_saturation),
+        cmocka_unit_test(test_zero_layers),
+        cmocka_unit_test(test_extreme_values),
+        cmocka_unit_test(test_far_points),
+        cmocka_unit_test(test_tilings),
+        cmocka_unit_test(test_bad_arguments),
+        cmocka_unit_test(test_knobs),
+        cmocka_unit_test(test_ndc),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
