@@ -92,4 +92,7 @@ void cn_print_info(FILE *f, const char *name, const uint8_t *buf, const cnerf_in
     fprintf(f, "parameters: %" PRIu32 " latents, %" PRIu32 " biases\n", I->n_params, I->n_biases);
     fprintf(f, "bits per parameter: %.3f payload only, %.3f whole file (float32: 32)\n",
             8.0 * (double)t.payload / I->n_params, 8.0 * (double)t.total / I->n_params);
+    fprintf(f, "decoder memory: workspace %zu bytes, render scratch %zu bytes, decoder state "
+            "%zu bytes (this host)\n",
+            cnerf_workspace_size(I), cnerf_render_scratch_size(I), sizeof(cnerf_decoder));
 }

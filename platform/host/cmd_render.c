@@ -1,12 +1,14 @@
 /* cnerf render scene.cnrf: renders views with the fixed-point decoder (tile by tile), compares
  * them with the float reference renderer of the same file and, with a dataset, with the
  * ground truth. Without a dataset it renders an orbit around the scene's centre. */
+#include <errno.h>
 #include <math.h>
 #include <md5.h>
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "cli.h"
 #include "cli_args.h"
@@ -21,7 +23,7 @@
     "usage: cnerf render scene.cnrf [--dataset DIR [--split test|val|train] [--downscale F]\n" \
     "       [--every N]] [--orbit N [--size PX] [--radius R] [--elevation DEG] [--fov DEG]]\n" \
     "       [-o DIR] [--float] [--verify MD5] [--coarse N] [--fine N] [--t-stop X]\n"        \
-    "       [--tile PX] [--threads T]"
+    "       [--tile PX] [--threads T] [--save-cameras FILE]"
 
 typedef struct render_cfg {
     cnerf_render_opts opts;
@@ -91,6 +93,18 @@ static void to_float(const uint8_t *px, float *rgb, size_t n)
         rgb[i] = px[i] / 255.0f;
 }
 
+/* One camera per line: rot[9] (Q30), pos[3] (Q32), fx fy cx cy (Q16), width, height, then
+ * the view's name (the format tests/xarch/render_tile.c and the vectors read). */
+static void cli_write_camera(FILE *f, const cnerf_camera *c, const char *name)
+{
+    for (int i = 0; i < 9; i++)
+        fprintf(f, "%ld ", (long)c->rot[i]);
+    for (int i = 0; i < 3; i++)
+        fprintf(f, "%lld ", (long long)c->pos[i]);
+    fprintf(f, "%ld %ld %ld %ld %u %u %s\n", (long)c->fx, (long)c->fy, (long)c->cx, (long)c->cy,
+            c->width, c->height, name);
+}
+
 /* An orbit camera: view k of n on a circle of `radius` at `elev` degrees, looking at the
  * origin with the z axis up (Blender scenes). */
 static void orbit_camera(int k, int n, double radius, double elev, double fov, int size,
@@ -125,6 +139,7 @@ static void orbit_camera(int k, int n, double radius, double elev, double fov, i
 int cmd_render(int argc, char **argv)
 {
     const char *dataset = NULL, *split = "test", *outdir = NULL, *verify = NULL, *pos[1];
+    const char *cam_path = NULL;
     long downscale = 1, every = 1, threads = 0, orbit = 0, size = 100, coarse = -1, fine = -1;
     long tile = 32;
     double radius = 4.0, elev = 30.0, fov = 40.0, t_stop = -1;
@@ -147,6 +162,7 @@ int cmd_render(int argc, char **argv)
         {"--t-stop", CLI_DOUBLE, &t_stop, 0, 1},
         {"--tile", CLI_LONG, &tile, 1, 65535},
         {"--threads", CLI_LONG, &threads, 1, 256},
+        {"--save-cameras", CLI_STR, &cam_path, 0, 0},
     };
     if (cli_parse("render", RENDER_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
                   &n_pos))
@@ -200,10 +216,18 @@ int cmd_render(int argc, char **argv)
     }
     if (rc == 0 && outdir)
         rc = cli_make_dir("render", outdir);
+    FILE *cams = NULL;
+    char cam_tmp[4096];
+    if (rc == 0 && cam_path) {
+        snprintf(cam_tmp, sizeof cam_tmp, "%s.tmp.%ld", cam_path, (long)getpid());
+        cams = fopen(cam_tmp, "w");
+        if (!cams)
+            rc = cli_fail("render", "%s: %s", cam_tmp, strerror(errno));
+    }
 
     MD5_CTX all;
     MD5Init(&all);
-    double sum_gt = 0, sum_ref_gt = 0, sum_ssim = 0, sum_vs = 0, sum_ms = 0;
+    double sum_gt = 0, sum_ref_gt = 0, sum_ssim = 0, sum_vs = 0, sum_ms = 0, sum_ms_ref = 0;
     int count = 0, worst = 0, inf_count = 0;
     char err[1024];
     for (int i = 0; rc == 0 && i < n; i += dataset ? (int)every : 1) {
@@ -221,6 +245,8 @@ int cmd_render(int argc, char **argv)
             rc = cli_fail("render", "%s: %s", name, err);
             break;
         }
+        if (cams)
+            cli_write_camera(cams, &fc, name);
         const size_t npx = (size_t)cam.w * cam.h, nv = 3 * npx;
         uint8_t *px = malloc(nv), *refpx = malloc(nv);
         float *rgb = malloc(sizeof(float) * nv);
@@ -236,11 +262,13 @@ int cmd_render(int argc, char **argv)
             break;
         }
         const double ms = (cli_now() - t0) * 1e3;
+        t0 = cli_now();
         if (cn_render_view(&ref, &cam, I->coord == CNERF_COORD_NDC, rgb, 4096)) {
             free(px), free(refpx), free(rgb);
             rc = cli_fail("render", "out of memory");
             break;
         }
+        const double ms_ref = (cli_now() - t0) * 1e3;
         to_u8(rgb, refpx, nv);
         if (use_float)
             memcpy(px, refpx, nv);
@@ -262,10 +290,9 @@ int cmd_render(int argc, char **argv)
             printf(" psnr %6.2f dB  ssim %.4f (float reference %6.2f dB)", g, s, rg);
             sum_gt += g, sum_ssim += s, sum_ref_gt += rg;
         }
-        if (!use_float) {
-            printf("  vs float %6.2f dB, max diff %d", vs, md);
-            printf("  %8.1f ms", ms);
-        }
+        if (!use_float)
+            printf("  vs float %6.2f dB, max diff %d  %8.1f ms", vs, md, ms);
+        printf("  float %8.1f ms", ms_ref);
         printf("  md5 %s\n", hex);
         fflush(stdout);
         if (isinf(vs))
@@ -274,6 +301,7 @@ int cmd_render(int argc, char **argv)
             sum_vs += vs;
         worst = md > worst ? md : worst;
         sum_ms += ms;
+        sum_ms_ref += ms_ref;
         count++;
         if (outdir) {
             char path[4096];
@@ -298,7 +326,7 @@ int cmd_render(int argc, char **argv)
                        inf_count);
             printf(", max diff %d  %.1f ms/frame", worst, sum_ms / count);
         }
-        printf("\n");
+        printf("  float reference %.1f ms/frame\n", sum_ms_ref / count);
         char hex[33];
         MD5End(&all, hex);
         printf("md5 of all frames: %s\n", hex);
@@ -308,6 +336,16 @@ int cmd_render(int argc, char **argv)
         } else if (verify) {
             printf("verified: %s\n", hex);
         }
+    }
+    if (cams) {
+        const int bad = fflush(cams) != 0 || ferror(cams) != 0;
+        fclose(cams);
+        if (rc == 0 && bad)
+            rc = cli_fail("render", "%s: write error", cam_tmp);
+        if (rc == 0 && rename(cam_tmp, cam_path) != 0)
+            rc = cli_fail("render", "%s: %s", cam_path, strerror(errno));
+        if (rc != 0)
+            remove(cam_tmp);
     }
     cn_dataset_free(&ds);
     cn_model_free(&ref);

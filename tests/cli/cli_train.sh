@@ -2,7 +2,7 @@
 # cnerf train / eval / encode on the shared Lego at 25x25: files appear, numbers print,
 # Ctrl-C saves a checkpoint and exits 130, --resume continues, bad input fails clearly.
 set -euo pipefail
-cnerf=$1 data=$2 work=$3
+cnerf=$1 data=$2 work=$3 render_tile=$4
 rm -rf "$work" && mkdir -p "$work"
 fail() { echo "FAIL: $*" >&2; exit 1; }
 common=(--preset tiny --downscale 16 --batch 64 --coarse 8 --fine 8 --threads 2)
@@ -54,6 +54,21 @@ msg=$("$cnerf" render "$work/s.cnrf" --dataset "$data/lego" --downscale 16 --eve
       --verify 00000000000000000000000000000000 2>&1); rc=$?
 set -e
 [ $rc -ne 0 ] && grep -q "verification failed" <<<"$msg" || fail "render --verify mismatch: $rc $msg"
+# --save-cameras writes the fixed-point camera of every view, one line each; render_tile
+# renders the same bytes from it with nothing but the decoder.
+out=$("$cnerf" render "$work/s.cnrf" --dataset "$data/lego" --downscale 16 --every 100 \
+      --save-cameras "$work/cams.txt")
+[ "$(wc -l < "$work/cams.txt")" -eq 2 ] || fail "--save-cameras: $(cat "$work/cams.txt")"
+read -r -a cam < <(sed -n 2p "$work/cams.txt")
+[ "${#cam[@]}" -eq 19 ] && [ "${cam[18]}" = r_100 ] || fail "camera line: ${cam[*]}"
+sed -n 2p "$work/cams.txt" > "$work/cam_r100.txt"
+want=$(sed -n 's/^  r_100 .* md5 \([0-9a-f]*\)$/\1/p' <<<"$out")
+got=$("$render_tile" "$work/s.cnrf" "$work/cam_r100.txt" 0 0 "${cam[16]}" "${cam[17]}" | md5sum | cut -c1-32)
+[ -n "$want" ] && [ "$got" = "$want" ] || fail "render_tile from the saved camera: $got, want $want"
+set +e
+msg=$("$cnerf" render "$work/s.cnrf" --orbit 1 --size 4 --save-cameras "$work/no/such/c.txt" 2>&1); rc=$?
+set -e
+[ $rc -ne 0 ] && grep -q "no/such/c.txt" <<<"$msg" || fail "--save-cameras to a bad path: $rc $msg"
 out=$("$cnerf" render "$work/s.cnrf" --orbit 2 --size 12)
 grep -q "mean over 2 views (fixed point" <<<"$out" || fail "render --orbit: $out"
 set +e
