@@ -111,31 +111,64 @@ static void posenc(int32_t *out, const int64_t v[3], unsigned L, int inc)
 
 /* ---- one linear layer: y = a (sum k x) + b (sum x) + bias, in Q16 ---- */
 
+/* sum_i k[o][i] x[i] for OB consecutive outputs o at once: each activation is loaded once per
+ * block and the latent rows are read in order. Exact int64 sums (bounds above). */
+#define CN_DOT_BLOCK(T)                                                                     \
+    static void dot4_##T(const T *k, uint32_t n_in, const int32_t *x, int64_t acc[4])      \
+    {                                                                                       \
+        const T *k0 = k, *k1 = k + n_in, *k2 = k + 2u * n_in, *k3 = k + 3u * n_in;          \
+        int64_t a0 = 0, a1 = 0, a2 = 0, a3 = 0;                                             \
+        for (uint32_t i = 0; i < n_in; i++) {                                               \
+            const int64_t xi = x[i];                                                        \
+            a0 += xi * k0[i];                                                               \
+            a1 += xi * k1[i];                                                               \
+            a2 += xi * k2[i];                                                               \
+            a3 += xi * k3[i];                                                               \
+        }                                                                                   \
+        acc[0] = a0, acc[1] = a1, acc[2] = a2, acc[3] = a3;                                 \
+    }                                                                                       \
+    static int64_t dot1_##T(const T *k, uint32_t n_in, const int32_t *x)                   \
+    {                                                                                       \
+        int64_t a = 0;                                                                      \
+        for (uint32_t i = 0; i < n_in; i++)                                                 \
+            a += (int64_t)x[i] * k[i];                                                      \
+        return a;                                                                           \
+    }
+CN_DOT_BLOCK(int8_t)
+CN_DOT_BLOCK(int16_t)
+
 static void linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, int32_t *y, int relu)
 {
     const cnerf_layer_info *L = &dec->info.layer[l];
-    const uint32_t n_in = L->n_in;
+    const uint32_t n_in = L->n_in, n_out = L->n_out;
     int64_t sx = 0;
     for (uint32_t i = 0; i < n_in; i++)
         sx += x[i];
     const int64_t tb = cn_mul_exp(sx, L->b_m, L->b_e);
     const int32_t *bias = dec->bias[l];
-    for (uint32_t o = 0; o < L->n_out; o++) {
-        int64_t acc = 0;
+    for (uint32_t o = 0; o < n_out;) {
+        int64_t acc[4];
+        uint32_t nb = n_out - o >= 4u ? 4u : 1u;
         if (L->latent_bytes == 1u) {
             const int8_t *k = (const int8_t *)dec->latent[l] + (size_t)o * n_in;
-            for (uint32_t i = 0; i < n_in; i++)
-                acc += (int64_t)x[i] * k[i];
+            if (nb == 4u)
+                dot4_int8_t(k, n_in, x, acc);
+            else
+                acc[0] = dot1_int8_t(k, n_in, x);
         } else {
             const int16_t *k = (const int16_t *)dec->latent[l] + (size_t)o * n_in;
-            for (uint32_t i = 0; i < n_in; i++)
-                acc += (int64_t)x[i] * k[i];
+            if (nb == 4u)
+                dot4_int16_t(k, n_in, x, acc);
+            else
+                acc[0] = dot1_int16_t(k, n_in, x);
         }
-        int64_t v = cn_mul_exp(acc, L->a_m, L->a_e) + tb;
-        if (L->bias_bits)
-            v += cn_mul_exp(bias[o], 1, L->bias_e + 16);
-        v = cn_clamp64(v, relu ? 0 : INT32_MIN, INT32_MAX);
-        y[o] = (int32_t)v;
+        for (uint32_t j = 0; j < nb; j++, o++) {
+            int64_t v = cn_mul_exp(acc[j], L->a_m, L->a_e) + tb;
+            if (L->bias_bits)
+                v += cn_mul_exp(bias[o], 1, L->bias_e + 16);
+            v = cn_clamp64(v, relu ? 0 : INT32_MIN, INT32_MAX);
+            y[o] = (int32_t)v;
+        }
     }
 }
 
