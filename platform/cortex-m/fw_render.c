@@ -1,0 +1,419 @@
+/* cnerf firmware for a Cortex-M4 (MPS2 AN386 under QEMU): decodes the stream embedded in the
+ * flash image into a static workspace, renders the embedded tile with the embedded camera and
+ * knobs, hashes the tile's pixels (RGB888, w * 3 bytes per row, row by row) with MD5 and
+ * prints, over ARM semihosting,
+ *   fw ... lines      sizes, SysTick readings and the stack high-water mark (the report)
+ *   md5 <32 hex>      the last line
+ * then exits with status 0. A decoder error prints `fw: <call>: <status name>` and exits 1; a
+ * static buffer smaller than the stream needs exits 2; a fault exits 3 (startup.c).
+ *
+ * This file is also the build-time tool that embeds the stream: compiled on the host with
+ * -DCNERF_FW_GENERATOR (platform/cortex-m/CMakeLists.txt does this), it reads the stream,
+ * camera, tile and knobs, sizes the workspace and scratch with the decoder itself
+ * (cnerf_workspace_size, cnerf_render_scratch_size) and writes the header cnerf_fw_embed.h
+ * that the firmware includes. Both halves are C99; the generator is hosted, the firmware
+ * freestanding.
+ *
+ * Instructions: SysTick counts the processor clock (CLKSOURCE = 1; 25 MHz on this board in
+ * QEMU) with the 24-bit counter reloading from 2^24 - 1 and an interrupt counting the wraps.
+ * Under `qemu-system-arm -icount shift=0` virtual time advances exactly 1 ns per executed
+ * instruction, so one SysTick tick is exactly 40 instructions. QEMU makes a device read
+ * instruction-exact in icount mode (the translation block ends at the access), so each
+ * reading is exact up to the tick quantum: an interval is known to +-1 tick = +-40
+ * instructions, and includes the ~30 instructions of one reading and those of the wrap
+ * interrupt (a few every 2^24 ticks). Checked at every run: a loop of known length (two
+ * lengths, so that the call overhead cancels) must take 40 instructions per tick, and the
+ * whole run's SysTick count (wraps included) must agree with the MPS2's 32-bit APB timer 0,
+ * which runs on the same 25 MHz and never wraps here. The firmware prints raw ticks;
+ * scripts/firmware.sh checks both and converts. Without -icount the ticks follow host time
+ * and mean nothing. */
+#ifdef CNERF_FW_GENERATOR
+
+/* ---------------- host side: writes cnerf_fw_embed.h ---------------- */
+#include <errno.h>
+#include <inttypes.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cnerf/cnerf.h"
+
+static int die(const char *what, const char *why)
+{
+    fprintf(stderr, "cnerf_fw_embed: %s: %s\n", what, why);
+    return 1;
+}
+
+/* A decimal integer in [lo, hi], the whole string. */
+static int parse_int(const char *s, long long lo, long long hi, long long *out)
+{
+    char *end;
+    errno = 0;
+    const long long v = strtoll(s, &end, 10);
+    if (errno != 0 || end == s || *end != '\0' || v < lo || v > hi)
+        return 0;
+    *out = v;
+    return 1;
+}
+
+/* A C constant expression of type long long for any value (LLONG_MIN has no literal). */
+static void put_ll(FILE *f, long long v)
+{
+    if (v == INT64_MIN)
+        fprintf(f, "(-9223372036854775807LL - 1)");
+    else
+        fprintf(f, "(%lldLL)", v);
+}
+
+int main(int argc, char **argv)
+{
+    if (argc != 8 && argc != 11) {
+        fprintf(stderr, "usage: cnerf_fw_embed OUT.h STREAM CAMERA X0 Y0 W H [N_COARSE N_FINE "
+                        "T_STOP]\n");
+        return 2;
+    }
+    const char *out_path = argv[1], *stream_path = argv[2], *cam_path = argv[3];
+
+    /* The tile and knobs: only their syntax and ranges here; whether the tile lies in the
+     * image and the knobs suit the stream is for the decoder to say, at run time. */
+    long long tile[4], knobs[3] = {0, 0, 0};
+    for (int i = 0; i < 4; i++)
+        if (!parse_int(argv[4 + i], 0, 65535, &tile[i]))
+            return die(argv[4 + i], "a tile coordinate must be an integer in 0..65535");
+    const int have_knobs = argc == 11;
+    if (have_knobs) {
+        if (!parse_int(argv[8], 0, 65535, &knobs[0]) || !parse_int(argv[9], 0, 65535, &knobs[1]))
+            return die(argv[8], "sample counts must be integers in 0..65535");
+        if (!parse_int(argv[10], 0, 4294967295LL, &knobs[2]))
+            return die(argv[10], "T_STOP must be an integer in 0..2^32-1 (Q30)");
+    }
+
+    /* The camera: 18 integers, as tests/xarch/render_tile.c reads them. */
+    FILE *f = fopen(cam_path, "r");
+    if (!f)
+        return die(cam_path, strerror(errno));
+    long long cam[18];
+    for (int i = 0; i < 18; i++)
+        if (fscanf(f, "%lld", &cam[i]) != 1) {
+            fclose(f);
+            return die(cam_path, "expected 18 integers: rot[9] (Q30) pos[3] (Q32) fx fy cx cy "
+                                 "(Q16) width height");
+        }
+    fclose(f);
+    for (int i = 0; i < 18; i++) {
+        const int is_pos = i >= 9 && i < 12, is_size = i >= 16;
+        const long long lo = is_pos ? INT64_MIN : is_size ? 0 : INT32_MIN;
+        const long long hi = is_pos ? INT64_MAX : is_size ? 65535 : INT32_MAX;
+        if (cam[i] < lo || cam[i] > hi)
+            return die(cam_path, "a value is out of the range of its cnerf_camera field");
+    }
+
+    /* The stream, whole. */
+    f = fopen(stream_path, "rb");
+    if (!f)
+        return die(stream_path, strerror(errno));
+    size_t len = 0, cap = 1 << 16;
+    uint8_t *buf = malloc(cap);
+    for (;;) {
+        if (!buf)
+            return die(stream_path, "out of memory");
+        len += fread(buf + len, 1, cap - len, f);
+        if (len < cap)
+            break;
+        cap *= 2;
+        buf = realloc(buf, cap);
+    }
+    const int read_error = ferror(f);
+    fclose(f);
+    if (read_error)
+        return die(stream_path, "read error");
+    if (len > UINT32_MAX)
+        return die(stream_path, "larger than 4 GB");
+
+    /* Static buffer sizes from the decoder. A stream that does not parse is embedded anyway
+     * with minimal buffers: the firmware then reports the decoder's status. */
+    static cnerf_info info;
+    const cnerf_status st = cnerf_peek(buf, len, &info);
+    size_t ws = 8, scratch = 8;
+    if (st == CNERF_OK) {
+        ws = cnerf_workspace_size(&info);
+        scratch = cnerf_render_scratch_size(&info);
+    } else {
+        fprintf(stderr,
+                "cnerf_fw_embed: warning: %s does not parse (%s); embedding it anyway, the "
+                "firmware will report the error\n",
+                stream_path, cnerf_status_str(st));
+    }
+    const unsigned long long stride = ((unsigned long long)tile[2] * 3u + 3u) & ~3ull;
+    const unsigned long long rgb = stride * (unsigned long long)tile[3];
+    if (rgb > (1u << 22))
+        return die("tile", "the tile buffer would exceed 4 MB, the RAM of the board");
+
+    f = fopen(out_path, "w");
+    if (!f)
+        return die(out_path, strerror(errno));
+    fprintf(f, "/* Generated by cnerf_fw_embed (platform/cortex-m/fw_render.c). Do not edit.\n"
+               " * stream %s\n * camera %s\n */\n",
+            stream_path, cam_path);
+    fprintf(f, "#define CNERF_FW_STREAM_BYTES %zuu\n", len);
+    fprintf(f, "#define CNERF_FW_HOST_PEEK %d /* cnerf_peek on the build host */\n", (int)st);
+    fprintf(f, "#define CNERF_FW_WS_BYTES %zuu\n", ws);
+    fprintf(f, "#define CNERF_FW_SCRATCH_BYTES %zuu\n", scratch);
+    fprintf(f, "#define CNERF_FW_TILE_X0 %lldu\n#define CNERF_FW_TILE_Y0 %lldu\n", tile[0],
+            tile[1]);
+    fprintf(f, "#define CNERF_FW_TILE_W %lldu\n#define CNERF_FW_TILE_H %lldu\n", tile[2], tile[3]);
+    fprintf(f, "#define CNERF_FW_TILE_STRIDE %lluu /* w * 3 rounded up to 4 bytes */\n", stride);
+    fprintf(f, "#define CNERF_FW_HAVE_KNOBS %d\n", have_knobs);
+    fprintf(f, "#define CNERF_FW_KNOBS_INIT {%lldu, %lldu, %lldu}\n", knobs[0], knobs[1],
+            knobs[2]);
+    fprintf(f, "#define CNERF_FW_CAMERA_INIT {{");
+    for (int i = 0; i < 9; i++) {
+        put_ll(f, cam[i]);
+        fputs(i < 8 ? ", " : "}, {", f);
+    }
+    for (int i = 9; i < 12; i++) {
+        put_ll(f, cam[i]);
+        fputs(i < 11 ? ", " : "}, ", f);
+    }
+    for (int i = 12; i < 18; i++) {
+        put_ll(f, cam[i]);
+        fputs(i < 17 ? ", " : "}\n", f);
+    }
+    fprintf(f, "static const uint8_t cnerf_fw_stream[%zu] = {", len ? len : 1);
+    for (size_t i = 0; i < len; i++)
+        fprintf(f, "%s0x%02x,", i % 16 ? "" : "\n    ", buf[i]);
+    fprintf(f, "%s\n};\n", len ? "" : "0");
+    free(buf);
+    if (fclose(f) != 0) {
+        remove(out_path);
+        return die(out_path, "write error");
+    }
+    return 0;
+}
+
+#else
+
+/* ---------------- the firmware ---------------- */
+#include <stddef.h>
+#include <stdint.h>
+
+#include "cnerf/cnerf.h"
+#include "cnerf_fw_embed.h"
+#include "md5.h"
+#include "semihost.h"
+
+#define FW_EXIT_DECODER 1
+#define FW_EXIT_BUFFERS 2
+
+uint32_t fw_stack_high_water(void); /* startup.c */
+void SysTick_Handler(void);
+extern uint32_t __stack_limit[], __stack_top[]; /* mps2-an386.ld */
+
+static cnerf_decoder dec;
+static uint64_t ws[(CNERF_FW_WS_BYTES + 7u) / 8u];
+static uint64_t scratch[(CNERF_FW_SCRATCH_BYTES + 7u) / 8u];
+static uint8_t tile[CNERF_FW_TILE_STRIDE * CNERF_FW_TILE_H + 1u];
+static const cnerf_camera camera = CNERF_FW_CAMERA_INIT;
+
+/* ---- instruction counting: SysTick on the processor clock, wraps counted ---- */
+
+#define SYST_CSR (*(volatile uint32_t *)0xe000e010u)
+#define SYST_RVR (*(volatile uint32_t *)0xe000e014u)
+#define SYST_CVR (*(volatile uint32_t *)0xe000e018u)
+#define SCB_ICSR (*(volatile uint32_t *)0xe000ed04u)
+#define SYST_RELOAD 0x00ffffffu
+/* CMSDK APB timer 0 of the MPS2 (a 32-bit down counter on the 25 MHz peripheral clock):
+ * an independent check of the SysTick wrap counting over the whole run. */
+#define TIMER0_CTRL (*(volatile uint32_t *)0x40000000u)
+#define TIMER0_VALUE (*(volatile uint32_t *)0x40000004u)
+#define TIMER0_RELOAD (*(volatile uint32_t *)0x40000008u)
+#define ICSR_PENDSTSET (1u << 26)
+
+static volatile uint32_t systick_wraps;
+
+void SysTick_Handler(void)
+{
+    systick_wraps++;
+}
+
+static void ticks_start(void)
+{
+    SYST_CSR = 0;
+    SYST_RVR = SYST_RELOAD;
+    SYST_CVR = 0;  /* any write clears the counter */
+    SYST_CSR = 5u; /* ENABLE | CLKSOURCE (processor clock), no interrupt yet */
+    while (SYST_CVR == 0) {
+        /* the counter loads RELOAD on its first tick */
+    }
+    systick_wraps = 0;
+    SYST_CSR = 7u; /* ENABLE | TICKINT | CLKSOURCE */
+    TIMER0_CTRL = 0;
+    TIMER0_RELOAD = 0xffffffffu;
+    TIMER0_VALUE = 0xffffffffu;
+    TIMER0_CTRL = 1u; /* enable, no interrupt */
+}
+
+/* Ticks since an arbitrary origin, 64 bits, with interrupts masked. The counter runs
+ * RELOAD, ..., 1, 0 and then reloads; the exception pends when it reaches 0 (so the
+ * architecture, and QEMU's model: a ptimer that wraps one period after reaching 0). So
+ * n = counted wraps + a pending one is the number of periods completed, except while the
+ * counter still reads 0: that is the last tick of period n. PENDSTSET is read on both sides
+ * of the counter; if it changed in between, the counter is read again so that it belongs to
+ * the same period as n. (ticks_start waits out the 0 that precedes the first reload.) */
+static uint64_t ticks_now(void)
+{
+    __asm__ volatile("cpsid i" ::: "memory");
+    const uint32_t w = systick_wraps, p1 = SCB_ICSR & ICSR_PENDSTSET;
+    uint32_t v = SYST_CVR;
+    const uint32_t p2 = SCB_ICSR & ICSR_PENDSTSET;
+    if (p1 != p2)
+        v = SYST_CVR;
+    __asm__ volatile("cpsie i" ::: "memory");
+    const uint64_t n = (uint64_t)w + (p2 ? 1u : 0u);
+    return v == 0 ? n * (SYST_RELOAD + 1u) - 1u : n * (SYST_RELOAD + 1u) + (SYST_RELOAD - v);
+}
+
+/* Exactly 2 n instructions in the loop (subs, bne), n >= 1. */
+__attribute__((noinline)) static void spin(uint32_t n)
+{
+    __asm__ volatile("1:\n\t"
+                     "subs %0, %0, #1\n\t"
+                     "bne 1b\n\t"
+                     : "+r"(n)
+                     :
+                     : "cc");
+}
+
+static uint64_t ticks_of_spin(uint32_t n)
+{
+    const uint64_t t0 = ticks_now();
+    spin(n);
+    return ticks_now() - t0;
+}
+
+/* ---- output ---- */
+
+static void put_kv(const char *key, uint64_t v)
+{
+    sh_puts(" ");
+    sh_puts(key);
+    sh_puts(" ");
+    sh_putu64(v);
+}
+
+static int fail(const char *call, cnerf_status st)
+{
+    sh_puts("fw: ");
+    sh_puts(call);
+    sh_puts(": ");
+    sh_puts(cnerf_status_str(st));
+    sh_puts("\n");
+    return FW_EXIT_DECODER;
+}
+
+static int too_small(const char *what, size_t need, size_t have)
+{
+    sh_puts("fw: the static ");
+    sh_puts(what);
+    sh_puts(" is too small for this stream:");
+    put_kv("need", need);
+    put_kv("have", have);
+    sh_puts(" (rebuild: the build sizes it from the stream)\n");
+    return FW_EXIT_BUFFERS;
+}
+
+int main(void)
+{
+    const size_t len = CNERF_FW_STREAM_BYTES;
+    ticks_start();
+
+    /* Calibration: two loop lengths; their difference is 2 * (N2 - N1) instructions. */
+    const uint32_t n1 = 100000u, n2 = 2100000u;
+    const uint64_t c1 = ticks_of_spin(n1), c2 = ticks_of_spin(n2);
+    const uint64_t c0 = ticks_now(), c00 = ticks_now(); /* cost of one reading */
+
+    const uint32_t timer0_start = TIMER0_VALUE;
+    const uint64_t t0 = ticks_now();
+    cnerf_status st = cnerf_peek(cnerf_fw_stream, len, &dec.info);
+    const uint64_t t1 = ticks_now();
+    if (st != CNERF_OK)
+        return fail("cnerf_peek", st);
+    const size_t ws_need = cnerf_workspace_size(&dec.info);
+    const size_t sc_need = cnerf_render_scratch_size(&dec.info);
+    if (ws_need > sizeof ws)
+        return too_small("workspace", ws_need, sizeof ws);
+    if (sc_need > sizeof scratch)
+        return too_small("render scratch", sc_need, sizeof scratch);
+
+    const uint64_t t2 = ticks_now();
+    st = cnerf_open(&dec, cnerf_fw_stream, len, ws, sizeof ws);
+    const uint64_t t3 = ticks_now();
+    if (st != CNERF_OK)
+        return fail("cnerf_open", st);
+
+    cnerf_render_opts opts;
+    cnerf_render_defaults(&dec.info, &opts);
+#if CNERF_FW_HAVE_KNOBS
+    {
+        static const cnerf_render_opts knobs = CNERF_FW_KNOBS_INIT;
+        opts = knobs;
+    }
+#endif
+    const uint64_t t4 = ticks_now();
+    st = cnerf_render_tile(&dec, &camera, &opts, CNERF_FW_TILE_X0, CNERF_FW_TILE_Y0,
+                           CNERF_FW_TILE_W, CNERF_FW_TILE_H, tile, CNERF_FW_TILE_STRIDE, scratch,
+                           sizeof scratch);
+    const uint64_t t5 = ticks_now();
+    if (st != CNERF_OK)
+        return fail("cnerf_render_tile", st);
+
+    /* The visible pixels only: w * 3 bytes of each row, not the stride's padding. */
+    fw_md5 md5;
+    uint8_t digest[16];
+    char hex[33];
+    fw_md5_init(&md5);
+    for (uint32_t y = 0; y < CNERF_FW_TILE_H; y++)
+        fw_md5_update(&md5, tile + (size_t)y * CNERF_FW_TILE_STRIDE, CNERF_FW_TILE_W * 3u);
+    fw_md5_final(&md5, digest);
+    fw_md5_hex(digest, hex);
+    const uint64_t t6 = ticks_now();
+    const uint32_t timer0_end = TIMER0_VALUE;
+
+    sh_puts("fw buffers");
+    put_kv("stream", len);
+    put_kv("workspace_need", ws_need);
+    put_kv("workspace", sizeof ws);
+    put_kv("scratch_need", sc_need);
+    put_kv("scratch", sizeof scratch);
+    put_kv("tile_buffer", sizeof tile);
+    put_kv("decoder", sizeof dec);
+    sh_puts("\nfw render");
+    put_kv("x0", CNERF_FW_TILE_X0);
+    put_kv("y0", CNERF_FW_TILE_Y0);
+    put_kv("w", CNERF_FW_TILE_W);
+    put_kv("h", CNERF_FW_TILE_H);
+    put_kv("n_coarse", opts.n_coarse);
+    put_kv("n_fine", opts.n_fine);
+    put_kv("t_stop", opts.t_stop);
+    sh_puts("\nfw calib");
+    put_kv("insns", 2u * (uint64_t)(n2 - n1));
+    put_kv("ticks", c2 - c1);
+    put_kv("reading_ticks", c00 - c0);
+    sh_puts("\nfw ticks");
+    put_kv("peek", t1 - t0);
+    put_kv("open", t3 - t2);
+    put_kv("render", t5 - t4);
+    put_kv("md5", t6 - t5);
+    sh_puts("\nfw crosscheck");
+    put_kv("systick", t6 - t0);
+    put_kv("timer0", timer0_start - timer0_end);
+    sh_puts("\nfw stack");
+    put_kv("high_water", fw_stack_high_water());
+    put_kv("size", (uint64_t)((uintptr_t)__stack_top - (uintptr_t)__stack_limit));
+    sh_puts("\nmd5 ");
+    sh_puts(hex);
+    sh_puts("\n");
+    return 0;
+}
+
+#endif

@@ -1,0 +1,245 @@
+#!/usr/bin/env bash
+# The decoder as bare-metal firmware on an emulated Cortex-M4 (QEMU's mps2-an386 board):
+# builds platform/cortex-m's cnerf_fw.elf with STREAM, CAMERA, the tile and the knobs
+# embedded, runs it under qemu-system-arm with semihosting, renders the same tile on the
+# host with tests/xarch/render_tile.c, prints both MD5s and exits 0 only if they are equal.
+# Then reports what the firmware costs on the target: flash, RAM, worst-case stack and
+# instructions per ray.
+#
+#   scripts/firmware.sh STREAM CAMERA "X0 Y0 W H" [N_COARSE N_FINE T_STOP]
+#
+# CAMERA is the text file tests/xarch/render_tile.c reads (18 integers); T_STOP is Q30, as
+# there. Environment:
+#   FW_BUILD_DIR   build directory (build-fw)
+#   FW_BUILD_TYPE  MinSizeRel (default): -Os, the configuration scripts/build-m4.sh measures
+#                  and docs/decoder.md states (code size, stack), and the one a flash-bound
+#                  part would ship; Release (-O3) has 2.5x the code for ~12% fewer
+#                  instructions per ray
+#   FW_STACK       bytes reserved for the stack (4096); the static worst case must fit
+#   FW_TIMEOUT     seconds before QEMU is killed (600)
+#   FW_EXPECT_MD5  if set, the MD5 the tile must also have (a golden value)
+# Instructions are counted with QEMU's -icount shift=0 (one virtual nanosecond per
+# instruction) and the SysTick on the 25 MHz processor clock: 40 instructions per tick,
+# validated by the firmware on a loop of known length (see platform/cortex-m/fw_render.c).
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+if [ $# -ne 3 ] && [ $# -ne 6 ]; then
+  sed -n '2,23p' "$0" >&2
+  exit 2
+fi
+stream=$1 camera=$2 tile=$3
+knobs=""
+[ $# -eq 6 ] && knobs="$4 $5 $6"
+for f in "$stream" "$camera"; do
+  [ -f "$f" ] || { echo "firmware.sh: $f: no such file" >&2; exit 2; }
+done
+stream=$(realpath "$stream") camera=$(realpath "$camera")
+read -r x0 y0 w h extra <<< "$tile" || true
+if [ -z "${h:-}" ] || [ -n "${extra:-}" ]; then
+  echo "firmware.sh: the tile must be \"X0 Y0 W H\", not \"$tile\"" >&2
+  exit 2
+fi
+for v in $x0 $y0 $w $h $knobs; do
+  [[ $v =~ ^[0-9]+$ ]] || { echo "firmware.sh: $v: not a non-negative integer" >&2; exit 2; }
+done
+
+need() { # program, Debian package
+  command -v "$1" > /dev/null ||
+    { echo "firmware.sh: $1 is missing: apt-get install $2" >&2; exit 1; }
+}
+need cmake cmake
+need cc gcc
+need arm-none-eabi-gcc gcc-arm-none-eabi
+need arm-none-eabi-size binutils-arm-none-eabi
+need arm-none-eabi-nm binutils-arm-none-eabi
+need qemu-system-arm qemu-system-arm
+need timeout coreutils
+need md5sum coreutils
+need python3 python3
+if ! qemu-system-arm -machine help | grep -q '^mps2-an386 '; then
+  echo "firmware.sh: this qemu-system-arm has no mps2-an386 machine (QEMU 6.0 or later: apt-get install qemu-system-arm)" >&2
+  exit 1
+fi
+
+cd "$root"
+bdir=${FW_BUILD_DIR:-build-fw}
+btype=${FW_BUILD_TYPE:-MinSizeRel}
+stack=${FW_STACK:-4096}
+tmo=${FW_TIMEOUT:-600}
+mkdir -p "$bdir"
+log=$bdir/firmware-build.log
+
+# ---- the firmware ----
+if ! { cmake -S . -B "$bdir" -DCMAKE_TOOLCHAIN_FILE=cmake/toolchains/arm-none-eabi.cmake \
+         -DCMAKE_BUILD_TYPE="$btype" -DCNERF_FW_STREAM="$stream" -DCNERF_FW_CAMERA="$camera" \
+         -DCNERF_FW_TILE="$x0 $y0 $w $h" -DCNERF_FW_KNOBS="$knobs" -DCNERF_FW_STACK="$stack" &&
+       cmake --build "$bdir" -j1 --target cnerf_fw; } > "$log" 2>&1; then
+  cat "$log" >&2
+  echo "firmware.sh: the firmware build failed (log: $log)" >&2
+  exit 1
+fi
+grep 'cnerf_fw_embed: warning' "$log" >&2 || true
+elf=$bdir/platform/cortex-m/cnerf_fw.elf
+echo "built $elf ($btype, $(arm-none-eabi-gcc -dumpversion))"
+
+out=$bdir/firmware.out
+set +e
+timeout "$tmo" qemu-system-arm -M mps2-an386 -nographic \
+  -semihosting-config enable=on,target=native -icount shift=0 -kernel "$elf" \
+  < /dev/null > "$out" 2>&1
+rc=$?
+set -e
+if [ $rc -eq 124 ]; then
+  cat "$out" >&2
+  echo "firmware.sh: the firmware did not finish within $tmo s (FW_TIMEOUT)" >&2
+  exit 1
+fi
+fw_md5=$(sed -n 's/^md5 \([0-9a-f]\{32\}\)$/\1/p' "$out")
+if [ $rc -ne 0 ] || [ -z "$fw_md5" ]; then
+  cat "$out" >&2
+  echo "firmware.sh: the firmware failed (exit status $rc)" >&2
+  exit 1
+fi
+
+# ---- the same tile on the host ----
+host=$bdir/render_tile_host
+cc -std=c99 -O2 -Wall -Wextra -Werror -Iinclude decoder/*.c tests/xarch/render_tile.c -o "$host"
+if ! "$host" "$stream" "$camera" $x0 $y0 $w $h $knobs > "$bdir/tile_host.rgb"; then
+  echo "firmware.sh: the host render failed" >&2
+  exit 1
+fi
+host_md5=$(md5sum < "$bdir/tile_host.rgb" | cut -c1-32)
+
+echo "firmware md5 $fw_md5"
+echo "host     md5 $host_md5"
+if [ "$fw_md5" != "$host_md5" ]; then
+  echo "firmware.sh: MISMATCH: the firmware's tile differs from the host's" >&2
+  exit 1
+fi
+if [ -n "${FW_EXPECT_MD5:-}" ]; then
+  echo "expected md5 $FW_EXPECT_MD5"
+  if [ "$fw_md5" != "$FW_EXPECT_MD5" ]; then
+    echo "firmware.sh: MISMATCH: the tile's MD5 is not the expected FW_EXPECT_MD5" >&2
+    exit 1
+  fi
+fi
+
+# ---- the cost on the target ----
+python3 - "$root" "$bdir" "$elf" "$out" "$btype" <<'PY'
+import glob, os, re, shutil, subprocess, sys, tempfile
+
+root, bdir, elf, out, btype = sys.argv[1:]
+sys.path.insert(0, os.path.join(root, "scripts"))
+import stack_usage as su  # noqa: E402
+
+fw = {}
+for line in open(out):
+    f = line.split()
+    if len(f) > 2 and f[0] == "fw" and len(f) % 2 == 0:
+        fw[f[1]] = {f[i]: int(f[i + 1]) for i in range(2, len(f), 2)}
+
+sec = {}
+for line in subprocess.run(["arm-none-eabi-size", "-A", elf], capture_output=True, text=True,
+                           check=True).stdout.splitlines():
+    f = line.split()
+    if len(f) == 3 and f[0].startswith("."):
+        sec[f[0]] = int(f[1])
+sym = {}
+for line in subprocess.run(["arm-none-eabi-nm", "-S", "-t", "d", elf], capture_output=True,
+                           text=True, check=True).stdout.splitlines():
+    f = line.split()
+    if len(f) == 4:
+        sym[f[3]] = int(f[1])
+n = lambda v: f"{v:,}"
+
+code = sec.get(".vectors", 0) + sec.get(".text", 0) + sec.get(".ARM.exidx", 0)
+stream = sym["cnerf_fw_stream"]
+consts = sec.get(".rodata", 0) - stream
+tables = sum(sym.get(t, 0) for t in ("cn_sin_q30", "cn_exp2_q30", "cn_sigmoid_q30"))
+data = sec.get(".data", 0)
+flash = code + sec.get(".rodata", 0) + data
+bss = sec.get(".bss", 0)
+stack_size = sec.get(".stack", 0)
+named = {k: sym.get(k, 0) for k in ("ws", "scratch", "dec", "tile")}
+print(f"== cost on the target: Cortex-M4, {btype}, decoder + firmware, {os.path.basename(elf)} ==")
+print(f"flash {n(flash)} bytes: code {n(code)} (vector table {sec.get('.vectors', 0)}), "
+      f"constants {n(consts)} (decoder sin/exp2/sigmoid tables {n(tables)}), "
+      f"embedded stream {n(stream)}, .data image {n(data)}")
+print(f"RAM   {n(data + bss + stack_size)} bytes: .data {n(data)} + .bss {n(bss)} (workspace "
+      f"{n(named['ws'])}, render scratch {n(named['scratch'])}, cnerf_decoder {n(named['dec'])}, "
+      f"tile buffer {n(named['tile'])}, other {n(bss - sum(named.values()))}) + stack "
+      f"{n(stack_size)} reserved")
+
+# Worst-case stack: the decoder's call graph and the firmware's, both from GCC's
+# -fcallgraph-info=su, through scripts/stack_usage.py. Its load() reads only directories
+# named cnerf_dec.dir, so the firmware's .ci files are staged under that name.
+frames, edges, problems = su.load(bdir)
+with tempfile.TemporaryDirectory() as tmp:
+    stage = os.path.join(tmp, "cnerf_dec.dir")
+    os.mkdir(stage)
+    for p in glob.glob(os.path.join(bdir, "platform", "cortex-m", "CMakeFiles", "cnerf_fw.dir",
+                                    "*.ci")):
+        shutil.copy(p, stage)
+    f2, e2, p2 = su.load(tmp)
+frames.update(f2)
+for k, v in e2.items():
+    edges.setdefault(k, set()).update(v)
+problems += p2
+# Fault_Handler is naked assembly that branches to fw_fault_report: an edge GCC cannot see.
+edges.setdefault("Fault_Handler", set()).add("fw_fault_report")
+EXC = 32 + 4  # basic exception frame (no FP context: soft float, FPU off) + alignment
+try:
+    memo = {}
+    thread, path = su.deepest("Reset_Handler", frames, edges, [], memo)
+    tick, _ = su.deepest("SysTick_Handler", frames, edges, [], memo)
+    fault, fpath = su.deepest("Fault_Handler", frames, edges, [], memo)
+except (RecursionError, KeyError) as exc:
+    problems.append(str(exc))
+if problems:
+    for p in problems:
+        print("firmware.sh: no stack bound:", p, file=sys.stderr)
+    sys.exit(1)
+worst = thread + EXC + tick + EXC + fault
+hw = fw["stack"]["high_water"]
+chain = " -> ".join(p.split(":")[-1] for p in path)
+print(f"stack worst case {n(worst)} bytes of {n(stack_size)} reserved = thread {thread} "
+      f"({chain}) + SysTick {EXC}+{tick} + fault {EXC}+{fault}; measured high-water {hw}")
+status = 0
+print(f"RAM needed with the stack's worst case instead of the reservation: "
+      f"{n(data + bss + worst)} bytes")
+if worst > stack_size:
+    print(f"firmware.sh: the stack's worst case {worst} exceeds the {stack_size} bytes reserved "
+          f"(FW_STACK)", file=sys.stderr)
+    status = 1
+if hw > thread + EXC + tick:
+    print(f"firmware.sh: the measured stack {hw} exceeds the static bound: the call graph is "
+          f"incomplete", file=sys.stderr)
+    status = 1
+
+# Instructions: 40 per SysTick tick under -icount shift=0 (1 ns per instruction, 25 MHz
+# SysTick clock), valid only if the firmware's calibration loop says so (+-1 tick) and the
+# SysTick's wrap counting agrees with the APB timer's 32-bit count over the whole run.
+IPT = 40
+cal, ticks, cross = fw["calib"], fw["ticks"], fw["crosscheck"]
+ok_cal = abs(cal["ticks"] * IPT - cal["insns"]) <= 2 * IPT
+ok_cross = abs(cross["systick"] - cross["timer0"]) <= 2
+r = fw["render"]
+rays = r["w"] * r["h"]
+print(f"instructions (QEMU -icount shift=0, SysTick ticks x {IPT}; each figure +-1 tick): "
+      f"calibration loop {n(cal['insns'])} = {n(cal['ticks'])} ticks "
+      f"({'ok' if ok_cal else 'FAILED'}), SysTick vs APB timer0 over the run "
+      f"{n(cross['systick'])} / {n(cross['timer0'])} ticks ({'ok' if ok_cross else 'FAILED'})")
+if ok_cal and ok_cross:
+    ins = {k: v * IPT for k, v in ticks.items()}
+    print(f"  cnerf_peek {n(ins['peek'])}, cnerf_open {n(ins['open'])}, md5 of the tile "
+          f"{n(ins['md5'])}")
+    print(f"  cnerf_render_tile {n(ins['render'])} for {rays} rays ({r['w']}x{r['h']} at "
+          f"{r['x0']},{r['y0']}; {r['n_coarse']} coarse + {r['n_fine']} fine samples, t_stop "
+          f"{r['t_stop']}): {n(round(ins['render'] / rays))} instructions per ray, per-tile "
+          f"set-up included")
+else:
+    print("firmware.sh: the instruction counts are not valid (is this QEMU 7.2 with "
+          "-icount shift=0?); not reported", file=sys.stderr)
+sys.exit(status)
+PY
+echo "firmware.sh: OK: the firmware's tile has the host's MD5 $fw_md5"
