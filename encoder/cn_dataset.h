@@ -54,7 +54,10 @@ typedef struct cn_dataset {
 } cn_dataset;
 
 typedef struct cn_dataset_opts {
-    int downscale;    /* integer factor >= 1 (0 means 1), area averaging */
+    int downscale;    /* integer factor >= 1 (0 means 1), area averaging; a size that F does
+                         not divide loses its w % F (h % F) leftover columns (rows) first,
+                         half on the left (top), and the principal point moves with them:
+                         Fern's 504x378 at F = 4 is 126x94 */
     int black_bg;     /* composite RGBA over black instead of white */
     double near, far; /* overrides when > 0 (else derived, see above) */
     int max_views;    /* 0 = all; else load at most this many views per split */

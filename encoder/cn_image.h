@@ -33,6 +33,13 @@ int cn_png_write_rgb8(const char *path, const uint8_t *rgb, int w, int h, size_t
  * Fails with a message if w or h is not divisible by f. *out is a new image. */
 int cn_image_downscale(const cn_image *in, int f, cn_image *out, char *err, size_t errlen);
 
+/* The same for any size: when f does not divide the width (height), the w % f leftover
+ * columns (rows) are cropped first, half of them (rounded down) on the left (top) and the
+ * rest on the right (bottom); *x0, *y0 are the crop's offsets in input pixels. Fails only
+ * for f < 1, an invalid image, or an image smaller than f. */
+int cn_image_downscale_crop(const cn_image *in, int f, cn_image *out, int *x0, int *y0,
+                            char *err, size_t errlen);
+
 /* Frees the pixels and empties the struct; safe on an empty image. */
 void cn_image_free(cn_image *img);
 

@@ -119,7 +119,10 @@ static const cn_intr cn_intr_none = {NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
 /* Intrinsics of view v (v->w, v->h set) loaded from an image file of file_w x file_h.
  * Missing focal lengths come from the fields of view (fy: else fx, square pixels),
  * a missing principal point is the image centre. */
-static void cn_intr_resolve(const cn_intr *in, int file_w, int file_h, cn_view *v)
+/* Intrinsics of the loaded view: the reference size's intrinsics scaled to the file's size,
+ * moved by the crop and divided by the downscale factor. */
+static void cn_intr_resolve(const cn_intr *in, int file_w, int file_h, int crop_x, int crop_y,
+                            int factor, cn_view *v)
 {
     double rw = isnan(in->ref_w) ? file_w : in->ref_w;
     double rh = isnan(in->ref_h) ? file_h : in->ref_h;
@@ -129,11 +132,11 @@ static void cn_intr_resolve(const cn_intr *in, int file_w, int file_h, cn_view *
                                       : fx;
     double cx = isnan(in->cx) ? 0.5 * rw : in->cx;
     double cy = isnan(in->cy) ? 0.5 * rh : in->cy;
-    double sx = v->w / rw, sy = v->h / rh;
-    v->fx = fx * sx;
-    v->fy = fy * sy;
-    v->cx = cx * sx;
-    v->cy = cy * sy;
+    double sx = file_w / rw, sy = file_h / rh;
+    v->fx = fx * sx / factor;
+    v->fy = fy * sy / factor;
+    v->cx = (cx * sx - crop_x) / factor;
+    v->cy = (cy * sy - crop_y) / factor;
 }
 
 /* ---- the list of frames before their images are loaded ---- */
@@ -144,6 +147,8 @@ typedef struct cn_frame {
     cn_view v;  /* name and c2w; size, intrinsics and pixels once loaded */
     cn_intr in;
     int file_w, file_h; /* size of the image file */
+    int crop_x, crop_y; /* file pixels cropped on the left and top before downscaling */
+    int factor;         /* the downscale applied */
 } cn_frame;
 
 typedef struct cn_frames {
@@ -224,10 +229,13 @@ static int cn_frame_load(cn_frame *fr, int factor, const float bg[3], char *err,
         return -1;
     fr->file_w = full.w;
     fr->file_h = full.h;
+    fr->crop_x = fr->crop_y = 0;
+    fr->factor = factor > 1 ? factor : 1;
     const cn_image *im = &full;
     if (factor > 1) {
         char why[256];
-        if (cn_image_downscale(&full, factor, &small, why, sizeof why) != 0) {
+        if (cn_image_downscale_crop(&full, factor, &small, &fr->crop_x, &fr->crop_y, why,
+                                    sizeof why) != 0) {
             cn_image_free(&full);
             return cn_fail(err, errlen, "%s: %s (downscale %d)", fr->path, why, factor);
         }
@@ -278,7 +286,8 @@ static int cn_frames_load_images(cn_frames *L, const float bg[3], char *err, siz
                            a->path, a->file_w, a->file_h, b->path, b->file_w, b->file_h);
     }
     for (int i = 0; i < L->n; i++)
-        cn_intr_resolve(&L->f[i].in, L->f[i].file_w, L->f[i].file_h, &L->f[i].v);
+        cn_intr_resolve(&L->f[i].in, L->f[i].file_w, L->f[i].file_h, L->f[i].crop_x,
+                        L->f[i].crop_y, L->f[i].factor, &L->f[i].v);
     return 0;
 }
 

@@ -225,24 +225,11 @@ int cn_png_write_rgb8(const char *path, const uint8_t *rgb, int w, int h, size_t
 
 /* ---- downscaling ---- */
 
-int cn_image_downscale(const cn_image *in, int f, cn_image *out, char *err, size_t errlen)
+/* Area-averages the f*ow x f*oh rectangle at (x0, y0) of `in` into an ow x oh image. */
+static int downscale_rect(const cn_image *in, int x0, int y0, int ow, int oh, int f,
+                          cn_image *out, char *err, size_t errlen)
 {
-    *out = (cn_image){0};
-    if (f < 1) {
-        snprintf(err, errlen, "downscale factor %d: must be an integer >= 1", f);
-        return -1;
-    }
-    if (in->c < 1 || in->c > 4 || in->w <= 0 || in->h <= 0 || !in->px) {
-        snprintf(err, errlen, "cannot downscale: not a valid image");
-        return -1;
-    }
-    if (in->w % f != 0 || in->h % f != 0) {
-        snprintf(err, errlen,
-                 "cannot downscale a %dx%d image by %d: the size is not divisible by the factor",
-                 in->w, in->h, f);
-        return -1;
-    }
-    int ow = in->w / f, oh = in->h / f, c = in->c;
+    const int c = in->c;
     float *px = malloc(sizeof(float) * (size_t)ow * (size_t)oh * (size_t)c);
     if (!px) {
         snprintf(err, errlen, "out of memory downscaling a %dx%d image", in->w, in->h);
@@ -253,7 +240,8 @@ int cn_image_downscale(const cn_image *in, int f, cn_image *out, char *err, size
         for (int x = 0; x < ow; x++) {
             double acc[4] = {0, 0, 0, 0};
             for (int dy = 0; dy < f; dy++) {
-                const float *p = in->px + ((size_t)(y * f + dy) * in->w + (size_t)x * f) * c;
+                const float *p =
+                    in->px + ((size_t)(y0 + y * f + dy) * in->w + (size_t)x0 + (size_t)x * f) * c;
                 for (int i = 0; i < f * c; i++)
                     acc[i % c] += p[i];
             }
@@ -267,4 +255,47 @@ int cn_image_downscale(const cn_image *in, int f, cn_image *out, char *err, size
     out->c = c;
     out->px = px;
     return 0;
+}
+
+static int downscale_check(const cn_image *in, int f, char *err, size_t errlen)
+{
+    if (f < 1) {
+        snprintf(err, errlen, "downscale factor %d: must be an integer >= 1", f);
+        return -1;
+    }
+    if (in->c < 1 || in->c > 4 || in->w <= 0 || in->h <= 0 || !in->px) {
+        snprintf(err, errlen, "cannot downscale: not a valid image");
+        return -1;
+    }
+    return 0;
+}
+
+int cn_image_downscale(const cn_image *in, int f, cn_image *out, char *err, size_t errlen)
+{
+    *out = (cn_image){0};
+    if (downscale_check(in, f, err, errlen))
+        return -1;
+    if (in->w % f != 0 || in->h % f != 0) {
+        snprintf(err, errlen,
+                 "cannot downscale a %dx%d image by %d: the size is not divisible by the factor",
+                 in->w, in->h, f);
+        return -1;
+    }
+    return downscale_rect(in, 0, 0, in->w / f, in->h / f, f, out, err, errlen);
+}
+
+int cn_image_downscale_crop(const cn_image *in, int f, cn_image *out, int *x0, int *y0,
+                            char *err, size_t errlen)
+{
+    *out = (cn_image){0};
+    if (downscale_check(in, f, err, errlen))
+        return -1;
+    if (in->w < f || in->h < f) {
+        snprintf(err, errlen, "cannot downscale a %dx%d image by %d: smaller than the factor",
+                 in->w, in->h, f);
+        return -1;
+    }
+    *x0 = in->w % f / 2;
+    *y0 = in->h % f / 2;
+    return downscale_rect(in, *x0, *y0, in->w / f, in->h / f, f, out, err, errlen);
 }
