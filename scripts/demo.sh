@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The main job on the bundled default: encode the shared Lego scene (100x100, preset tiny)
 # into out/lego.cnrf, read it back and render its test views (r_0, r_40, ... r_160) with the
-# float reference of the file, then print the stream's size breakdown.
+# float reference of the file, print the stream's size breakdown, then decode the file with
+# the fixed-point decoder and render the same views into out/render/ (PSNR against the ground
+# truth and against the float reference, time per frame).
 # DEMO_ITERS sets the training iterations (default 500).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -12,3 +14,4 @@ cmake --build build -j"$(nproc 2>/dev/null || echo 2)"
 ./build/cnerf encode "$data/lego" -o out/lego.cnrf --lambda 1e-3 --preset tiny --downscale 4 \
   --iters "${DEMO_ITERS:-500}" --every 40 --log-every 50
 ./build/cnerf info out/lego.cnrf
+./build/cnerf render out/lego.cnrf --dataset "$data/lego" --downscale 4 --every 40 -o out/render
