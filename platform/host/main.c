@@ -47,7 +47,7 @@ static const struct {
 
 static void usage(FILE *f)
 {
-    fprintf(f, "usage: cnerf COMMAND [ARGS]\n\ncommands:\n");
+    fprintf(f, "usage: cnerf COMMAND [ARGS] | cnerf --version\n\ncommands:\n");
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
         fprintf(f, "  cnerf %s\n", commands[i].help);
 }
@@ -57,6 +57,11 @@ int main(int argc, char **argv)
     if (argc < 2 || !strcmp(argv[1], "-h") || !strcmp(argv[1], "--help")) {
         usage(argc < 2 ? stderr : stdout);
         return argc < 2 ? 2 : 0;
+    }
+    if (!strcmp(argv[1], "--version")) {
+        printf("cnerf %s (bitstream %u.%u)\n", CNERF_VERSION_STRING, CNERF_VERSION_MAJOR,
+               CNERF_VERSION_MINOR);
+        return 0;
     }
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
         if (!strcmp(argv[1], commands[i].name))

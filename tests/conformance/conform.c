@@ -1,0 +1,430 @@
+/*
+ * The conformance runner: checks a build of the decoder against vectors/ (docs/conformance.md).
+ *
+ *   conform check VECTORS_DIR
+ *       valid/NAME.cnrf: every tile of NAME.md5 must have its MD5 (bit-exact decoders), and
+ *       every camera's whole image must reach NAME.txt's `min_psnr` against the encoder's
+ *       float reference render NAME.<camera>.ref.png; invalid/expected.txt: each broken
+ *       stream must get exactly its status from cnerf_peek and cnerf_open.
+ *       Prints one line per check and closes with "N passed, M failed".
+ *   conform tiles STREAM CAMERAS TILE NC NF TSTOP
+ *       prints NAME.md5 lines for every camera of CAMERAS tiled TILE x TILE (the edge tiles
+ *       smaller), with the given knobs (vectors/regenerate.sh writes the MD5 files with it).
+ *
+ * Tile MD5s hash the tile's visible pixels only, row by row, RGB888 (w * 3 bytes a row).
+ */
+#include <errno.h>
+#include <stdarg.h>
+#include <math.h>
+#include <md5.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cn_image.h"
+#include "cnerf/cnerf.h"
+
+#define MAX_CAMS 16
+
+typedef struct camera {
+    cnerf_camera c;
+    char name[64];
+} camera;
+
+/* A stream opened into heap memory (the runner is hosted; the decoder never allocates). */
+typedef struct opened {
+    uint8_t *buf;
+    cnerf_decoder *dec;
+    void *ws, *scratch;
+    size_t scratch_n;
+} opened;
+
+static int read_file(const char *path, uint8_t **buf, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return -1;
+    size_t cap = 1 << 16, n = 0;
+    uint8_t *p = malloc(cap);
+    for (;;) {
+        if (!p) {
+            fclose(f);
+            return -1;
+        }
+        n += fread(p + n, 1, cap - n, f);
+        if (n < cap)
+            break;
+        cap *= 2;
+        uint8_t *q = realloc(p, cap);
+        if (!q)
+            free(p);
+        p = q;
+    }
+    const int bad = ferror(f);
+    fclose(f);
+    if (bad) {
+        free(p);
+        return -1;
+    }
+    *buf = p;
+    *len = n;
+    return 0;
+}
+
+static void close_stream(opened *o)
+{
+    free(o->buf), free(o->dec), free(o->ws), free(o->scratch);
+    memset(o, 0, sizeof *o);
+}
+
+static cnerf_status open_stream(const char *path, opened *o)
+{
+    memset(o, 0, sizeof *o);
+    size_t len;
+    if (read_file(path, &o->buf, &len)) {
+        fprintf(stderr, "conform: %s: %s\n", path, strerror(errno));
+        return CNERF_E_NULL;
+    }
+    o->dec = calloc(1, sizeof *o->dec);
+    if (!o->dec)
+        return CNERF_E_NULL;
+    cnerf_status st = cnerf_peek(o->buf, len, &o->dec->info);
+    if (st != CNERF_OK)
+        return st;
+    const size_t ws_n = cnerf_workspace_size(&o->dec->info);
+    o->scratch_n = cnerf_render_scratch_size(&o->dec->info);
+    o->ws = aligned_alloc(CNERF_WS_ALIGN, (ws_n + 7) & ~(size_t)7);
+    o->scratch = aligned_alloc(CNERF_WS_ALIGN, (o->scratch_n + 7) & ~(size_t)7);
+    if (!o->ws || !o->scratch)
+        return CNERF_E_NULL;
+    return cnerf_open(o->dec, o->buf, len, o->ws, ws_n);
+}
+
+/* Cameras: one per line, 18 integers and a name (cnerf render --save-cameras). */
+static int read_cameras(const char *path, camera *cams, int *n)
+{
+    FILE *f = fopen(path, "r");
+    if (!f) {
+        fprintf(stderr, "conform: %s: %s\n", path, strerror(errno));
+        return -1;
+    }
+    char line[1024];
+    *n = 0;
+    while (fgets(line, sizeof line, f)) {
+        if (line[0] == '#' || line[0] == '\n')
+            continue;
+        long long v[18];
+        char name[64];
+        if (*n == MAX_CAMS ||
+            sscanf(line,
+                   "%lld %lld %lld %lld %lld %lld %lld %lld %lld %lld %lld %lld %lld %lld %lld "
+                   "%lld %lld %lld %63s",
+                   &v[0], &v[1], &v[2], &v[3], &v[4], &v[5], &v[6], &v[7], &v[8], &v[9], &v[10],
+                   &v[11], &v[12], &v[13], &v[14], &v[15], &v[16], &v[17], name) != 19) {
+            fprintf(stderr, "conform: %s: camera %d: want 18 integers and a name\n", path,
+                    *n + 1);
+            fclose(f);
+            return -1;
+        }
+        camera *c = &cams[(*n)++];
+        for (int i = 0; i < 9; i++)
+            c->c.rot[i] = (int32_t)v[i];
+        for (int i = 0; i < 3; i++)
+            c->c.pos[i] = (int64_t)v[9 + i];
+        c->c.fx = (int32_t)v[12], c->c.fy = (int32_t)v[13];
+        c->c.cx = (int32_t)v[14], c->c.cy = (int32_t)v[15];
+        c->c.width = (uint16_t)v[16], c->c.height = (uint16_t)v[17];
+        snprintf(c->name, sizeof c->name, "%s", name);
+    }
+    fclose(f);
+    return 0;
+}
+
+static cnerf_status render(const opened *o, const cnerf_camera *cam, const cnerf_render_opts *k,
+                           uint32_t x0, uint32_t y0, uint32_t w, uint32_t h, uint8_t *px,
+                           size_t stride)
+{
+    return cnerf_render_tile(o->dec, cam, k, x0, y0, w, h, px, stride, o->scratch, o->scratch_n);
+}
+
+static void md5_tile(const uint8_t *px, uint32_t w, uint32_t h, size_t stride, char hex[33])
+{
+    MD5_CTX m;
+    MD5Init(&m);
+    for (uint32_t y = 0; y < h; y++)
+        MD5Update(&m, px + y * stride, (size_t)w * 3);
+    MD5End(&m, hex);
+}
+
+static int cmd_tiles(char **argv)
+{
+    opened o;
+    cnerf_status st = open_stream(argv[0], &o);
+    camera cams[MAX_CAMS];
+    int n, rc = 0;
+    if (st != CNERF_OK) {
+        fprintf(stderr, "conform: %s: %s\n", argv[0], cnerf_status_str(st));
+        close_stream(&o);
+        return 1;
+    }
+    if (read_cameras(argv[1], cams, &n)) {
+        close_stream(&o);
+        return 1;
+    }
+    const uint32_t T = (uint32_t)atoi(argv[2]);
+    cnerf_render_opts k = {(uint16_t)atoi(argv[3]), (uint16_t)atoi(argv[4]),
+                           (uint32_t)strtoul(argv[5], NULL, 10)};
+    for (int c = 0; c < n && rc == 0; c++) {
+        const cnerf_camera *cam = &cams[c].c;
+        uint8_t *px = malloc((size_t)T * T * 3 + 1);
+        for (uint32_t y0 = 0; px && y0 < cam->height && rc == 0; y0 += T)
+            for (uint32_t x0 = 0; x0 < cam->width && rc == 0; x0 += T) {
+                const uint32_t w = x0 + T > cam->width ? cam->width - x0 : T;
+                const uint32_t h = y0 + T > cam->height ? cam->height - y0 : T;
+                st = render(&o, cam, &k, x0, y0, w, h, px, (size_t)w * 3);
+                if (st != CNERF_OK) {
+                    fprintf(stderr, "conform: %s: %s\n", cams[c].name, cnerf_status_str(st));
+                    rc = 1;
+                    break;
+                }
+                char hex[33];
+                md5_tile(px, w, h, (size_t)w * 3, hex);
+                printf("%s %u %u %u %u %u %u %u %s\n", cams[c].name, x0, y0, w, h, k.n_coarse,
+                       k.n_fine, k.t_stop, hex);
+            }
+        if (!px)
+            rc = 1;
+        free(px);
+    }
+    close_stream(&o);
+    return rc;
+}
+
+/* ---- check ---- */
+
+static int passed, failed;
+
+static void result(int ok, const char *what, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+static void result(int ok, const char *what, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    printf("%s %s: ", ok ? "PASS" : "FAIL", what);
+    vprintf(fmt, ap);
+    printf("\n");
+    va_end(ap);
+    ok ? passed++ : failed++;
+}
+
+static double min_psnr_of(const char *txt)
+{
+    FILE *f = fopen(txt, "r");
+    char line[1024];
+    double v = -1;
+    while (f && fgets(line, sizeof line, f))
+        if (sscanf(line, "min_psnr: %lf", &v) == 1)
+            break;
+    if (f)
+        fclose(f);
+    return v;
+}
+
+/* One valid vector: its tiles' MD5s and each camera's PSNR against the float reference. */
+static void check_valid(const char *dir, const char *name)
+{
+    char path[4096], what[256];
+    snprintf(what, sizeof what, "valid/%s", name);
+    snprintf(path, sizeof path, "%s/valid/%s.cnrf", dir, name);
+    opened o;
+    cnerf_status st = open_stream(path, &o);
+    if (st != CNERF_OK) {
+        result(0, what, "open: %s", cnerf_status_str(st));
+        close_stream(&o);
+        return;
+    }
+    camera cams[MAX_CAMS];
+    int n;
+    snprintf(path, sizeof path, "%s/valid/%s.cam", dir, name);
+    if (read_cameras(path, cams, &n) || n == 0) {
+        result(0, what, "no cameras in %s", path);
+        close_stream(&o);
+        return;
+    }
+    /* Tiles. */
+    snprintf(path, sizeof path, "%s/valid/%s.md5", dir, name);
+    FILE *f = fopen(path, "r");
+    char line[512];
+    int tiles = 0, bad = 0;
+    while (f && fgets(line, sizeof line, f)) {
+        char cname[64], want[40], got[33];
+        unsigned x0, y0, w, h, nc, nf, ts;
+        if (sscanf(line, "%63s %u %u %u %u %u %u %u %39s", cname, &x0, &y0, &w, &h, &nc, &nf,
+                   &ts, want) != 9) {
+            bad++;
+            continue;
+        }
+        const camera *cam = NULL;
+        for (int c = 0; c < n; c++)
+            if (!strcmp(cams[c].name, cname))
+                cam = &cams[c];
+        uint8_t *px = malloc((size_t)w * h * 3 + 1);
+        cnerf_render_opts k = {(uint16_t)nc, (uint16_t)nf, ts};
+        st = cam && px ? render(&o, &cam->c, &k, x0, y0, w, h, px, (size_t)w * 3) : CNERF_E_ARG;
+        if (st == CNERF_OK) {
+            md5_tile(px, w, h, (size_t)w * 3, got);
+            if (strcmp(got, want)) {
+                if (bad < 3)
+                    printf("  %s tile %s (%u,%u %ux%u, %u+%u, t_stop %u): md5 %s, want %s\n",
+                           name, cname, x0, y0, w, h, nc, nf, ts, got, want);
+                bad++;
+            }
+        } else {
+            printf("  %s tile %s (%u,%u %ux%u): %s\n", name, cname, x0, y0, w, h,
+                   cnerf_status_str(st));
+            bad++;
+        }
+        free(px);
+        tiles++;
+    }
+    if (f)
+        fclose(f);
+    result(tiles > 0 && bad == 0, what, "%d tile MD5s, %d differ", tiles, bad);
+
+    /* Whole images against the float reference. */
+    snprintf(path, sizeof path, "%s/valid/%s.txt", dir, name);
+    const double need = min_psnr_of(path);
+    for (int c = 0; c < n; c++) {
+        const cnerf_camera *cam = &cams[c].c;
+        char ref_path[4096], err[512];
+        snprintf(ref_path, sizeof ref_path, "%s/valid/%s.%s.ref.png", dir, name, cams[c].name);
+        cn_image ref;
+        snprintf(what, sizeof what, "valid/%s %s", name, cams[c].name);
+        if (cn_png_read(ref_path, &ref, err, sizeof err)) {
+            result(0, what, "%s", err);
+            continue;
+        }
+        const size_t nv = (size_t)cam->width * cam->height * 3;
+        uint8_t *px = malloc(nv);
+        st = px && ref.w == cam->width && ref.h == cam->height && ref.c == 3
+                 ? render(&o, cam, NULL, 0, 0, cam->width, cam->height, px,
+                          (size_t)cam->width * 3)
+                 : CNERF_E_ARG;
+        if (st != CNERF_OK) {
+            result(0, what, "render: %s (reference %dx%d)", cnerf_status_str(st), ref.w, ref.h);
+        } else {
+            double se = 0;
+            int md = 0;
+            for (size_t i = 0; i < nv; i++) {
+                const int r = (int)lrintf(ref.px[i] * 255.0f), d = abs((int)px[i] - r);
+                se += (double)d * d;
+                md = d > md ? d : md;
+            }
+            const double psnr = se == 0 ? INFINITY : 10 * log10(255.0 * 255.0 * (double)nv / se);
+            result(need > 0 && psnr >= need, what,
+                   "%.2f dB against the float reference (needs %.1f), max diff %d", psnr, need,
+                   md);
+        }
+        free(px);
+        cn_image_free(&ref);
+    }
+    close_stream(&o);
+}
+
+static cnerf_status status_of(const char *name)
+{
+    for (int s = 0; s >= -64; s--)
+        if (!strcmp(cnerf_status_str((cnerf_status)s), name))
+            return (cnerf_status)s;
+    return (cnerf_status)1; /* no such status */
+}
+
+static void check_invalid(const char *dir)
+{
+    char path[4096], line[1024];
+    snprintf(path, sizeof path, "%s/invalid/expected.txt", dir);
+    FILE *f = fopen(path, "r");
+    if (!f) {
+        result(0, "invalid/expected.txt", "%s", strerror(errno));
+        return;
+    }
+    while (fgets(line, sizeof line, f)) {
+        char file[256], peek_s[64], open_s[64], what[300];
+        if (line[0] == '#' || sscanf(line, "%255s %63s %63s", file, peek_s, open_s) != 3)
+            continue;
+        snprintf(path, sizeof path, "%s/invalid/%s", dir, file);
+        snprintf(what, sizeof what, "invalid/%s", file);
+        uint8_t *buf;
+        size_t len;
+        if (read_file(path, &buf, &len)) {
+            result(0, what, "%s", strerror(errno));
+            continue;
+        }
+        cnerf_info *info = malloc(sizeof *info);
+        const cnerf_status p = info ? cnerf_peek(buf, len, info) : CNERF_E_NULL;
+        free(info);
+        opened o;
+        memset(&o, 0, sizeof o);
+        o.dec = calloc(1, sizeof *o.dec);
+        /* open with a workspace as large as peek asks, or a small one when peek refuses */
+        size_t ws_n = 64;
+        cnerf_info *i2 = malloc(sizeof *i2);
+        if (i2 && cnerf_peek(buf, len, i2) == CNERF_OK)
+            ws_n = cnerf_workspace_size(i2);
+        free(i2);
+        o.ws = aligned_alloc(CNERF_WS_ALIGN, (ws_n + 7) & ~(size_t)7);
+        const cnerf_status op =
+            o.dec && o.ws ? cnerf_open(o.dec, buf, len, o.ws, ws_n) : CNERF_E_NULL;
+        close_stream(&o);
+        free(buf);
+        const int ok = p == status_of(peek_s) && op == status_of(open_s);
+        result(ok, what, "peek %s, open %s (want %s, %s)", cnerf_status_str(p),
+               cnerf_status_str(op), peek_s, open_s);
+    }
+    fclose(f);
+}
+
+static int cmp_str(const void *a, const void *b)
+{
+    return strcmp(*(char *const *)a, *(char *const *)b);
+}
+
+static int cmd_check(const char *dir)
+{
+    /* The valid vectors are the names listed in valid/LIST (one per line, sorted). */
+    char path[4096], line[512];
+    snprintf(path, sizeof path, "%s/valid/LIST", dir);
+    FILE *f = fopen(path, "r");
+    if (!f) {
+        fprintf(stderr, "conform: %s: %s\n", path, strerror(errno));
+        return 1;
+    }
+    char *names[256];
+    int n = 0;
+    while (n < 256 && fgets(line, sizeof line, f)) {
+        line[strcspn(line, "\r\n")] = 0;
+        if (line[0] && line[0] != '#')
+            names[n++] = strdup(line);
+    }
+    fclose(f);
+    qsort(names, (size_t)n, sizeof names[0], cmp_str);
+    for (int i = 0; i < n; i++) {
+        check_valid(dir, names[i]);
+        fflush(stdout);
+        free(names[i]);
+    }
+    check_invalid(dir);
+    printf("%d passed, %d failed\n", passed, failed);
+    return failed || passed == 0 ? 1 : 0;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc == 3 && !strcmp(argv[1], "check"))
+        return cmd_check(argv[2]);
+    if (argc == 8 && !strcmp(argv[1], "tiles"))
+        return cmd_tiles(argv + 2);
+    fprintf(stderr, "usage: conform check VECTORS_DIR\n"
+                    "       conform tiles STREAM CAMERAS TILE NC NF TSTOP\n");
+    return 2;
+}

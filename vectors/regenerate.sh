@@ -1,0 +1,135 @@
+#!/usr/bin/env bash
+# Regenerates every conformance vector in vectors/ (docs/conformance.md), seeded, and stamps
+# each valid vector's provenance into NAME.txt.
+#   vectors/regenerate.sh      (builds and uses build/ or $CNERF_BUILD; scenes from ../shared/data)
+# Real-scene streams come from training: another CPU or BLAS build may give other (equally
+# valid) streams, so the committed vectors, checked by MANIFEST.sha256, are the reference.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+data=${CNERF_DATA:-../shared/data}
+seed=20261123
+build=${CNERF_BUILD:-build}
+cmake -S . -B $build -DCMAKE_BUILD_TYPE=RelWithDebInfo > /dev/null
+cmake --build $build -j"$(nproc)" --target cnerf conform make_invalid > /dev/null
+cnerf=$build/cnerf conform=$build/tests/conform
+version=$($cnerf --version)
+rev=$(git rev-parse --short HEAD 2> /dev/null || echo unknown)
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+rm -rf vectors/valid vectors/invalid
+mkdir -p vectors/valid vectors/invalid
+: > vectors/valid/LIST
+
+# Cameras and float reference renders of stream $1 into vectors/valid/$2.*, from the
+# cnerf render options in $3 (a dataset's test views or an orbit).
+cams_and_refs() {
+  local stream=$1 name=$2 opts=$3
+  rm -rf "$tmp/ref"
+  # shellcheck disable=SC2086
+  $cnerf render "$stream" $opts --float -o "$tmp/ref" --save-cameras "vectors/valid/$name.cam" \
+    > /dev/null
+  for png in "$tmp"/ref/*.png; do
+    cp "$png" "vectors/valid/$name.$(basename "$png" .png).ref.png"
+  done
+  # shellcheck disable=SC2086
+  $cnerf render "$stream" $opts > "$tmp/fixed.log"
+}
+
+# vector NAME FEATURE COMMAND... : runs COMMAND (which writes $tmp/s.cnrf), then the
+# cameras in $CAMS, the tile MD5s (16x16 tiles, the stream's knobs on every camera and halved
+# sample counts with early termination at 1/1024 on the first) and NAME.txt.
+vector() {
+  local name=$1 feature=$2
+  shift 2
+  echo "== $name: $feature" >&2
+  rm -f "$tmp/s.cnrf"
+  "$@" > "$tmp/cmd.log"
+  cp "$tmp/s.cnrf" "vectors/valid/$name.cnrf"
+  cams_and_refs "vectors/valid/$name.cnrf" "$name" "$CAMS"
+  read -r nc nf < <($cnerf info "vectors/valid/$name.cnrf" |
+    sed -n 's/^samples: \([0-9]*\) coarse + \([0-9]*\) fine$/\1 \2/p')
+  $conform tiles "vectors/valid/$name.cnrf" "vectors/valid/$name.cam" 16 "$nc" "$nf" 262144 \
+    > "vectors/valid/$name.md5"
+  head -n 1 "vectors/valid/$name.cam" > "$tmp/cam1"
+  local hc=$(((nc + 1) / 2)) hf=$((nf / 2))
+  $conform tiles "vectors/valid/$name.cnrf" "$tmp/cam1" 16 "$hc" "$hf" 1048576 \
+    >> "vectors/valid/$name.md5"
+  local vs min
+  vs=$(sed -n 's/^mean over .* vs float \([0-9.]*\) dB.*/\1/p; s/^mean over .* vs float: identical.*/inf/p' "$tmp/fixed.log")
+  # A port that is not bit-exact must come within 40 dB of the float reference, or, for
+  # streams that saturate the fixed-point range on purpose, 3 dB of what this decoder reaches.
+  min=$(python3 -c "v=float('$vs'); print(40 if v >= 43 else max(0, int(v) - 3))")
+  {
+    echo "feature: $feature"
+    echo "encoder: $version, commit $rev"
+    echo "command: $(printf '%s ' "$@" | sed "s|$tmp/s.cnrf|$name.cnrf|g; s|$tmp/|(make_invalid)/|g; s/ $//")"
+    echo "seed: $seed"
+    echo "cameras: $(awk '{print $19 " (" $17 "x" $18 ")"}' "vectors/valid/$name.cam" | paste -sd, - | sed 's/,/, /g')"
+    echo "tiles: $(wc -l < "vectors/valid/$name.md5") MD5s (16x16 tiles; the stream's knobs on every camera, $hc+$hf samples and t_stop 2^20 on the first)"
+    echo "fixed point against the float reference: $vs dB (mean over the cameras, this decoder)"
+    echo "min_psnr: $min"
+  } > "vectors/valid/$name.txt"
+  echo "$name" >> vectors/valid/LIST
+}
+
+# Real scenes through the encoder (few iterations: these test the decoder, not the encoder).
+CAMS="--dataset $data/lego --downscale 8 --every 100"
+vector 001-lego-encode-tiny "a real 360-degree scene from cnerf encode (Blender Lego, 50x50)" \
+  $cnerf encode "$data/lego" -o "$tmp/s.cnrf" --lambda 1e-3 --preset tiny --downscale 8 \
+  --iters 200 --seed $seed --threads 2 --every 100
+CAMS="--dataset $data/fern --downscale 8 --every 2"
+vector 002-fern-encode-tiny-ndc "a real forward-facing scene in NDC from cnerf encode (LLFF Fern, 63x47)" \
+  $cnerf encode "$data/fern" -o "$tmp/s.cnrf" --lambda 1e-3 --preset tiny --downscale 8 \
+  --iters 200 --seed $seed --threads 2 --every 100
+
+# Features of the format, on random models (cnerf synth).
+CAMS="--orbit 2 --size 24"
+vector 003-int16-latents "layers whose latents need int16 storage (magnitudes in the thousands)" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --spread 300
+vector 004-black-background "a black background" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --black
+vector 005-one-sample "one coarse sample and no fine network" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --coarse 1 --fine 0
+vector 006-empty-range-layers "every layer's latents in an empty range (kmin = kmax, no payload)" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --spread 0
+vector 007-no-view-branch "networks without a view-direction branch" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --view-width 0
+vector 008-small-preset "the small preset's topology (4x128, 32+32 samples)" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset small --seed $seed
+CAMS="--orbit 1 --size 8"
+vector 009-largest-limits "the largest depth, octaves and sample counts, and latents near +-32767" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --depth 16 --width 8 --view-width 8 \
+  --lpos 16 --ldir 8 --coarse 1024 --fine 1024 --spread 20000
+vector 010-widest-layer "the widest trunk (1024) in a one-layer network" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --depth 1 --width 1024 --view-width 0 \
+  --coarse 8 --fine 0
+
+# Broken streams, and the two edits a decoder must accept.
+$build/tests/make_invalid vectors/invalid "$tmp" >&2
+CAMS="--orbit 1 --size 12"
+vector 011-minor-version-7 "a newer minor version (accepted)" \
+  cp "$tmp/minor-version-7-is-accepted.cnrf" "$tmp/s.cnrf"
+vector 012-unknown-ancillary-chunk "an unknown ancillary chunk (skipped)" \
+  cp "$tmp/unknown-ancillary-chunk-is-skipped.cnrf" "$tmp/s.cnrf"
+
+# The table of docs/conformance.md, between its markers.
+python3 - <<'PY'
+import os, re
+rows = ["| vector | feature | bytes | cameras | tile MD5s | fixed vs float reference |", "|---|---|---|---|---|---|"]
+for name in open("vectors/valid/LIST").read().split():
+    t = dict(l.split(": ", 1) for l in open(f"vectors/valid/{name}.txt").read().splitlines() if ": " in l)
+    size = os.path.getsize(f"vectors/valid/{name}.cnrf")
+    tiles = t["tiles"].split()[0]
+    vs = t["fixed point against the float reference"].split(" (")[0].replace("inf dB", "identical")
+    rows.append(f"| `{name}` | {t['feature']} | {size:,} | {t['cameras']} | {tiles} | {vs} |")
+n_inv = sum(1 for l in open("vectors/invalid/expected.txt") if not l.startswith("#"))
+doc = open("docs/conformance.md").read()
+table = "\n".join(rows) + f"\n\nand {n_inv} broken streams in `invalid/`."
+doc = re.sub(r"(<!-- vectors: written by vectors/regenerate.sh -->\n).*?(<!-- end of vectors -->)",
+             lambda m: m.group(1) + table + "\n" + m.group(2), doc, flags=re.S)
+open("docs/conformance.md", "w").write(doc)
+PY
+
+(cd vectors && find valid invalid -type f | LC_ALL=C sort | xargs sha256sum > MANIFEST.sha256)
+echo "vectors: $(wc -l < vectors/valid/LIST) valid, $(grep -vc '^#' vectors/invalid/expected.txt) invalid; checking" >&2
+$conform check vectors | tail -n 1
