@@ -66,16 +66,25 @@ static int render_fixed(const cnerf_decoder *dec, const cnerf_camera *cam, const
     return bad ? -1 : 0;
 }
 
-static double psnr_u8(const uint8_t *a, const uint8_t *b, size_t n, int *maxdiff)
+/* PSNR of a against b (8-bit RGB, n values), their largest difference, and the number of
+ * pixels that differ by more than 2 in some channel. */
+static double psnr_u8(const uint8_t *a, const uint8_t *b, size_t n, int *maxdiff, long *over2)
 {
     double s = 0;
     int md = 0;
-    for (size_t i = 0; i < n; i++) {
-        const int d = (int)a[i] - (int)b[i];
-        s += (double)d * d;
-        md = abs(d) > md ? abs(d) : md;
+    long o = 0;
+    for (size_t i = 0; i < n; i += 3) {
+        int pm = 0;
+        for (size_t c = i; c < i + 3; c++) {
+            const int d = abs((int)a[c] - (int)b[c]);
+            s += (double)d * d;
+            pm = d > pm ? d : pm;
+        }
+        md = pm > md ? pm : md;
+        o += pm > 2;
     }
     *maxdiff = md;
+    *over2 = o;
     return s == 0 ? INFINITY : 10.0 * log10(255.0 * 255.0 / (s / (double)n));
 }
 
@@ -229,6 +238,7 @@ int cmd_render(int argc, char **argv)
     MD5Init(&all);
     double sum_gt = 0, sum_ref_gt = 0, sum_ssim = 0, sum_vs = 0, sum_ms = 0, sum_ms_ref = 0;
     int count = 0, worst = 0, inf_count = 0;
+    long over2_all = 0, px_all = 0;
     char err[1024];
     for (int i = 0; rc == 0 && i < n; i += dataset ? (int)every : 1) {
         cn_camera cam;
@@ -279,7 +289,10 @@ int cmd_render(int argc, char **argv)
         MD5End(&one, hex);
         MD5Update(&all, px, nv);
         int md;
-        const double vs = psnr_u8(px, refpx, nv, &md);
+        long over2;
+        const double vs = psnr_u8(px, refpx, nv, &md, &over2);
+        over2_all += over2;
+        px_all += (long)npx;
         printf("  %-12s", name);
         if (dataset) {
             to_float(px, rgb, nv);
@@ -291,7 +304,7 @@ int cmd_render(int argc, char **argv)
             sum_gt += g, sum_ssim += s, sum_ref_gt += rg;
         }
         if (!use_float)
-            printf("  vs float %6.2f dB, max diff %d  %8.1f ms", vs, md, ms);
+            printf("  vs float %6.2f dB, max diff %d (%ld px > 2)  %8.1f ms", vs, md, over2, ms);
         printf("  float %8.1f ms", ms_ref);
         printf("  md5 %s\n", hex);
         fflush(stdout);
@@ -324,7 +337,8 @@ int cmd_render(int argc, char **argv)
             else
                 printf("  vs float %.2f dB (%d identical views)", sum_vs / (count - inf_count),
                        inf_count);
-            printf(", max diff %d  %.1f ms/frame", worst, sum_ms / count);
+            printf(", max diff %d (%ld of %ld px > 2)  %.1f ms/frame", worst, over2_all, px_all,
+                   sum_ms / count);
         }
         printf("  float reference %.1f ms/frame\n", sum_ms_ref / count);
         char hex[33];
