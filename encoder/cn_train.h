@@ -35,6 +35,13 @@ typedef struct cn_train_opts {
     double levels;   /* initial latent spread in integer steps (a = Glorot limit / levels) */
     double lr_prior; /* learning rate of the priors */
     double lr_affine; /* learning rate of the affine decoders (a, b) */
+    /* Adam's learning rate of layer l's latents: lr (the paper: a step in latent units)
+     * when 0; lr / a0_l when 1, a0_l = Glorot limit / levels being the layer's initial
+     * quantization step, so that a latent moves as fast in weight units as a float weight
+     * does and the initial spread (levels) no longer sets the speed (the default: on Lego
+     * at 50x50, preset tiny, lambda 1e-3, 300 iterations, test PSNR 17.40 dB against 9.59 dB
+     * in latent units, at 30,963 and 30,289 bytes). */
+    int latent_lr_weight_units;
 } cn_train_opts;
 
 /* NeRF's defaults: 1024 rays, 5e-4 decaying tenfold over 500k steps, preset "small",

@@ -17,14 +17,14 @@
     "usage: cnerf encode DATASET -o scene.cnrf --lambda L [--preset tiny|small|paper]\n"     \
     "       [--iters N] [--downscale F] [--threads T] [--seed S] [--resume CKPT]\n"          \
     "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N] [--log-every N]\n" \
-    "       [--depth D] [--width W] [--coarse N] [--fine N]"
+    "       [--depth D] [--width W] [--coarse N] [--fine N] [--latent-lr latent|weight]"
 
 int cmd_encode(int argc, char **argv)
 {
     cn_train_opts o;
     cn_train_defaults(&o);
     o.compress = 1;
-    const char *out = NULL, *resume = NULL, *pos[1];
+    const char *out = NULL, *resume = NULL, *pos[1], *latent_lr = "weight";
     long iters = o.iters, downscale = 1, threads = 0, batch = o.batch, every = 1;
     long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 1000, log_every = 100;
     double lambda = -1, levels = o.levels;
@@ -49,6 +49,7 @@ int cmd_encode(int argc, char **argv)
         {"--width", CLI_LONG, &width, 1, CNERF_MAX_WIDTH},
         {"--coarse", CLI_LONG, &coarse, 1, CNERF_MAX_SAMPLES},
         {"--fine", CLI_LONG, &fine, 0, CNERF_MAX_SAMPLES},
+        {"--latent-lr", CLI_STR, &latent_lr, 0, 0},
     };
     if (cli_parse("encode", ENCODE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
                   &n_pos))
@@ -56,6 +57,10 @@ int cmd_encode(int argc, char **argv)
     if (n_pos != 1 || !out || lambda < 0)
         return cli_fail("encode", "need a dataset directory, -o FILE and --lambda L\n%s",
                         ENCODE_USAGE);
+    if (strcmp(latent_lr, "latent") && strcmp(latent_lr, "weight"))
+        return cli_fail("encode", "--latent-lr takes 'latent' (Adam's step in latent units, "
+                        "the paper's) or 'weight' (in weight units), not '%s'", latent_lr);
+    o.latent_lr_weight_units = !strcmp(latent_lr, "weight");
     cli_set_threads(threads);
     o.iters = iters;
     o.seed = seed;
@@ -104,9 +109,9 @@ int cmd_encode(int argc, char **argv)
     char meta[1024];
     snprintf(meta, sizeof meta,
              "encoder=cnerf %s; command=encode; dataset=%s; preset=%s; iters=%ld; lambda=%g; "
-             "downscale=%ld; seed=%llu; levels=%g",
+             "downscale=%ld; seed=%llu; levels=%g; latent-lr=%s",
              CNERF_VERSION_STRING, pos[0], o.preset, t.step, lambda, downscale,
-             (unsigned long long)seed, levels);
+             (unsigned long long)seed, levels, latent_lr);
     if (rc == 0 && (cn_model_snap(&t.model, err, sizeof err) ||
                     cn_export_compressed(&t.model, meta, &e, err, sizeof err)))
         rc = cli_fail("encode", "%s", err);

@@ -94,6 +94,11 @@ msg=$("$cnerf" encode "$data/lego" -o "$work/y.cnrf" 2>&1); rc=$?
 set -e
 [ $rc -ne 0 ] && grep -q "lambda" <<<"$msg" || fail "encode without lambda: $rc $msg"
 set +e
+msg=$("$cnerf" encode "$data/lego" -o "$work/y.cnrf" --lambda 1 --latent-lr fast 2>&1); rc=$?
+set -e
+[ $rc -ne 0 ] && grep -q "latent-lr takes" <<<"$msg" || fail "encode --latent-lr fast: $rc $msg"
+[ ! -e "$work/y.cnrf" ] || fail "a stream was written for a bad option"
+set +e
 msg=$("$cnerf" train "$data/lego" -o "$work/z.ckpt" --iters -5 2>&1); rc=$?
 set -e
 [ $rc -ne 0 ] && grep -q -- "--iters" <<<"$msg" || fail "negative iters: $rc $msg"
