@@ -55,6 +55,9 @@ typedef struct cn_model {
     size_t kofs[CNERF_MAX_LAYERS];
 } cn_model;
 
+/* Glorot-uniform limit of a layer's kernel, sqrt(6 / (n_in + n_out)). */
+double cn_glorot_limit(const cnerf_layer_info *L);
+
 /* Allocates the blocks for the header's topology and initialises the kernels Glorot-uniform
  * and biases to zero. Returns 0 or -1 with a message. */
 int cn_model_init(cn_model *m, const cnerf_info *hdr, uint64_t seed, char *err, size_t errlen);

@@ -182,12 +182,14 @@ static int model_alloc(cn_model *m, const cnerf_info *hdr, int compressed, char 
     return 0;
 }
 
+double cn_glorot_limit(const cnerf_layer_info *L) { return sqrt(6.0 / (L->n_in + L->n_out)); }
+
 /* Kernels Glorot-uniform, divided by `unit` (1 for plain kernels, a for latents). */
 static void init_kernels(cn_model *m, cn_rng *r, int compressed, double levels)
 {
     for (unsigned l = 0; l < m->topo.n_layers; l++) {
         const cnerf_layer_info *L = &m->topo.layer[l];
-        const double lim = sqrt(6.0 / (L->n_in + L->n_out));
+        const double lim = cn_glorot_limit(L);
         const double unit = compressed ? lim / levels : 1.0;
         float *w = m->params + m->layer[l].w;
         for (size_t i = 0; i < (size_t)L->n_in * L->n_out; i++)

@@ -264,17 +264,17 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
         rate = cn_model_rate(m, seed ^ 0xA5A5A5A5ull, (float)t->opts.lambda);
     t->step++;
     const double decay = cn_trainer_lr(t) / t->opts.lr;
-    if (m->compressed && t->opts.latent_lr_weight_units) {
-        for (unsigned l = 0; l < m->topo.n_layers; l++) {
-            const cnerf_layer_info *L = &m->topo.layer[l];
-            const double a0 = sqrt(6.0 / (L->n_in + L->n_out)) / t->opts.levels;
-            const size_t w = m->layer[l].w, b = m->layer[l].b;
-            adam_range(m, w, b, cn_trainer_lr(t) / a0, t->step);
-            adam_range(m, b, b + L->n_out, cn_trainer_lr(t), t->step);
+    if (m->compressed) {
+        if (t->opts.latent_lr_weight_units) {
+            for (unsigned l = 0; l < m->topo.n_layers; l++) {
+                const double a0 = cn_glorot_limit(&m->topo.layer[l]) / t->opts.levels;
+                const size_t w = m->layer[l].w, b = m->layer[l].b;
+                adam_range(m, w, b, cn_trainer_lr(t) / a0, t->step);
+                adam_range(m, b, b + m->topo.layer[l].n_out, cn_trainer_lr(t), t->step);
+            }
+        } else {
+            adam_range(m, 0, m->off_ab, cn_trainer_lr(t), t->step);
         }
-        adam_range(m, m->off_ab, m->off_prior, t->opts.lr_affine * decay, t->step);
-    } else if (m->compressed) {
-        adam_range(m, 0, m->off_ab, cn_trainer_lr(t), t->step);
         adam_range(m, m->off_ab, m->off_prior, t->opts.lr_affine * decay, t->step);
     } else {
         adam_range(m, 0, m->off_prior, cn_trainer_lr(t), t->step);
