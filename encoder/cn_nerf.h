@@ -82,6 +82,10 @@ void cn_model_kernels_backward(cn_model *m);
  * noise in [-1/2, 1/2) in place of rounding (streams from `seed`); adds scale * gradients
  * to the latents' and the priors' gradients. Returns 0 for uncompressed models. */
 double cn_model_rate(cn_model *m, uint64_t seed, float scale);
+/* Compressed models: the rate the coder is aiming at, -sum log2 L(round(Phi)) over all
+ * latents under their priors (no noise, no gradients); per_layer[l] gets each layer's bits
+ * when not NULL. NAN when out of memory, 0 for uncompressed models. */
+double cn_model_latent_bits(const cn_model *m, double *per_layer);
 /* The integer latent round(Phi) of layer l, element i. */
 int32_t cn_model_latent(const cn_model *m, unsigned l, size_t i);
 

@@ -294,15 +294,22 @@ void cn_model_kernels_backward(cn_model *m)
     }
 }
 
-double cn_model_rate(cn_model *m, uint64_t seed, float scale)
+/* Elements in the largest kernel (at least 1). */
+static size_t max_kernel(const cn_model *m)
 {
-    if (!m->compressed)
-        return 0;
-    size_t max = 0;
+    size_t max = 1;
     for (unsigned l = 0; l < m->topo.n_layers; l++) {
         size_t n = (size_t)m->topo.layer[l].n_in * m->topo.layer[l].n_out;
         max = n > max ? n : max;
     }
+    return max;
+}
+
+double cn_model_rate(cn_model *m, uint64_t seed, float scale)
+{
+    if (!m->compressed)
+        return 0;
+    const size_t max = max_kernel(m);
     float *x = malloc(sizeof(float) * max);
     if (!x)
         return NAN;
@@ -319,6 +326,29 @@ double cn_model_rate(cn_model *m, uint64_t seed, float scale)
                               m->grads + po);
     }
     free(x);
+    return bits;
+}
+
+double cn_model_latent_bits(const cn_model *m, double *per_layer)
+{
+    if (!m->compressed)
+        return 0;
+    const size_t max = max_kernel(m);
+    float *k = malloc(sizeof(float) * max);
+    if (!k)
+        return NAN;
+    double bits = 0;
+    for (unsigned l = 0; l < m->topo.n_layers; l++) {
+        const size_t n = (size_t)m->topo.layer[l].n_in * m->topo.layer[l].n_out;
+        for (size_t i = 0; i < n; i++)
+            k[i] = (float)cn_model_latent(m, l, i);
+        const double b = cn_prior_bits(m->params + m->off_prior + CN_PRIOR_PARAMS * (size_t)l,
+                                       k, n, 0, NULL, NULL);
+        if (per_layer)
+            per_layer[l] = b;
+        bits += b;
+    }
+    free(k);
     return bits;
 }
 

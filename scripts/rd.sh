@@ -29,17 +29,28 @@ common=(--preset "$preset" --iters "$iters" --downscale "$downscale" --threads "
 psnr_of() { sed -n 's/.*mean over .* psnr \([0-9.]*\) dB  ssim \([0-9.]*\).*/\1 \2/p; s/^test: .* psnr \([0-9.]*\) dB, ssim \([0-9.]*\),.*/\1 \2/p' "$1" | tail -1; }
 bytes_of() { stat -c %s "$1"; }
 
+# A finished run (its output and a PSNR line in its log) is kept, so an interrupted sweep
+# picks up where it stopped; delete OUT to start over.
+done_run() { [ -s "$1" ] && [ -n "$(psnr_of "$2")" ]; }
+
 run_lambda() {
   local l=$1
+  if done_run "$out/lambda-$l.cnrf" "$out/log/lambda-$l.log"; then return 0; fi
+  local resume=()  # an interrupted encode continues from its last checkpoint
+  [ -s "$out/lambda-$l.cnrf.ckpt" ] && resume=(--resume "$out/lambda-$l.cnrf.ckpt")
   $cnerf encode "$data" -o "$out/lambda-$l.cnrf" --lambda "$l" "${common[@]}" --every "$every" \
-    --log-every 250 > "$out/log/lambda-$l.log" 2>&1
+    --log-every 250 "${resume[@]}" > "$out/log/lambda-$l.log" 2>&1
   rm -f "$out/lambda-$l.cnrf.ckpt"
 }
 run_float() {
-  $cnerf train "$data" -o "$out/float.ckpt" "${common[@]}" --log-every 250 > "$out/log/float.log" 2>&1
-  $cnerf eval "$out/float.ckpt" "$data" --downscale "$downscale" --every "$every" \
-    --threads "$threads" >> "$out/log/float.log" 2>&1
+  if ! done_run "$out/float.ckpt" "$out/log/float.log"; then
+    $cnerf train "$data" -o "$out/float.ckpt" "${common[@]}" --log-every 250 \
+      > "$out/log/float.log" 2>&1
+    $cnerf eval "$out/float.ckpt" "$data" --downscale "$downscale" --every "$every" \
+      --threads "$threads" >> "$out/log/float.log" 2>&1
+  fi
   for b in $bits; do
+    if done_run "$out/q$b.cnrf" "$out/log/q$b.log"; then continue; fi
     $cnerf quantize "$out/float.ckpt" -o "$out/q$b.cnrf" --bits "$b" > "$out/log/q$b.log" 2>&1
     $cnerf eval "$out/q$b.cnrf" "$data" --downscale "$downscale" --every "$every" \
       --threads "$threads" >> "$out/log/q$b.log" 2>&1

@@ -138,6 +138,13 @@ int cmd_encode(int argc, char **argv)
         }
         printf("tables: %d from the prior, %d from counts, %u constant layers\n", prior, counts,
                st.dec->info.n_layers - prior - counts);
+        /* The rate the training objective estimated, against what the coder wrote. */
+        cn_totals tot;
+        cn_breakdown(&st.dec->info, &tot);
+        const double est = cn_model_latent_bits(&t.model, NULL) / 8;
+        printf("rate: prior estimate %.0f bytes for the integer latents, coded payload %llu bytes "
+               "(%+.2f%%)\n",
+               est, (unsigned long long)tot.payload, 100.0 * ((double)tot.payload / est - 1));
         double psnr = 0, ssim = 0, secs = 0;
         printf("float reference render of %s, test views:\n", out);
         int n = cli_eval_views(&ref, ds.test, ds.n_test, ds.ndc, every, NULL, &psnr, &ssim, &secs);

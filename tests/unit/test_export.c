@@ -5,7 +5,9 @@
 #include <string.h>
 
 #include "cn_export.h"
+#include "cn_prior.h"
 #include "cn_render.h"
+#include "cn_report.h"
 #include "testutil.h"
 
 static void small_model(cn_model *m, int compressed)
@@ -153,12 +155,83 @@ static void test_prior_tables(void **state)
     cn_model_free(&m);
 }
 
+/* Fits each layer's prior to its integer latents by Adam on -sum log2 L(k). */
+static void fit_priors(cn_model *m, int steps)
+{
+    float g[CN_PRIOR_PARAMS], mo[CN_PRIOR_PARAMS], v[CN_PRIOR_PARAMS];
+    size_t max = 0;
+    for (unsigned l = 0; l < m->topo.n_layers; l++)
+        max = fmax(max, (size_t)m->topo.layer[l].n_in * m->topo.layer[l].n_out);
+    float *k = malloc(sizeof(float) * max);
+    assert_non_null(k);
+    for (unsigned l = 0; l < m->topo.n_layers; l++) {
+        const size_t n = (size_t)m->topo.layer[l].n_in * m->topo.layer[l].n_out;
+        for (size_t i = 0; i < n; i++)
+            k[i] = (float)cn_model_latent(m, l, i);
+        float *p = m->params + m->off_prior + CN_PRIOR_PARAMS * (size_t)l;
+        memset(mo, 0, sizeof mo);
+        memset(v, 0, sizeof v);
+        for (int t = 1; t <= steps; t++) {
+            memset(g, 0, sizeof g);
+            cn_prior_bits(p, k, n, (float)(1.0 / n), NULL, g);
+            for (int j = 0; j < CN_PRIOR_PARAMS; j++) {
+                mo[j] = 0.9f * mo[j] + 0.1f * g[j];
+                v[j] = 0.999f * v[j] + 0.001f * g[j] * g[j];
+                const double mh = mo[j] / (1 - pow(0.9, t)), vh = v[j] / (1 - pow(0.999, t));
+                p[j] -= (float)(0.05 * mh / (sqrt(vh) + 1e-8));
+            }
+        }
+    }
+    free(k);
+}
+
+/* The rate the training objective estimates is what the coder pays: with priors fitted to
+ * the latents, the coded payload is within 3% of -sum log2 L(round(Phi)). */
+static void test_rate_estimate_matches_payload(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    tu_small_header(&hdr, 4, 64, 1);
+    cn_model m;
+    char err[256];
+    assert_int_equal(cn_model_init_compressed(&m, &hdr, 3, 8.0, err, sizeof err), 0);
+    const double before = cn_model_latent_bits(&m, NULL);
+    fit_priors(&m, 100);
+    double per[CNERF_MAX_LAYERS];
+    const double est = cn_model_latent_bits(&m, per);
+    assert_true(est < before); /* the fit did something */
+    double sum = 0;
+    for (unsigned l = 0; l < m.topo.n_layers; l++)
+        sum += per[l];
+    assert_float_equal(sum, est, 1e-9 * est);
+    assert_int_equal(cn_model_snap(&m, err, sizeof err), 0);
+    cn_export e;
+    assert_int_equal(cn_export_compressed(&m, NULL, &e, err, sizeof err), 0);
+    cn_buf b;
+    cnerf_decoder *dec = malloc(sizeof *dec);
+    void *ws;
+    cn_write_report rep;
+    write_and_open(&e, &b, dec, &ws, &rep);
+    cn_totals tot;
+    cn_breakdown(&dec->info, &tot);
+    const double ratio = 8.0 * (double)tot.payload / est;
+    print_message("rate estimate %.0f bytes, coded payload %llu bytes (%+.2f%%)\n", est / 8,
+                  (unsigned long long)tot.payload, 100 * (ratio - 1));
+    assert_true(fabs(ratio - 1) < 0.03);
+    cn_buf_free(&b);
+    cn_export_free(&e);
+    free(ws);
+    free(dec);
+    cn_model_free(&m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_closed_loop),
         cmocka_unit_test(test_quantized_baseline),
         cmocka_unit_test(test_prior_tables),
+        cmocka_unit_test(test_rate_estimate_matches_payload),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
