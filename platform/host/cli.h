@@ -21,15 +21,18 @@ int cmd_quantize(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 
 /* The training loop shared by train and encode: progress, periodic and final atomic
- * checkpoints to `ckpt`, Ctrl-C saves and sets *stopped. Returns 0 or 1 (error printed). */
+ * checkpoints to `ckpt`, Ctrl-C saves and sets *stopped. With eval_every > 0, every
+ * eval_every iterations (and after the last) renders every `every`-th test view and prints
+ * "eval: iteration I, training S s, test psnr P dB, ssim Q, V views", S being the training
+ * time so far without the evaluations. Returns 0 or 1 (error printed). */
 int cli_run_training(const char *cmd, struct cn_trainer *t, const char *ckpt, long ckpt_every,
-                     long log_every, int *stopped);
+                     long log_every, long eval_every, long every, int *stopped);
 /* Renders every `every`-th of views[0..n) with the evaluation rule, prints PSNR, SSIM and
- * time per view, writes OUTDIR/<name>.png when outdir is not NULL; returns the number of
- * views (means in the out-parameters) or -1 after printing the error. */
+ * time per view unless `quiet`, writes OUTDIR/<name>.png when outdir is not NULL; returns
+ * the number of views (means in the out-parameters) or -1 after printing the error. */
 int cli_eval_views(const struct cn_model *m, const struct cn_view *views, int n, int ndc,
-                   long every, const char *outdir, double *mean_psnr, double *mean_ssim,
-                   double *secs);
+                   long every, const char *outdir, int quiet, double *mean_psnr,
+                   double *mean_ssim, double *secs);
 
 /* Loads a dataset with the shared options; prints the error and returns 1 on failure. */
 int cli_load_dataset(const char *cmd, const char *dir, long downscale, int black, double near,

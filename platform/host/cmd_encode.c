@@ -17,7 +17,8 @@
     "usage: cnerf encode DATASET -o scene.cnrf --lambda L [--preset tiny|small|paper]\n"     \
     "       [--iters N] [--downscale F] [--threads T] [--seed S] [--resume CKPT]\n"          \
     "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N] [--log-every N]\n" \
-    "       [--depth D] [--width W] [--coarse N] [--fine N] [--latent-lr latent|weight]"
+    "       [--depth D] [--width W] [--coarse N] [--fine N] [--latent-lr latent|weight]\n"  \
+    "       [--eval-every N]"
 
 int cmd_encode(int argc, char **argv)
 {
@@ -27,6 +28,7 @@ int cmd_encode(int argc, char **argv)
     const char *out = NULL, *resume = NULL, *pos[1], *latent_lr = "weight";
     long iters = o.iters, downscale = 1, threads = 0, batch = o.batch, every = 1;
     long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 1000, log_every = 100;
+    long eval_every = 0;
     double lambda = -1, levels = o.levels;
     uint64_t seed = o.seed;
     int black = 0, n_pos;
@@ -45,6 +47,7 @@ int cmd_encode(int argc, char **argv)
         {"--black", CLI_FLAG, &black, 0, 0},
         {"--ckpt-every", CLI_LONG, &ckpt_every, 1, 1e9},
         {"--log-every", CLI_LONG, &log_every, 1, 1e9},
+        {"--eval-every", CLI_LONG, &eval_every, 0, 1e9},
         {"--depth", CLI_LONG, &depth, 1, CNERF_MAX_DEPTH},
         {"--width", CLI_LONG, &width, 1, CNERF_MAX_WIDTH},
         {"--coarse", CLI_LONG, &coarse, 1, CNERF_MAX_SAMPLES},
@@ -97,7 +100,8 @@ int cmd_encode(int argc, char **argv)
         printf("encoding %s: %d train views %dx%d, lambda %g, %zu latents, checkpoint %s\n",
                pos[0], ds.n_train, ds.train[0].w, ds.train[0].h, lambda,
                (size_t)t.model.topo.n_params, ckpt);
-        rc = cli_run_training("encode", &t, ckpt, ckpt_every, log_every, &stopped);
+        rc = cli_run_training("encode", &t, ckpt, ckpt_every, log_every, eval_every, every,
+                              &stopped);
     }
     if (rc == 0 && stopped) {
         printf("interrupted: resume with --resume %s\n", ckpt);
@@ -147,7 +151,7 @@ int cmd_encode(int argc, char **argv)
                est, (unsigned long long)tot.payload, 100.0 * ((double)tot.payload / est - 1));
         double psnr = 0, ssim = 0, secs = 0;
         printf("float reference render of %s, test views:\n", out);
-        int n = cli_eval_views(&ref, ds.test, ds.n_test, ds.ndc, every, NULL, &psnr, &ssim, &secs);
+        int n = cli_eval_views(&ref, ds.test, ds.n_test, ds.ndc, every, NULL, 0, &psnr, &ssim, &secs);
         if (n < 0)
             rc = 1;
         else if (n > 0)

@@ -42,7 +42,8 @@ int cli_make_dir(const char *cmd, const char *dir)
 }
 
 int cli_eval_views(const cn_model *m, const cn_view *views, int n, int ndc, long every,
-                   const char *outdir, double *mean_psnr, double *mean_ssim, double *secs)
+                   const char *outdir, int quiet, double *mean_psnr, double *mean_ssim,
+                   double *secs)
 {
     double sp = 0, ss = 0, st = 0;
     int count = 0;
@@ -61,8 +62,10 @@ int cli_eval_views(const cn_model *m, const cn_view *views, int n, int ndc, long
         const double dt = cli_now() - t0;
         const double psnr = cn_psnr_from_mse(cn_mse(rgb, v->rgb, 3 * npx));
         const double ssim = cn_ssim(rgb, v->rgb, v->w, v->h);
-        printf("  %-16s psnr %6.2f dB  ssim %.4f  %.2f s\n", v->name, psnr, ssim, dt);
-        fflush(stdout);
+        if (!quiet) {
+            printf("  %-16s psnr %6.2f dB  ssim %.4f  %.2f s\n", v->name, psnr, ssim, dt);
+            fflush(stdout);
+        }
         sp += psnr;
         ss += ssim;
         st += dt;
@@ -156,7 +159,7 @@ int cmd_eval(int argc, char **argv)
         rc = cli_make_dir("eval", outdir);
     if (rc == 0) {
         double psnr, ssim, secs;
-        int count = cli_eval_views(&m, views, n, ds.ndc, every, outdir, &psnr, &ssim, &secs);
+        int count = cli_eval_views(&m, views, n, ds.ndc, every, outdir, 0, &psnr, &ssim, &secs);
         if (count < 0)
             rc = 1;
         else if (step >= 0)

@@ -15,6 +15,7 @@
     "       [--downscale F] [--threads T] [--seed S] [--resume] [--batch R] [--depth D]\n"     \
     "       [--width W] [--coarse N] [--fine N] [--lr X] [--precrop-iters N] [--black]\n"     \
     "       [--near X] [--far X] [--ckpt-every N] [--log-every N] [--occupancy G]\n"     \
+    "       [--eval-every N] [--every K]\n"                                              \
     "       [--occupancy-start N]"
 
 static volatile sig_atomic_t interrupted;
@@ -39,8 +40,25 @@ int cli_load_dataset(const char *cmd, const char *dir, long downscale, int black
     return 0;
 }
 
+/* The test PSNR of the model being trained; returns the seconds it took, or -1. */
+static double eval_now(cn_trainer *t, long every, double trained)
+{
+    const double t0 = cli_now();
+    double psnr, ssim, secs;
+    cn_model_materialize(&t->model); /* the kernels of the latest step's parameters */
+    const int n = cli_eval_views(&t->model, t->ds->test, t->ds->n_test, t->ds->ndc, every, NULL,
+                                 1, &psnr, &ssim, &secs);
+    if (n < 0)
+        return -1;
+    if (n > 0)
+        printf("eval: iteration %ld, training %.1f s, test psnr %.2f dB, ssim %.4f, %d views\n",
+               t->step, trained, psnr, ssim, n);
+    fflush(stdout);
+    return cli_now() - t0;
+}
+
 int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt_every,
-                     long log_every, int *stopped)
+                     long log_every, long eval_every, long every, int *stopped)
 {
     char err[1024];
     int rc = 0;
@@ -54,6 +72,7 @@ int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt
     double mse = 0, loss = 0, bits = 0;
     const double t0 = cli_now();
     const long first = t->step;
+    double eval_secs = 0; /* time spent on evaluations, left out of the training time */
     while (rc == 0 && t->step < t->opts.iters && !interrupted) {
         loss = cn_trainer_step(t, &mse, &bits);
         char extra[64] = "";
@@ -65,6 +84,14 @@ int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt
         if (t->step % ckpt_every == 0 && t->step < t->opts.iters &&
             cn_checkpoint_save(t, ckpt, err, sizeof err))
             rc = cli_fail(cmd, "%s", err);
+        if (rc == 0 && eval_every > 0 && (t->step % eval_every == 0 || t->step == t->opts.iters)) {
+            cli_progress_break(&p);
+            const double s = eval_now(t, every, cli_now() - t0 - eval_secs);
+            if (s < 0)
+                rc = 1;
+            eval_secs += s;
+            cli_progress_pause(&p, s);
+        }
     }
     cli_progress_done(&p);
     sigaction(SIGINT, &old, NULL);
@@ -72,7 +99,7 @@ int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt
     if (rc == 0 && cn_checkpoint_save(t, ckpt, err, sizeof err))
         rc = cli_fail(cmd, "%s", err);
     if (rc == 0) {
-        const double el = cli_now() - t0;
+        const double el = cli_now() - t0 - eval_secs;
         printf("%s %s at iteration %ld: %.1f s, %.3f s/it, train psnr %.2f dB\n",
                interrupted ? "interrupted: saved" : "saved", ckpt, t->step, el,
                t->step > first ? el / (double)(t->step - first) : 0.0, cn_psnr_from_mse(mse));
@@ -87,6 +114,7 @@ int cmd_train(int argc, char **argv)
     const char *out = NULL, *pos[1];
     long iters = o.iters, downscale = 1, threads = 0, batch = o.batch, depth = -1, width = -1;
     long coarse = -1, fine = -1, precrop = -1, ckpt_every = 1000, log_every = 100;
+    long eval_every = 0, every = 1;
     long occ = o.occ_grid, occ_start = o.occ_start;
     double lr = o.lr, near = 0, far = 0;
     uint64_t seed = o.seed;
@@ -111,6 +139,8 @@ int cmd_train(int argc, char **argv)
         {"--far", CLI_DOUBLE, &far, 1e-6, 1e4},
         {"--ckpt-every", CLI_LONG, &ckpt_every, 1, 1e9},
         {"--log-every", CLI_LONG, &log_every, 1, 1e9},
+        {"--eval-every", CLI_LONG, &eval_every, 0, 1e9},
+        {"--every", CLI_LONG, &every, 1, 1e6},
         {"--occupancy", CLI_LONG, &occ, 0, 256},
         {"--occupancy-start", CLI_LONG, &occ_start, 0, 1e9},
     };
@@ -158,7 +188,8 @@ int cmd_train(int argc, char **argv)
                t.model.n_params);
     int stopped = 0;
     if (rc == 0)
-        rc = cli_run_training("train", &t, out, ckpt_every, log_every, &stopped);
+        rc = cli_run_training("train", &t, out, ckpt_every, log_every, eval_every, every,
+                              &stopped);
     cn_trainer_free(&t);
     cn_dataset_free(&ds);
     return rc ? rc : stopped ? 130 : 0;

@@ -60,6 +60,14 @@ void cli_progress_update(cli_progress *p, long it, double loss, double psnr, con
     }
 }
 
+void cli_progress_break(cli_progress *p)
+{
+    if (p->tty)
+        fputc('\n', p->out);
+}
+
+void cli_progress_pause(cli_progress *p, double secs) { p->t0 += secs; }
+
 void cli_progress_done(cli_progress *p)
 {
     if (p->tty)

@@ -7,13 +7,21 @@ rm -rf "$work" && mkdir -p "$work"
 fail() { echo "FAIL: $*" >&2; exit 1; }
 common=(--preset tiny --downscale 16 --batch 64 --coarse 8 --fine 8 --threads 2)
 
-out=$("$cnerf" train "$data/lego" -o "$work/m.ckpt" --iters 4 --log-every 2 "${common[@]}")
+out=$("$cnerf" train "$data/lego" -o "$work/m.ckpt" --iters 4 --log-every 2 --eval-every 3 \
+  --every 100 "${common[@]}")
 grep -q "iter 4/4" <<<"$out" || fail "train printed no progress: $out"
 grep -q "saved $work/m.ckpt at iteration 4" <<<"$out" || fail "train summary: $out"
 [ -s "$work/m.ckpt" ] || fail "no checkpoint"
+# --eval-every: at iteration 3 and after the last, the test PSNR of the model so far.
+grep -q "^eval: iteration 3, training [0-9.]* s, test psnr [0-9.]* dB, ssim -\?[0-9.]*, 2 views" \
+  <<<"$out" || fail "train --eval-every: $out"
+train_eval=$(sed -n 's/^eval: iteration 4, .* test psnr \([0-9.]*\) dB.*/\1/p' <<<"$out")
 
 out=$("$cnerf" eval "$work/m.ckpt" "$data/lego" --downscale 16 --every 100 -o "$work/ev")
 grep -q "mean over 2 test views (iteration 4)" <<<"$out" || fail "eval summary: $out"
+# The last periodic evaluation is the checkpoint's.
+grep -q "mean over 2 test views (iteration 4): psnr $train_eval dB" <<<"$out" ||
+  fail "eval of the checkpoint differs from train's last evaluation ($train_eval): $out"
 [ -s "$work/ev/r_0.png" ] && [ -s "$work/ev/r_100.png" ] || fail "eval wrote no PNGs"
 
 # Ctrl-C: a checkpoint of the iterations done, exit status 130; --resume continues.
@@ -31,8 +39,12 @@ out=$("$cnerf" train "$data/lego" -o "$work/int.ckpt" --iters $((done_its + 2)) 
 grep -q "resumed $work/int.ckpt at iteration $done_its" <<<"$out" || fail "resume: $out"
 grep -q "at iteration $((done_its + 2))" <<<"$out" || fail "resume did not continue: $out"
 
-out=$("$cnerf" encode "$data/lego" -o "$work/s.cnrf" --lambda 1e-3 --iters 3 --every 100 "${common[@]}")
+out=$("$cnerf" encode "$data/lego" -o "$work/s.cnrf" --lambda 1e-3 --iters 3 --every 100 \
+  --eval-every 2 "${common[@]}")
 grep -q "wrote $work/s.cnrf: [0-9]* bytes = latent payload" <<<"$out" || fail "encode: $out"
+grep -q "^eval: iteration 2, .* 2 views" <<<"$out" || fail "encode --eval-every: $out"
+grep -q "^rate: prior estimate [0-9]* bytes for the integer latents, coded payload [0-9]* bytes" \
+  <<<"$out" || fail "encode rate figure: $out"
 grep -q "test: 2 views, psnr" <<<"$out" || fail "encode test views: $out"
 "$cnerf" info "$work/s.cnrf" | grep -q "samples: 8 coarse + 8 fine" || fail "info of encoded file"
 # eval of a stream renders its float reference model: the same PSNR that encode printed.
