@@ -1,7 +1,7 @@
 /*
  * The float NeRF model: parameters, gradients and Adam moments each in one contiguous block
  * with named per-layer views; batched forward and backward passes of both networks through
- * cblas_sgemm. Layer shapes and order come from the stream's topology (cnerf_expand_topology),
+ * cn_sgemm (cn_gemm.h). Layer shapes and order come from the stream's topology (cnerf_expand_topology),
  * so the trained model maps one to one onto the bitstream.
  */
 #ifndef CNERF_ENC_NERF_H

@@ -4,8 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include <cblas.h>
-
+#include "cn_gemm.h"
 #include "cn_nerf.h"
 #include "cn_prior.h"
 #include "cn_rng.h"
@@ -17,8 +16,7 @@ void cn_linear_forward(float *y, size_t ldy, const float *x, size_t ldx, const f
 {
     if (P == 0)
         return;
-    cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, (int)P, (int)n_out, (int)n_in, 1.0f, x,
-                (int)ldx, w, (int)n_in, 0.0f, y, (int)ldy);
+    cn_sgemm(0, 1, P, n_out, n_in, x, ldx, w, n_in, 0.0f, y, ldy);
     /* Bias and activation in one branch-free pass (vectorizes). */
 #pragma omp parallel for schedule(static)
     for (size_t p = 0; p < P; p++) {
@@ -81,12 +79,10 @@ void cn_linear_backward(float *dx, size_t lddx, size_t x0, size_t nx, int dx_acc
 {
     if (P == 0)
         return;
-    cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, (int)n_out, (int)n_in, (int)P, 1.0f, dy,
-                (int)lddy, x, (int)ldx, 1.0f, dw, (int)n_in);
+    cn_sgemm(1, 0, n_out, n_in, P, dy, lddy, x, ldx, 1.0f, dw, n_in);
     colsum_acc(db, dy, lddy, P, n_out);
     if (dx && nx)
-        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, (int)P, (int)nx, (int)n_out, 1.0f,
-                    dy, (int)lddy, w + x0, (int)n_in, dx_accum ? 1.0f : 0.0f, dx, (int)lddx);
+        cn_sgemm(0, 0, P, nx, n_out, dy, lddy, w + x0, n_in, dx_accum ? 1.0f : 0.0f, dx, lddx);
 }
 
 void cn_relu_backward(float *dy, size_t lddy, const float *y, size_t ldy, size_t P, size_t n)

@@ -5,10 +5,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include <cblas.h>
 #include <omp.h>
 
 #include "cli.h"
+#include "cn_gemm.h"
 
 static int bad(const char *cmd, const char *usage, const char *fmt, const char *a, const char *b)
 {
@@ -97,6 +97,5 @@ void cli_set_threads(long t)
 {
     if (t <= 0)
         return;
-    omp_set_num_threads((int)t);
-    openblas_set_num_threads((int)t);
+    cn_gemm_set_threads((int)t);
 }

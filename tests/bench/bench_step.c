@@ -1,6 +1,6 @@
 /* Benchmark: one training step of the render (both networks, forward and backward) at a
- * preset's shapes with random rays through the Lego geometry, against cblas_sgemm at the
- * same matrix shapes. Prints medians of N runs and achieved GFLOP/s.
+ * preset's shapes with random rays through the Lego geometry, against the encoder's GEMM
+ * (cn_sgemm) at the same matrix shapes. Prints medians of N runs and achieved GFLOP/s.
  *   bench_step [preset] [rays] [runs]                                                      */
 #include <math.h>
 #include <stdio.h>
@@ -8,29 +8,10 @@
 #include <string.h>
 #include <time.h>
 
-#include <cblas.h>
-
+#include "cn_gemm.h"
 #include "cn_render.h"
 #include "cn_synth.h"
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
-}
-
-static int cmp(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof *v, cmp);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
+#include "benchutil.h"
 
 /* Multiply-adds of one forward pass of network `net` over P points. */
 static double net_macs(const cnerf_info *T, unsigned net, double P)
@@ -81,11 +62,11 @@ int main(int argc, char **argv)
     double *fw = malloc(sizeof(double) * runs), *bw = malloc(sizeof(double) * runs);
     for (int it = -1; it < runs; it++) { /* one warm-up */
         uint64_t seed = (uint64_t)it + 7;
-        double t0 = now();
+        double t0 = bench_now();
         cn_render_forward(&m, &b, R, &seed);
-        double t1 = now();
+        double t1 = bench_now();
         cn_render_backward(&m, &b, R, dcol);
-        double t2 = now();
+        double t2 = bench_now();
         if (it >= 0) {
             fw[it] = t1 - t0;
             bw[it] = t2 - t1;
@@ -98,7 +79,7 @@ int main(int argc, char **argv)
     double macs = net_macs(T, 0, (double)b.n_rows[0]) + (two ? net_macs(T, 1, (double)b.n_rows[1]) : 0);
     double nominal = net_macs(T, 0, (double)R * b.nc) + (two ? net_macs(T, 1, (double)R * b.ns) : 0);
     double flops = 2 * macs * 3; /* forward + backward (dX and dW) */
-    double f = median(fw, runs), bk = median(bw, runs);
+    double f = bench_median(fw, runs), bk = bench_median(bw, runs);
     printf("preset %s, %zu rays, %u+%u samples (%.1f%% inside the bounds): forward %.4f s, "
            "backward %.4f s, step %.4f s (median of %d), %.1f GFLOP/step executed "
            "(%.1f nominal), %.1f GFLOP/s\n",
@@ -109,13 +90,13 @@ int main(int argc, char **argv)
     float *A = calloc((size_t)P * W, 4), *B = calloc((size_t)W * W, 4), *C = calloc((size_t)P * W, 4);
     double *gs = malloc(sizeof(double) * runs);
     for (int it = -1; it < runs; it++) {
-        double t0 = now();
-        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, P, W, W, 1, A, W, B, W, 0, C, W);
+        double t0 = bench_now();
+        cn_sgemm(0, 1, (size_t)P, (size_t)W, (size_t)W, A, (size_t)W, B, (size_t)W, 0, C, (size_t)W);
         if (it >= 0)
-            gs[it] = now() - t0;
+            gs[it] = bench_now() - t0;
     }
-    double g = median(gs, runs);
-    printf("sgemm %dx%dx%d: %.4f s, %.1f GFLOP/s; step at that rate would take %.4f s\n", P, W,
-           W, g, 2.0 * P * W * W * 1e-9 / g, flops / (2.0 * P * W * W / g));
+    double g = bench_median(gs, runs);
+    printf("sgemm (%s) %dx%dx%d: %.4f s, %.1f GFLOP/s; step at that rate would take %.4f s\n",
+           cn_gemm_library(), P, W, W, g, 2.0 * P * W * W * 1e-9 / g, flops / (2.0 * P * W * W / g));
     return 0;
 }

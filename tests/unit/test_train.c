@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include <cblas.h>
+#include "cn_gemm.h"
 #include <omp.h>
 
 #include "cn_metrics.h"
@@ -69,8 +69,7 @@ static double mean_test_psnr(const cn_model *m, int views)
 static void test_pinned_trajectory(void **state)
 {
     (void)state;
-    omp_set_num_threads(1);
-    openblas_set_num_threads(1);
+    cn_gemm_set_threads(1);
     cn_train_opts o;
     small_opts(&o);
     cn_trainer t;
@@ -88,8 +87,7 @@ static void test_pinned_trajectory(void **state)
         }
     }
     cn_trainer_free(&t);
-    omp_set_num_threads(2);
-    openblas_set_num_threads(2);
+    cn_gemm_set_threads(2);
     assert_int_equal(bad, 0);
 }
 
@@ -151,8 +149,7 @@ static void test_end_to_end(void **state)
 static void test_reproducible(void **state)
 {
     (void)state;
-    omp_set_num_threads(2);
-    openblas_set_num_threads(2);
+    cn_gemm_set_threads(2);
     cn_train_opts o;
     small_opts(&o);
     o.occ_start = 2;
