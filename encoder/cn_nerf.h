@@ -25,6 +25,13 @@ void cn_linear_backward(float *dx, size_t lddx, size_t x0, size_t nx, int dx_acc
                         const float *w, size_t P, size_t n_in, size_t n_out);
 /* dy *= (y > 0), with y the ReLU output. */
 void cn_relu_backward(float *dy, size_t lddy, const float *y, size_t ldy, size_t P, size_t n);
+/* The backward of a linear layer followed by a ReLU whose output is y (row stride ldy):
+ * cn_relu_backward(dy, ...) then cn_linear_backward(...), with the mask and the bias
+ * gradient's column sums made in one pass over dy (the same values, bit for bit). */
+void cn_linear_relu_backward(float *dx, size_t lddx, size_t x0, size_t nx, int dx_accum,
+                             float *dw, float *db, float *dy, size_t lddy, const float *y,
+                             size_t ldy, const float *x, size_t ldx, const float *w, size_t P,
+                             size_t n_in, size_t n_out);
 
 /* Positional encoding of n 3-vectors into rows of width 3*inc + 6*L (row stride ld):
  * [v if inc], then for each octave l: sin(2^l v_xyz), cos(2^l v_xyz) (radians, as NeRF's

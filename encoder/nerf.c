@@ -1,5 +1,6 @@
 /* The float NeRF: layer primitives, the parameter block and both networks' passes. */
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -32,15 +33,18 @@ void cn_linear_forward(float *y, size_t ldy, const float *x, size_t ldx, const f
     }
 }
 
-/* db += column sums of dy (P x n, stride ld), summed in double per thread. */
 /* db += column sums of dy (P x n). Rows are summed in fixed blocks whose partial sums are
- * then added in block order, so the result does not depend on the thread count. */
-static void colsum_acc(float *db, const float *dy, size_t ld, size_t P, size_t n)
+ * then added in block order, so the result does not depend on the thread count. With y,
+ * dy is first masked in place by (y > 0) (a ReLU's backward), in the same pass. */
+static void colsum_acc(float *db, float *dy, size_t ld, const float *y, size_t ldy, size_t P,
+                       size_t n)
 {
     enum { BLOCK = 2048 };
     const size_t nblk = (P + BLOCK - 1) / BLOCK;
     double *part = malloc(sizeof(double) * nblk * n);
     if (!part) { /* the same sums, one thread */
+        if (y)
+            cn_relu_backward(dy, ld, y, ldy, P, n);
         for (size_t o = 0; o < n; o++) {
             double acc = 0;
             for (size_t k = 0; k < nblk; k++) {
@@ -59,7 +63,12 @@ static void colsum_acc(float *db, const float *dy, size_t ld, size_t P, size_t n
         for (size_t o = 0; o < n; o++)
             acc[o] = 0;
         for (size_t p = k * BLOCK; p < P && p < (k + 1) * BLOCK; p++) {
-            const float *row = dy + p * ld;
+            float *row = dy + p * ld;
+            if (y) { /* two loops over a row that stays in L1: each of them vectorizes */
+                const float *v = y + p * ldy;
+                for (size_t o = 0; o < n; o++)
+                    row[o] = v[o] > 0.0f ? row[o] : 0.0f;
+            }
             for (size_t o = 0; o < n; o++)
                 acc[o] += row[o];
         }
@@ -73,16 +82,37 @@ static void colsum_acc(float *db, const float *dy, size_t ld, size_t P, size_t n
     free(part);
 }
 
+/* The weight and input gradients of a linear layer (db done by the caller). */
+static void linear_backward_products(float *dx, size_t lddx, size_t x0, size_t nx, int dx_accum,
+                                     float *dw, const float *dy, size_t lddy, const float *x,
+                                     size_t ldx, const float *w, size_t P, size_t n_in,
+                                     size_t n_out)
+{
+    cn_sgemm(1, 0, n_out, n_in, P, dy, lddy, x, ldx, 1.0f, dw, n_in);
+    if (dx && nx)
+        cn_sgemm(0, 0, P, nx, n_out, dy, lddy, w + x0, n_in, dx_accum ? 1.0f : 0.0f, dx, lddx);
+}
+
 void cn_linear_backward(float *dx, size_t lddx, size_t x0, size_t nx, int dx_accum, float *dw,
                         float *db, const float *dy, size_t lddy, const float *x, size_t ldx,
                         const float *w, size_t P, size_t n_in, size_t n_out)
 {
     if (P == 0)
         return;
-    cn_sgemm(1, 0, n_out, n_in, P, dy, lddy, x, ldx, 1.0f, dw, n_in);
-    colsum_acc(db, dy, lddy, P, n_out);
-    if (dx && nx)
-        cn_sgemm(0, 0, P, nx, n_out, dy, lddy, w + x0, n_in, dx_accum ? 1.0f : 0.0f, dx, lddx);
+    /* colsum_acc writes dy only when it masks (y != NULL) */
+    colsum_acc(db, (float *)(uintptr_t)dy, lddy, NULL, 0, P, n_out);
+    linear_backward_products(dx, lddx, x0, nx, dx_accum, dw, dy, lddy, x, ldx, w, P, n_in, n_out);
+}
+
+void cn_linear_relu_backward(float *dx, size_t lddx, size_t x0, size_t nx, int dx_accum,
+                             float *dw, float *db, float *dy, size_t lddy, const float *y,
+                             size_t ldy, const float *x, size_t ldx, const float *w, size_t P,
+                             size_t n_in, size_t n_out)
+{
+    if (P == 0)
+        return;
+    colsum_acc(db, dy, lddy, y, ldy, P, n_out);
+    linear_backward_products(dx, lddx, x0, nx, dx_accum, dw, dy, lddy, x, ldx, w, P, n_in, n_out);
 }
 
 void cn_relu_backward(float *dy, size_t lddy, const float *y, size_t ldy, size_t P, size_t n)
@@ -471,9 +501,9 @@ void cn_net_backward(cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
         const size_t lv = W + T->in_dir, V = N->view_width;
         cn_linear_backward(nb->d_view_h, V, 0, V, 0, LAYER_ARGS(l + 3), nb->d_out, 4, nb->view_h,
                            V, cn_model_kernel(m, l + 3), P, V, 3);
-        cn_relu_backward(nb->d_view_h, V, nb->view_h, V, P, V);
-        cn_linear_backward(nb->d_view_in, lv, 0, W, 0, LAYER_ARGS(l + 2), nb->d_view_h, V,
-                           nb->view_in, lv, cn_model_kernel(m, l + 2), P, lv, V);
+        cn_linear_relu_backward(nb->d_view_in, lv, 0, W, 0, LAYER_ARGS(l + 2), nb->d_view_h, V,
+                                nb->view_h, V, nb->view_in, lv, cn_model_kernel(m, l + 2), P,
+                                lv, V);
         cn_linear_backward(dh, ldh, 0, W, 0, LAYER_ARGS(l + 1), nb->d_view_in, lv, h, ldh,
                            cn_model_kernel(m, l + 1), P, W, W);
         cn_linear_backward(dh, ldh, 0, W, 1, LAYER_ARGS(l), nb->d_out + 3, 4, h, ldh,
@@ -484,7 +514,6 @@ void cn_net_backward(cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
     }
     for (unsigned i = D; i-- > 0;) {
         const cnerf_layer_info *L = &T->layer[l0 + i];
-        cn_relu_backward(nb->d_h[i], nb->ld_h[i], nb->h[i], nb->ld_h[i], P, W);
         size_t ldx;
         const float *x = trunk_input(T, N, nb, i, &ldx);
         float *dx = NULL;
@@ -494,8 +523,9 @@ void cn_net_backward(cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
             lddx = nb->ld_h[i - 1];
             x0 = L->n_in - W; /* after the skip, only the h part of [PE(x), h] */
         }
-        cn_linear_backward(dx, lddx, x0, dx ? W : 0, 0, LAYER_ARGS(l0 + i), nb->d_h[i],
-                           nb->ld_h[i], x, ldx, cn_model_kernel(m, l0 + i), P, L->n_in, W);
+        cn_linear_relu_backward(dx, lddx, x0, dx ? W : 0, 0, LAYER_ARGS(l0 + i), nb->d_h[i],
+                                nb->ld_h[i], nb->h[i], nb->ld_h[i], x, ldx,
+                                cn_model_kernel(m, l0 + i), P, L->n_in, W);
     }
 #undef LAYER_ARGS
 }

@@ -6,6 +6,8 @@
 #   scripts/rd.sh DATASET OUT [--downscale F] [--iters N] [--preset P] [--every N]
 #                 [--lambdas "L1 L2 ..."] [--bits "B1 B2 ..."] [--jobs J]
 # Each run uses one thread when --jobs is 2 (two runs side by side), else every core.
+# CNERF=path runs another cnerf binary than build/cnerf (a copy, so that rebuilding does
+# not change a sweep midway).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 data=${1:?dataset directory}; out=${2:?output directory}; shift 2
@@ -19,8 +21,8 @@ while [ $# -gt 0 ]; do
   esac
   shift 2
 done
-cnerf=build/cnerf
-[ -x $cnerf ] || { echo "rd.sh: build first (scripts/test.sh or cmake --build build)" >&2; exit 1; }
+cnerf=${CNERF:-build/cnerf}
+[ -x "$cnerf" ] || { echo "rd.sh: build first (scripts/test.sh or cmake --build build)" >&2; exit 1; }
 mkdir -p "$out/log"
 threads=$(( jobs > 1 ? 1 : $(nproc) ))
 common=(--preset "$preset" --iters "$iters" --downscale "$downscale" --threads "$threads")

@@ -95,6 +95,15 @@ static void test_linear_relu(void **state)
     for (int p = 0; p < LP; p++)
         for (int i = 0; i < 4; i++)
             assert_float_equal(dxs[p * 4 + i], dx[p * LIN + 5 + i], 1e-5);
+    /* The fused ReLU + linear backward gives the same bits as the two steps. */
+    float fdy[LP * LOUT], fdw[LOUT * LIN] = {0}, fdb[LOUT] = {0}, fdx[LP * LIN];
+    memcpy(fdy, lg, sizeof fdy);
+    cn_linear_relu_backward(fdx, LIN, 0, LIN, 0, fdw, fdb, fdy, LOUT, y, LOUT, lx, LIN, lw, LP,
+                            LIN, LOUT);
+    assert_memory_equal(fdy, dy, sizeof dy);
+    assert_memory_equal(fdw, dw, sizeof dw);
+    assert_memory_equal(fdb, db, sizeof db);
+    assert_memory_equal(fdx, dx, sizeof dx);
 }
 
 /* ---- volume rendering: L = g . C ---- */
