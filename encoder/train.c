@@ -30,7 +30,7 @@ void cn_train_defaults(cn_train_opts *o)
     o->levels = 8;
     o->latent_lr_weight_units = 1;
     o->lr_prior = 5e-5;
-    o->lr_affine = getenv("CNERF_LR_AFFINE") ? atof(getenv("CNERF_LR_AFFINE")) : 5e-4;
+    o->lr_affine = 5e-4;
 }
 
 static int32_t q16(double v) { return (int32_t)lround(v * 65536.0); }
