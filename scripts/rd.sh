@@ -2,7 +2,7 @@
 # Rate-distortion sweep of one scene: cnerf encode at several lambdas, the same architecture
 # trained without compression (float32, 4 bytes a parameter), and the naive baseline
 # (post-training uniform quantization of that float model to B bits, coded with the same
-# entropy coder). Writes OUT/rd.csv and, with gnuplot, OUT/rd.png.
+# entropy coder). Writes OUT/rd.csv, OUT/rd.md (a table) and, with gnuplot, OUT/rd.png.
 #   scripts/rd.sh DATASET OUT [--downscale F] [--iters N] [--preset P] [--every N]
 #                 [--lambdas "L1 L2 ..."] [--bits "B1 B2 ..."] [--jobs J]
 # Each run uses one thread when --jobs is 2 (two runs side by side), else every core.
@@ -88,6 +88,13 @@ for l in $lambdas; do
   echo "cnerf,lambda $l,$(bytes_of "$out/lambda-$l.cnrf"),$p,$s" >> "$csv"
 done
 cat "$csv"
+# The same as a table, with each file's size and PSNR against the float32 model's.
+awk -F, 'NR == 2 { fb = $3; fp = $4 }
+  NR == 1 { print "| method | setting | bytes | float32 size / size | test PSNR (dB) | vs float32 (dB) | SSIM |";
+            print "|---|---|---|---|---|---|---|"; next }
+  { printf "| %s | %s | %d | %.1f | %.2f | %+.2f | %.4f |\n", $1, $2, $3, fb / $3, $4, $4 - fp, $5 }' \
+  "$csv" > "$out/rd.md"
+cat "$out/rd.md"
 
 if command -v gnuplot > /dev/null; then
   gnuplot <<GP
