@@ -76,6 +76,11 @@ typedef struct cn_batch {
     cn_net_buf nb[2];
     /* Training may skip samples in empty cells: per network an occupancy grid or NULL. */
     const cn_occ *occ[2];
+    /* Training may skip the fine network's samples behind the coarse network's surface:
+     * with sat_eps > 0, a ray's fine samples beyond the coarse sample after which the
+     * coarse transmittance falls below sat_eps are treated as empty (t_sat: cap floats). */
+    float sat_eps;
+    float *t_sat;
 } cn_batch;
 
 int cn_batch_init(cn_batch *b, const cnerf_info *topo, size_t cap);

@@ -27,6 +27,9 @@ typedef struct cn_train_opts {
      * estimate, and the iterations between updates. */
     int occ_grid;
     long occ_start, occ_every;
+    /* From occ_start on, the fine network skips samples behind the coarse network's surface
+     * (cn_batch.sat_eps; 0: off). Training only, like the grids. */
+    double sat_eps;
     /* Compression (cnerf encode): kernels become latents with an entropy penalty.
      * Objective: D + lambda R, D = squared error summed over all training pixels and
      * channels (a batch estimates it scaled by pixels / rays), R = bits of all latents. */

@@ -169,7 +169,8 @@ int cn_batch_init(cn_batch *b, const cnerf_info *topo, size_t cap)
               !b->inside[0] || !b->inside[1];
     b->pts_in = malloc(sizeof(float) * cap * ns * 3);
     b->vpe = malloc(sizeof(float) * cap * (topo->in_dir ? topo->in_dir : 1));
-    bad |= !b->pts_in || !b->vpe;
+    b->t_sat = malloc(sizeof(float) * cap);
+    bad |= !b->pts_in || !b->vpe || !b->t_sat;
     for (unsigned n = 0; n < topo->n_nets && !bad; n++) {
         const size_t rows = cap * (n ? ns : b->nc);
         b->color[n] = malloc(sizeof(float) * cap * 3);
@@ -197,6 +198,7 @@ void cn_batch_free(cn_batch *b)
     free(b->pts);
     free(b->pts_in);
     free(b->vpe);
+    free(b->t_sat);
     for (int n = 0; n < 2; n++) {
         free(b->rows[n]);
         free(b->raw[n]);
@@ -222,11 +224,12 @@ static void prepare_net_inputs(const cnerf_info *T, unsigned net, cn_batch *b, s
     }
     uint8_t *inside = b->inside[net];
     const cn_occ *occ = b->occ[net];
+    const int sat = net == 1 && b->sat_eps > 0;
 #pragma omp parallel for schedule(static)
     for (size_t r = 0; r < R; r++) {
         for (unsigned i = 0; i < n; i++) {
             float *p = b->pts + (r * n + i) * 3;
-            int in = 1;
+            int in = !sat || t[r * n + i] <= b->t_sat[r];
             for (int a = 0; a < 3; a++) {
                 p[a] = b->o[r * 3 + a] + t[r * n + i] * b->d[r * 3 + a];
                 in &= p[a] >= lo[a] && p[a] <= hi[a];
@@ -286,6 +289,27 @@ static void bg_of(const cnerf_info *T, float bg[3])
         bg[c] = T->background[c] / 255.0f;
 }
 
+/* t_sat[r]: the coarse sample after the one at which ray r's coarse transmittance
+ * 1 - sum(w_c) first falls below sat_eps (far when it never does, or when that was the
+ * last sample). */
+static void saturation_points(cn_batch *b, size_t R, float far)
+{
+    const unsigned nc = b->nc;
+#pragma omp parallel for schedule(static)
+    for (size_t r = 0; r < R; r++) {
+        const float *w = b->w_c + r * nc, *t = b->t_c + r * nc;
+        float T = 1.0f, ts = far;
+        for (unsigned i = 0; i + 1 < nc; i++) {
+            T -= w[i];
+            if (T < b->sat_eps) {
+                ts = t[i + 1];
+                break;
+            }
+        }
+        b->t_sat[r] = ts;
+    }
+}
+
 void cn_render_forward(const cn_model *m, cn_batch *b, size_t R, const uint64_t *seed)
 {
     const cnerf_info *T = &m->topo;
@@ -307,6 +331,8 @@ void cn_render_forward(const cn_model *m, cn_batch *b, size_t R, const uint64_t 
                           far, norm3(b->d + r * 3), bg, b->color[0] + r * 3, b->w_c + r * nc);
     if (T->n_nets < 2)
         return;
+    if (b->sat_eps > 0)
+        saturation_points(b, R, far);
 #pragma omp parallel for schedule(static)
     for (size_t r = 0; r < R; r++) {
         float tf[CNERF_MAX_SAMPLES];

@@ -221,7 +221,10 @@ double cn_trainer_pixels(const cn_trainer *t)
 static void update_occupancy(cn_trainer *t)
 {
     const cn_train_opts *o = &t->opts;
-    if (o->occ_grid <= 0 || t->step < o->occ_start)
+    if (t->step < o->occ_start)
+        return;
+    t->batch.sat_eps = (float)o->sat_eps;
+    if (o->occ_grid <= 0)
         return;
     const long every = o->occ_every > 0 ? o->occ_every : 1;
     for (unsigned n = 0; n < t->model.topo.n_nets; n++) {

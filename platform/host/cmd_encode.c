@@ -18,7 +18,8 @@
     "       [--iters N] [--downscale F] [--threads T] [--seed S] [--resume CKPT]\n"          \
     "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N] [--log-every N]\n" \
     "       [--depth D] [--width W] [--coarse N] [--fine N] [--latent-lr latent|weight]\n"  \
-    "       [--eval-every N] [--prior-lr X] [--affine-lr X]"
+    "       [--eval-every N] [--prior-lr X] [--affine-lr X]\n"   \
+    "       [--skip-saturated EPS]"
 
 int cmd_encode(int argc, char **argv)
 {
@@ -54,6 +55,7 @@ int cmd_encode(int argc, char **argv)
         {"--fine", CLI_LONG, &fine, 0, CNERF_MAX_SAMPLES},
         {"--latent-lr", CLI_STR, &latent_lr, 0, 0},
         {"--prior-lr", CLI_DOUBLE, &o.lr_prior, 0, 1},
+        {"--skip-saturated", CLI_DOUBLE, &o.sat_eps, 0, 1},
         {"--affine-lr", CLI_DOUBLE, &o.lr_affine, 0, 1},
     };
     if (cli_parse("encode", ENCODE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,

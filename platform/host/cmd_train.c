@@ -16,7 +16,7 @@
     "       [--width W] [--coarse N] [--fine N] [--lr X] [--precrop-iters N] [--black]\n"     \
     "       [--near X] [--far X] [--ckpt-every N] [--log-every N] [--occupancy G]\n"     \
     "       [--eval-every N] [--every K]\n"                                              \
-    "       [--occupancy-start N]"
+    "       [--occupancy-start N] [--skip-saturated EPS]"
 
 static volatile sig_atomic_t interrupted;
 static void on_sigint(int sig)
@@ -143,6 +143,7 @@ int cmd_train(int argc, char **argv)
         {"--every", CLI_LONG, &every, 1, 1e6},
         {"--occupancy", CLI_LONG, &occ, 0, 256},
         {"--occupancy-start", CLI_LONG, &occ_start, 0, 1e9},
+        {"--skip-saturated", CLI_DOUBLE, &o.sat_eps, 0, 1},
     };
     if (cli_parse("train", TRAIN_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
                   &n_pos))

@@ -123,12 +123,73 @@ static void test_render_skips(void **state)
     cn_model_free(&m);
 }
 
+/* With sat_eps, the fine network skips exactly the samples behind the coarse sample after
+ * which the coarse transmittance falls below sat_eps; behind an opaque surface they carry no
+ * weight, so the colour hardly moves. */
+static void test_render_skips_saturated(void **state)
+{
+    (void)state;
+    cn_model m;
+    make_model(&m);
+    set_biases(&m, 1.0f);
+    /* Density 40 in both networks: opaque after a sample or two inside the bounds (where
+     * the fine network disagrees with the coarse one, the skip changes its colour: that is
+     * the approximation training accepts). */
+    for (unsigned n = 0; n < 2; n++)
+        m.params[m.layer[m.topo.net[n].first_layer + m.topo.net[n].depth].b] = 40.0f;
+    enum { R = 4 };
+    cn_batch b;
+    assert_int_equal(cn_batch_init(&b, &m.topo, R), 0);
+    for (int i = 0; i < R; i++) {
+        const float o[3] = {0.1f * i, 0.0f, 4.0f}, d[3] = {0.0f, 0.05f * i, -1.0f};
+        memcpy(b.o + 3 * i, o, sizeof o);
+        memcpy(b.d + 3 * i, d, sizeof d);
+        memcpy(b.vd + 3 * i, d, sizeof d);
+    }
+    const unsigned ns = b.ns, nc = b.nc;
+    cn_render_forward(&m, &b, R, NULL);
+    const size_t rows = b.n_rows[1];
+    float plain[R * 3];
+    uint8_t *in_plain = malloc((size_t)R * ns);
+    memcpy(plain, b.color[1], sizeof plain);
+    memcpy(in_plain, b.inside[1], (size_t)R * ns);
+    b.sat_eps = 1e-3f;
+    cn_render_forward(&m, &b, R, NULL);
+    assert_true(b.n_rows[1] < rows);
+    size_t kept = 0;
+    for (int r = 0; r < R; r++) {
+        /* the expected cut: the coarse sample after the first whose transmittance < eps */
+        double T = 1;
+        float cut = (float)m.topo.far_q16 / 65536.0f;
+        for (unsigned i = 0; i + 1 < nc; i++) {
+            T -= b.w_c[r * nc + i];
+            if (T < 1e-3) {
+                cut = b.t_c[r * nc + i + 1];
+                break;
+            }
+        }
+        assert_true(cut < (float)m.topo.far_q16 / 65536.0f); /* every ray hits the surface */
+        for (unsigned i = 0; i < ns; i++) {
+            const size_t k = (size_t)r * ns + i;
+            assert_int_equal(b.inside[1][k], in_plain[k] && b.t_f[k] <= cut);
+            kept += b.inside[1][k];
+        }
+        for (int c = 0; c < 3; c++)
+            assert_float_equal(b.color[1][r * 3 + c], plain[r * 3 + c], 2e-3);
+    }
+    assert_int_equal(kept, b.n_rows[1]);
+    free(in_plain);
+    cn_batch_free(&b);
+    cn_model_free(&m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_cells),
         cmocka_unit_test(test_update),
         cmocka_unit_test(test_render_skips),
+        cmocka_unit_test(test_render_skips_saturated),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
