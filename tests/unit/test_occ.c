@@ -82,6 +82,17 @@ static void test_update(void **state)
     cn_model_free(&m);
 }
 
+/* R rays from above the scene, fanning out in y and starting apart in x. */
+static void fan_of_rays(cn_batch *b, int R)
+{
+    for (int i = 0; i < R; i++) {
+        const float o[3] = {0.1f * i, 0.0f, 4.0f}, d[3] = {0.0f, 0.05f * i, -1.0f};
+        memcpy(b->o + 3 * i, o, sizeof o);
+        memcpy(b->d + 3 * i, d, sizeof d);
+        memcpy(b->vd + 3 * i, d, sizeof d);
+    }
+}
+
 /* With an empty grid the render runs no network rows and returns the background; with a full
  * one it renders as without a grid. */
 static void test_render_skips(void **state)
@@ -95,12 +106,7 @@ static void test_render_skips(void **state)
     enum { R = 5 };
     cn_batch b;
     assert_int_equal(cn_batch_init(&b, &m.topo, R), 0);
-    for (int i = 0; i < R; i++) {
-        const float o[3] = {0.1f * i, 0.0f, 4.0f}, d[3] = {0.0f, 0.05f * i, -1.0f};
-        memcpy(b.o + 3 * i, o, sizeof o);
-        memcpy(b.d + 3 * i, d, sizeof d);
-        memcpy(b.vd + 3 * i, d, sizeof d);
-    }
+    fan_of_rays(&b, R);
     cn_render_forward(&m, &b, R, NULL);
     float plain[R * 3];
     memcpy(plain, b.color[0], sizeof plain);
@@ -140,12 +146,7 @@ static void test_render_skips_saturated(void **state)
     enum { R = 4 };
     cn_batch b;
     assert_int_equal(cn_batch_init(&b, &m.topo, R), 0);
-    for (int i = 0; i < R; i++) {
-        const float o[3] = {0.1f * i, 0.0f, 4.0f}, d[3] = {0.0f, 0.05f * i, -1.0f};
-        memcpy(b.o + 3 * i, o, sizeof o);
-        memcpy(b.d + 3 * i, d, sizeof d);
-        memcpy(b.vd + 3 * i, d, sizeof d);
-    }
+    fan_of_rays(&b, R);
     const unsigned ns = b.ns, nc = b.nc;
     cn_render_forward(&m, &b, R, NULL);
     const size_t rows = b.n_rows[1];
