@@ -95,7 +95,23 @@ grep -q "wrote $work/q.cnrf: [0-9]* bytes" <<<"$out" || fail "quantize: $out"
 "$cnerf" eval "$work/q.cnrf" "$data/lego" --downscale 16 --every 100 | grep -q "mean over 2 test views (stream)" \
   || fail "eval of quantized file"
 
+# --skip-saturated: the fine network skips samples behind the coarse surface from
+# --occupancy-start on; the run trains and saves as usual.
+out=$("$cnerf" train "$data/lego" -o "$work/sat.ckpt" --iters 3 --occupancy-start 1 \
+  --skip-saturated 1e-3 "${common[@]}")
+grep -q "saved $work/sat.ckpt at iteration 3" <<<"$out" || fail "train --skip-saturated: $out"
+
 # Bad input: clear messages, non-zero exits, nothing written.
+set +e
+msg=$("$cnerf" encode "$data/lego" -o "$work/y.cnrf" --lambda 1 --prior-lr 2 2>&1); rc=$?
+set -e
+[ $rc -ne 0 ] && grep -q -- "--prior-lr: expected a number in \[0, 1\]" <<<"$msg" ||
+  fail "encode --prior-lr 2: $rc $msg"
+set +e
+msg=$("$cnerf" train "$data/lego" -o "$work/y.ckpt" --skip-saturated -1 2>&1); rc=$?
+set -e
+[ $rc -ne 0 ] && grep -q -- "--skip-saturated" <<<"$msg" || fail "train --skip-saturated -1: $rc $msg"
+[ ! -e "$work/y.ckpt" ] || fail "a checkpoint was written for a bad option"
 set +e
 msg=$("$cnerf" train "$work" -o "$work/x.ckpt" 2>&1); rc=$?
 set -e
