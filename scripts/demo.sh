@@ -11,7 +11,7 @@ data=${CNERF_DATA:-../shared/data}
 mkdir -p out
 cmake -S . -B build -DCMAKE_BUILD_TYPE=RelWithDebInfo
 cmake --build build -j"$(nproc 2>/dev/null || echo 2)"
-./build/cnerf encode "$data/lego" -o out/lego.cnrf --lambda 1e-3 --preset tiny --downscale 4 \
+./build/cnerf encode "$data/lego" -o out/lego.cnrf --lambda 3 --preset tiny --downscale 4 \
   --iters "${DEMO_ITERS:-500}" --every 40 --log-every 50
 ./build/cnerf info out/lego.cnrf
 ./build/cnerf render out/lego.cnrf --dataset "$data/lego" --downscale 4 --every 40 -o out/render
