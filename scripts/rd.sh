@@ -12,7 +12,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 data=${1:?dataset directory}; out=${2:?output directory}; shift 2
 downscale=4 iters=1000 preset=small every=40 jobs=1
-lambdas="1e-5 3e-5 1e-4 3e-4 1e-3" bits="4 5 6 8"
+lambdas="1e-3 1 3 5 10" bits="4 5 6 8"
 while [ $# -gt 0 ]; do
   case $1 in
     --downscale) downscale=$2 ;; --iters) iters=$2 ;; --preset) preset=$2 ;;
