@@ -1,6 +1,5 @@
 /* The float NeRF: layer primitives, the parameter block and both networks' passes. */
 #include <math.h>
-#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -34,17 +33,18 @@ void cn_linear_forward(float *y, size_t ldy, const float *x, size_t ldx, const f
 }
 
 /* db += column sums of dy (P x n). Rows are summed in fixed blocks whose partial sums are
- * then added in block order, so the result does not depend on the thread count. With y,
- * dy is first masked in place by (y > 0) (a ReLU's backward), in the same pass. */
-static void colsum_acc(float *db, float *dy, size_t ld, const float *y, size_t ldy, size_t P,
-                       size_t n)
+ * then added in block order, so the result does not depend on the thread count. With
+ * masked (the same matrix as dy, writable) and y, dy is first masked in place by (y > 0)
+ * (a ReLU's backward), in the same pass. */
+static void colsum_acc(float *db, const float *dy, size_t ld, float *masked, const float *y,
+                       size_t ldy, size_t P, size_t n)
 {
     enum { BLOCK = 2048 };
     const size_t nblk = (P + BLOCK - 1) / BLOCK;
     double *part = malloc(sizeof(double) * nblk * n);
     if (!part) { /* the same sums, one thread */
-        if (y)
-            cn_relu_backward(dy, ld, y, ldy, P, n);
+        if (masked)
+            cn_relu_backward(masked, ld, y, ldy, P, n);
         for (size_t o = 0; o < n; o++) {
             double acc = 0;
             for (size_t k = 0; k < nblk; k++) {
@@ -63,11 +63,12 @@ static void colsum_acc(float *db, float *dy, size_t ld, const float *y, size_t l
         for (size_t o = 0; o < n; o++)
             acc[o] = 0;
         for (size_t p = k * BLOCK; p < P && p < (k + 1) * BLOCK; p++) {
-            float *row = dy + p * ld;
-            if (y) { /* two loops over a row that stays in L1: each of them vectorizes */
+            const float *row = dy + p * ld;
+            if (masked) { /* two loops over a row that stays in L1: each of them vectorizes */
+                float *m = masked + p * ld;
                 const float *v = y + p * ldy;
                 for (size_t o = 0; o < n; o++)
-                    row[o] = v[o] > 0.0f ? row[o] : 0.0f;
+                    m[o] = v[o] > 0.0f ? m[o] : 0.0f;
             }
             for (size_t o = 0; o < n; o++)
                 acc[o] += row[o];
@@ -99,8 +100,7 @@ void cn_linear_backward(float *dx, size_t lddx, size_t x0, size_t nx, int dx_acc
 {
     if (P == 0)
         return;
-    /* colsum_acc writes dy only when it masks (y != NULL) */
-    colsum_acc(db, (float *)(uintptr_t)dy, lddy, NULL, 0, P, n_out);
+    colsum_acc(db, dy, lddy, NULL, NULL, 0, P, n_out);
     linear_backward_products(dx, lddx, x0, nx, dx_accum, dw, dy, lddy, x, ldx, w, P, n_in, n_out);
 }
 
@@ -111,7 +111,7 @@ void cn_linear_relu_backward(float *dx, size_t lddx, size_t x0, size_t nx, int d
 {
     if (P == 0)
         return;
-    colsum_acc(db, dy, lddy, y, ldy, P, n_out);
+    colsum_acc(db, dy, lddy, dy, y, ldy, P, n_out);
     linear_backward_products(dx, lddx, x0, nx, dx_accum, dw, dy, lddy, x, ldx, w, P, n_in, n_out);
 }
 

@@ -30,7 +30,7 @@ void cn_train_defaults(cn_train_opts *o)
     o->levels = 8;
     o->latent_lr_weight_units = 1;
     /* The paper's 5e-5 leaves the priors where they started over a few thousand iterations:
-     * their rate estimate is then 22% off the coded payload (docs/results.md). */
+     * their rate estimate was 28% above the coded payload (docs/results.md). */
     o->lr_prior = 5e-3;
     o->lr_affine = 5e-4;
 }
