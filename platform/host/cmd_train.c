@@ -62,6 +62,11 @@ int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt
 {
     char err[1024];
     int rc = 0;
+    *stopped = 0;
+    if (t->step >= t->opts.iters) { /* a resumed checkpoint that is already done */
+        printf("%s is at iteration %ld of %ld: nothing to train\n", ckpt, t->step, t->opts.iters);
+        return 0;
+    }
     struct sigaction sa, old;
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = on_sigint;

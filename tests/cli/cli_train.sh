@@ -38,6 +38,13 @@ done_its=$(sed -n 's/.*interrupted: saved .* at iteration \([0-9]*\).*/\1/p' "$w
 out=$("$cnerf" train "$data/lego" -o "$work/int.ckpt" --iters $((done_its + 2)) --resume "${common[@]}")
 grep -q "resumed $work/int.ckpt at iteration $done_its" <<<"$out" || fail "resume: $out"
 grep -q "at iteration $((done_its + 2))" <<<"$out" || fail "resume did not continue: $out"
+# Resuming a checkpoint that is already at --iters trains nothing and says so.
+cp "$work/int.ckpt" "$work/int-before.ckpt"
+out=$("$cnerf" train "$data/lego" -o "$work/int.ckpt" --iters $((done_its + 2)) --resume "${common[@]}")
+grep -q "^$work/int.ckpt is at iteration $((done_its + 2)) of $((done_its + 2)): nothing to train" \
+  <<<"$out" || fail "resume at --iters: $out"
+! grep -q "train psnr" <<<"$out" || fail "resume at --iters reports a training run: $out"
+cmp -s "$work/int.ckpt" "$work/int-before.ckpt" || fail "resume at --iters rewrote the checkpoint"
 
 out=$("$cnerf" encode "$data/lego" -o "$work/s.cnrf" --lambda 1e-3 --iters 3 --every 100 \
   --eval-every 2 "${common[@]}")
