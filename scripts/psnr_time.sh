@@ -54,11 +54,10 @@ done
   echo "|---|---|---|---|---|"
   tail -n +2 "$csv" | awk -F, '{ printf "| %s | %d | %.1f | %.2f | %.4f |\n", $1, $2, $3, $4, $5 }'
   echo
-  # The plateau: means of 5 consecutive evaluations, and the first mean that gains less than
-  # 0.1 dB per 1000 iterations over the one before (a tenth of the early slope or less).
+  # The plateau: means of W = 5 consecutive evaluations per preset, the gain of each mean
+  # over the one before per 1000 iterations, and the first mean that gains less than
+  # G = 0.1 dB per 1000 iterations.
   awk -v W=5 -v G=0.1 '
-    # Means of W consecutive evaluations per preset, the gain of each mean over the one before
-    # per 1000 iterations, and the first window where that gain falls below G dB.
     BEGIN { FS = ","; print "| preset | iterations | training time at its end (s) | mean test PSNR (dB) | gain per 1000 iterations (dB) |"; print "|---|---|---|---|---|" }
     function flush(   m, g, gs, note) {
       if (k == 0) return
