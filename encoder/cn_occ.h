@@ -43,6 +43,10 @@ static inline int cn_occ_test(const cn_occ *o, const float p[3])
 /* The density below which a cell is empty: an opacity of 1% over one coarse step. */
 float cn_occ_threshold(const cnerf_info *topo);
 
+/* Sets the occupied flags from the densities (after they were restored from a checkpoint)
+ * and marks the grid as estimated; returns the fraction of occupied cells. */
+double cn_occ_refresh(cn_occ *o, float threshold);
+
 /* Re-estimates every cell from network `net` (nb: its buffers, any capacity); returns the
  * fraction of occupied cells. */
 double cn_occ_update(cn_occ *o, const cn_model *m, unsigned net, cn_net_buf *nb, cn_rng *rng,

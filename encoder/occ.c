@@ -59,7 +59,6 @@ double cn_occ_update(cn_occ *o, const cn_model *m, unsigned net, cn_net_buf *nb,
     const float up[3] = {0.0f, 0.0f, 1.0f}; /* density does not depend on the direction */
     if (T->in_dir)
         cn_posenc(vpe, T->in_dir, up, 1, T->l_dir, T->pe_flags & CNERF_PE_INCLUDE_INPUT);
-    size_t occupied = 0;
     for (size_t c0 = 0; c0 < cells; c0 += chunk) {
         const size_t P = cells - c0 < chunk ? cells - c0 : chunk;
         for (size_t j = 0; j < P; j++) {
@@ -75,11 +74,20 @@ double cn_occ_update(cn_occ *o, const cn_model *m, unsigned net, cn_net_buf *nb,
             const float sigma = fmaxf(nb->out[4 * j + 3], 0.0f);
             const float d = o->valid ? o->density[c] * decay : 0.0f;
             o->density[c] = fmaxf(d, sigma);
-            o->occupied[c] = (uint8_t)(o->density[c] > threshold);
-            occupied += o->occupied[c];
         }
     }
     free(pts);
+    return cn_occ_refresh(o, threshold);
+}
+
+double cn_occ_refresh(cn_occ *o, float threshold)
+{
+    const size_t cells = (size_t)o->g * o->g * o->g;
+    size_t occupied = 0;
+    for (size_t c = 0; c < cells; c++) {
+        o->occupied[c] = (uint8_t)(o->density[c] > threshold);
+        occupied += o->occupied[c];
+    }
     o->valid = 1;
     return (double)occupied / (double)cells;
 }

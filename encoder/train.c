@@ -295,8 +295,14 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
 
 /* ---- checkpoints ---- */
 
+/* Version 2 adds the occupancy grids after the Adam moments: per network the cells per axis
+ * g (0: no grid), whether it has an estimate, and then, when it has, the g^3 decaying maxima.
+ * Without them a resumed run rebuilt its grids from one pass over the resumed model, which
+ * marks fewer cells occupied than the running maxima did, and the first steps after the
+ * resume trained with samples missing. Version 1 files still load; their grids are rebuilt. */
 #define CKPT_MAGIC "CNCK"
-#define CKPT_VERSION 1u
+#define CKPT_VERSION 2u
+#define CKPT_VERSION_NO_GRIDS 1u
 
 static void put_floats(cn_buf *b, const float *x, size_t n)
 {
@@ -329,6 +335,14 @@ int cn_checkpoint_save(const cn_trainer *t, const char *path, char *err, size_t 
     put_floats(&b, t->model.params, t->model.n_params);
     put_floats(&b, t->model.adam_m, t->model.n_params);
     put_floats(&b, t->model.adam_v, t->model.n_params);
+    cn_buf_u32(&b, t->model.topo.n_nets);
+    for (unsigned n = 0; n < t->model.topo.n_nets; n++) {
+        const cn_occ *o = &t->occ[n];
+        cn_buf_u32(&b, (uint32_t)o->g);
+        cn_buf_u32(&b, (uint32_t)(o->g && o->valid));
+        if (o->g && o->valid)
+            put_floats(&b, o->density, (size_t)o->g * o->g * o->g);
+    }
     cn_buf_u32(&b, cnerf_crc32(0, b.p, b.n));
     int rc = b.oom ? -1 : cn_write_file_atomic(path, b.p, b.n, err, errlen);
     if (b.oom)
@@ -344,15 +358,39 @@ typedef struct ckpt {
     uint32_t compressed;
     cnerf_info hdr;
     const uint8_t *blocks; /* params, m, v */
+    unsigned n_grids;      /* 0 in a version 1 file */
+    uint32_t grid_g[CNERF_MAX_NETS];
+    const uint8_t *grid[CNERF_MAX_NETS]; /* g^3 densities, or NULL: no estimate */
 } ckpt;
+
+/* The grids after the parameter blocks (version 2); NULL or the reason they are invalid. */
+static const char *ckpt_read_grids(cn_reader *r, ckpt *c)
+{
+    c->n_grids = cn_rd_u32(r);
+    if (r->err || c->n_grids != c->hdr.n_nets)
+        return "occupancy grids do not match the model";
+    for (unsigned n = 0; n < c->n_grids; n++) {
+        const uint32_t g = cn_rd_u32(r), valid = cn_rd_u32(r);
+        if (r->err || g > 256 || valid > 1 || (valid && g == 0))
+            return "invalid occupancy grid";
+        c->grid_g[n] = g;
+        if (!valid)
+            continue;
+        const size_t bytes = 4 * (size_t)g * g * g;
+        if (cn_rd_left(r) < bytes)
+            return "occupancy grid truncated";
+        c->grid[n] = r->p;
+        r->p += bytes;
+    }
+    return cn_rd_left(r) == 0 ? NULL : "unexpected bytes after the occupancy grids";
+}
 
 static int ckpt_read(const char *path, ckpt *c, char *err, size_t errlen)
 {
     memset(c, 0, sizeof *c);
     if (cn_read_file(path, &c->data, &c->len, err, errlen))
         return -1;
-    cn_reader r;
-    cn_rd_init(&r, c->data, c->len);
+    cn_reader r; /* over everything before the CRC */
     const char *why = NULL;
     if (c->len < 12 || memcmp(c->data, CKPT_MAGIC, 4) != 0)
         why = "not a cnerf checkpoint";
@@ -361,7 +399,7 @@ static int ckpt_read(const char *path, ckpt *c, char *err, size_t errlen)
                         c->data[c->len - 2] << 16 | (uint32_t)c->data[c->len - 1] << 24))
         why = "checksum mismatch (truncated or corrupt)";
     if (!why) {
-        r.p += 4;
+        cn_rd_init(&r, c->data + 4, c->len - 8);
         uint32_t version = cn_rd_u32(&r);
         c->step = cn_rd_u32(&r);
         c->step |= (uint64_t)cn_rd_u32(&r) << 32;
@@ -369,7 +407,7 @@ static int ckpt_read(const char *path, ckpt *c, char *err, size_t errlen)
         c->seed |= (uint64_t)cn_rd_u32(&r) << 32;
         c->compressed = cn_rd_u32(&r);
         uint32_t hl = cn_rd_u32(&r);
-        if (version != CKPT_VERSION)
+        if (version != CKPT_VERSION && version != CKPT_VERSION_NO_GRIDS)
             why = "unsupported checkpoint version";
         else if (r.err || cn_rd_left(&r) < hl ||
                  cn_parse_head(r.p, hl, &c->hdr) != CNERF_OK)
@@ -379,9 +417,14 @@ static int ckpt_read(const char *path, ckpt *c, char *err, size_t errlen)
             c->n_params = cn_rd_u32(&r);
             c->n_params |= (uint64_t)cn_rd_u32(&r) << 32;
             if (r.err || c->n_params > cn_rd_left(&r) / 12 ||
-                cn_rd_left(&r) - 4 != c->n_params * 12)
+                (version == CKPT_VERSION_NO_GRIDS && cn_rd_left(&r) != c->n_params * 12))
                 why = "parameter blocks have the wrong size";
-            c->blocks = r.p;
+            else {
+                c->blocks = r.p;
+                r.p += c->n_params * 12;
+                if (version != CKPT_VERSION_NO_GRIDS)
+                    why = ckpt_read_grids(&r, c);
+            }
         }
     }
     if (why) {
@@ -426,6 +469,16 @@ int cn_checkpoint_resume(cn_trainer *t, const char *path, char *err, size_t errl
     } else {
         ckpt_fill(&c, &t->model);
         t->step = (long)c.step;
+        /* A grid of the size the run asks for continues; any other is rebuilt from the
+         * model at the next step, as a version 1 file's is. */
+        const float threshold = cn_occ_threshold(&t->model.topo);
+        for (unsigned n = 0; n < c.n_grids; n++) {
+            cn_occ *o = &t->occ[n];
+            if (!o->g || (uint32_t)o->g != c.grid_g[n] || !c.grid[n])
+                continue;
+            get_floats(o->density, c.grid[n], (size_t)o->g * o->g * o->g);
+            t->occ_frac[n] = cn_occ_refresh(o, threshold);
+        }
     }
     free(c.data);
     return rc;

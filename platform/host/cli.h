@@ -27,6 +27,10 @@ int cmd_render(int argc, char **argv);
  * time so far without the evaluations. Returns 0 or 1 (error printed). */
 int cli_run_training(const char *cmd, struct cn_trainer *t, const char *ckpt, long ckpt_every,
                      long log_every, long eval_every, long every, int *stopped);
+/* Restores a checkpoint into t (cn_checkpoint_resume) and says so, noting when the
+ * occupancy grids are rebuilt from the model rather than restored (a version 1 checkpoint,
+ * or another --occupancy); returns 0 or 1 (error printed). */
+int cli_resume(const char *cmd, struct cn_trainer *t, const char *path);
 /* Renders every `every`-th of views[0..n) with the evaluation rule, prints PSNR, SSIM and
  * time per view unless `quiet`, writes OUTDIR/<name>.png when outdir is not NULL; returns
  * the number of views (means in the out-parameters) or -1 after printing the error. */

@@ -95,10 +95,8 @@ int cmd_encode(int argc, char **argv)
     if (resume) {
         if (access(resume, F_OK) != 0)
             rc = cli_fail("encode", "%s: no such checkpoint", resume);
-        else if (cn_checkpoint_resume(&t, resume, err, sizeof err))
-            rc = cli_fail("encode", "%s", err);
         else
-            printf("resumed %s at iteration %ld\n", resume, t.step);
+            rc = cli_resume("encode", &t, resume);
     }
     if (rc == 0) {
         printf("encoding %s: %d train views %dx%d, lambda %g, %zu latents, checkpoint %s\n",

@@ -57,6 +57,18 @@ static double eval_now(cn_trainer *t, long every, double trained)
     return cli_now() - t0;
 }
 
+int cli_resume(const char *cmd, cn_trainer *t, const char *path)
+{
+    char err[1024];
+    if (cn_checkpoint_resume(t, path, err, sizeof err))
+        return cli_fail(cmd, "%s", err);
+    const int rebuilt = t->opts.occ_grid > 0 && t->step > t->opts.occ_start && !t->occ[0].valid;
+    printf("resumed %s at iteration %ld%s\n", path, t->step,
+           rebuilt ? " (occupancy grids rebuilt from the model: the checkpoint has none of "
+                     "this size)" : "");
+    return 0;
+}
+
 int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt_every,
                      long log_every, long eval_every, long every, int *stopped)
 {
@@ -181,12 +193,8 @@ int cmd_train(int argc, char **argv)
         return cli_fail("train", "%s", err);
     }
     int rc = 0;
-    if (resume && access(out, F_OK) == 0) {
-        if (cn_checkpoint_resume(&t, out, err, sizeof err))
-            rc = cli_fail("train", "%s", err);
-        else
-            printf("resumed %s at iteration %ld\n", out, t.step);
-    }
+    if (resume && access(out, F_OK) == 0)
+        rc = cli_resume("train", &t, out);
     const cnerf_info *T = &t.model.topo;
     if (rc == 0)
         printf("model: %u networks, depth %u, width %u, %u+%u samples, %zu parameters\n",

@@ -45,6 +45,15 @@ grep -q "^$work/int.ckpt is at iteration $((done_its + 2)) of $((done_its + 2)):
   <<<"$out" || fail "resume at --iters: $out"
 ! grep -q "train psnr" <<<"$out" || fail "resume at --iters reports a training run: $out"
 cmp -s "$work/int.ckpt" "$work/int-before.ckpt" || fail "resume at --iters rewrote the checkpoint"
+# The occupancy grids resume with the model; a run that asks for another grid size says
+# that its grids are rebuilt.
+grid=(--occupancy 8 --occupancy-start 2 "${common[@]}")
+"$cnerf" train "$data/lego" -o "$work/g.ckpt" --iters 4 "${grid[@]}" > /dev/null
+out=$("$cnerf" train "$data/lego" -o "$work/g.ckpt" --iters 5 --resume "${grid[@]}")
+grep -q "^resumed $work/g.ckpt at iteration 4$" <<<"$out" || fail "resume with its grids: $out"
+out=$("$cnerf" train "$data/lego" -o "$work/g.ckpt" --iters 6 --resume "${grid[@]}" --occupancy 16)
+grep -q "^resumed $work/g.ckpt at iteration 5 (occupancy grids rebuilt from the model" \
+  <<<"$out" || fail "resume with another grid size: $out"
 
 out=$("$cnerf" encode "$data/lego" -o "$work/s.cnrf" --lambda 1e-3 --iters 3 --every 100 \
   --eval-every 2 "${common[@]}")

@@ -10,6 +10,7 @@
 #include <omp.h>
 
 #include "cn_metrics.h"
+#include "cn_stream.h"
 #include "cn_train.h"
 #include "testutil.h"
 
@@ -226,6 +227,106 @@ static void test_resume_continues_exactly(void **state)
     run_split(1);
 }
 
+/* Writes bytes[0..n) followed by their CRC-32, as a checkpoint ends. */
+static void write_with_crc(const char *path, uint8_t *bytes, size_t n)
+{
+    const uint32_t crc = cnerf_crc32(0, bytes, n);
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(bytes, 1, n, f), n);
+    const uint8_t c[4] = {(uint8_t)crc, (uint8_t)(crc >> 8), (uint8_t)(crc >> 16),
+                          (uint8_t)(crc >> 24)};
+    assert_int_equal(fwrite(c, 1, 4, f), 4);
+    fclose(f);
+}
+
+static void put_le32(uint8_t *p, uint32_t v)
+{
+    for (int i = 0; i < 4; i++)
+        p[i] = (uint8_t)(v >> (8 * i));
+}
+
+/* The occupancy grids in a checkpoint: a version 1 file (no grids) still resumes, with its
+ * grids rebuilt, as does a run with another grid size; a grid section that does not fit
+ * the model is refused with its reason even when the CRC is right. */
+static void test_checkpoint_grids(void **state)
+{
+    (void)state;
+    cn_train_opts o;
+    small_opts(&o);
+    o.occ_start = 2;
+    char err[512], path[512];
+    snprintf(path, sizeof path, "%s/test_train_grids.ckpt", CNERF_BINARY_DIR);
+    cn_trainer t;
+    assert_int_equal(cn_trainer_init(&t, &ds, &o, err, sizeof err), 0);
+    for (int i = 0; i < 3; i++)
+        cn_trainer_step(&t, NULL, NULL);
+    assert_true(t.occ[0].valid && t.occ[1].valid);
+    assert_int_equal(cn_checkpoint_save(&t, path, err, sizeof err), 0);
+    uint8_t *v2;
+    size_t len;
+    assert_int_equal(cn_read_file(path, &v2, &len, err, sizeof err), 0);
+    const size_t cells = (size_t)o.occ_grid * o.occ_grid * o.occ_grid;
+    const size_t grids = 4 + t.model.topo.n_nets * (8 + 4 * cells);
+    const size_t body = len - 4 - grids; /* up to the end of the Adam moments */
+    uint8_t *buf = malloc(len + 4);
+    assert_non_null(buf);
+
+    /* The same checkpoint as version 1. */
+    memcpy(buf, v2, body);
+    put_le32(buf + 4, 1);
+    write_with_crc(path, buf, body);
+    cn_trainer r;
+    assert_int_equal(cn_trainer_init(&r, &ds, &o, err, sizeof err), 0);
+    assert_int_equal(cn_checkpoint_resume(&r, path, err, sizeof err), 0);
+    assert_int_equal(r.step, 3);
+    assert_memory_equal(r.model.params, t.model.params, sizeof(float) * t.model.n_params);
+    assert_false(r.occ[0].valid);
+    cn_trainer_free(&r);
+
+    /* Another grid size: the saved grids do not apply. */
+    memcpy(buf, v2, len - 4);
+    write_with_crc(path, buf, len - 4);
+    cn_train_opts o16 = o;
+    o16.occ_grid = 16;
+    assert_int_equal(cn_trainer_init(&r, &ds, &o16, err, sizeof err), 0);
+    assert_int_equal(cn_checkpoint_resume(&r, path, err, sizeof err), 0);
+    assert_false(r.occ[0].valid);
+    cn_trainer_free(&r);
+    assert_int_equal(cn_trainer_init(&r, &ds, &o, err, sizeof err), 0);
+    assert_int_equal(cn_checkpoint_resume(&r, path, err, sizeof err), 0);
+    assert_true(r.occ[0].valid && r.occ[1].valid);
+    assert_memory_equal(r.occ[1].occupied, t.occ[1].occupied, cells);
+    cn_trainer_free(&r);
+
+    const struct {
+        const char *what;
+        long cut;       /* bytes removed before the CRC (negative: added) */
+        long count_ofs; /* when >= 0: the grid count becomes 1 */
+        const char *message;
+    } bad[] = {
+        {"one grid for two networks", 0, 1, "occupancy grids do not match the model"},
+        {"a grid cut short", 4, -1, "occupancy grid truncated"},
+        {"bytes after the grids", -4, -1, "unexpected bytes after the occupancy grids"},
+        {"no grid section", (long)grids, -1, "grid"},
+    };
+    for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
+        memcpy(buf, v2, len - 4);
+        memset(buf + len - 4, 0, 4);
+        if (bad[k].count_ofs >= 0)
+            put_le32(buf + body, 1);
+        write_with_crc(path, buf, (size_t)((long)len - 4 - bad[k].cut));
+        err[0] = 0;
+        assert_int_equal(cn_checkpoint_load_model(path, &r.model, NULL, err, sizeof err), -1);
+        print_message("# %s: %s\n", bad[k].what, err);
+        assert_non_null(strstr(err, bad[k].message));
+    }
+    free(buf);
+    free(v2);
+    cn_trainer_free(&t);
+    remove(path);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -233,6 +334,7 @@ int main(void)
         cmocka_unit_test(test_end_to_end),
         cmocka_unit_test(test_reproducible),
         cmocka_unit_test(test_resume_continues_exactly),
+        cmocka_unit_test(test_checkpoint_grids),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
