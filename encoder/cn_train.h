@@ -73,6 +73,11 @@ void cn_trainer_free(cn_trainer *t);
 /* One iteration; returns the loss (coarse MSE + fine MSE) and the fine (or only) MSE;
  * with compression also the noisy rate estimate in bits (when `bits` is not NULL). */
 double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits);
+/* The photometric loss of n colour values x against y: returns the squared error
+ * SE = sum (x - y)^2 and writes grad = gscale (x - y), the gradient of the loss
+ * L = gscale / 2 * SE (the trainer's gscale: 2 / (3 rays) for the mean squared error,
+ * 2 pixels / rays for compression's summed squared error). */
+double cn_sq_error(float *grad, const float *x, const float *y, size_t n, float gscale);
 /* Pixels in the training views (the distortion's scale). */
 double cn_trainer_pixels(const cn_trainer *t);
 /* Current learning rate. */

@@ -237,6 +237,17 @@ static void update_occupancy(cn_trainer *t)
     }
 }
 
+double cn_sq_error(float *grad, const float *x, const float *y, size_t n, float gscale)
+{
+    double se = 0;
+    for (size_t i = 0; i < n; i++) {
+        const float d = x[i] - y[i];
+        se += (double)d * d;
+        grad[i] = gscale * d;
+    }
+    return se;
+}
+
 double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
 {
     const size_t R = (size_t)t->opts.batch;
@@ -253,13 +264,7 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
     const float scale = m->compressed ? (float)(2.0 * cn_trainer_pixels(t) / (double)R)
                                       : 2.0f / (float)(3 * R);
     for (unsigned n = 0; n < nets; n++) {
-        double se = 0;
-        for (size_t i = 0; i < 3 * R; i++) {
-            float d = t->batch.color[n][i] - t->gt[i];
-            se += (double)d * d;
-            t->dcolor[n][i] = scale * d;
-        }
-        mse = se / (double)(3 * R);
+        mse = cn_sq_error(t->dcolor[n], t->batch.color[n], t->gt, 3 * R, scale) / (double)(3 * R);
         loss += mse;
     }
     cn_render_backward(m, &t->batch, R, t->dcolor);

@@ -1,5 +1,5 @@
 /* Finite-difference checks of every backward pass: linear layer, ReLU, volume rendering
- * (density and colour), one whole network, and the two-network render.
+ * (density and colour), one whole network, the two-network render and the photometric loss.
  *
  * Tolerance: central differences with step h on float computations; a gradient passes when
  * |analytic - numeric| <= 2e-2 * max(|analytic|, |numeric|) + 2e-4 (float round-off of the
@@ -10,6 +10,7 @@
 
 #include "cn_nerf.h"
 #include "cn_render.h"
+#include "cn_train.h"
 #include "testutil.h"
 
 #define REL_TOL 2e-2
@@ -363,6 +364,43 @@ static void test_compressed_kernels(void **state)
     cn_model_free(&gm);
 }
 
+/* The photometric loss L = s/2 sum (x - y)^2 against its gradient s (x - y), at both of
+ * the trainer's scales (cn_sq_error). */
+static void test_loss(void **state)
+{
+    (void)state;
+    enum { NL = 48 };
+    float x[NL], y[NL], g[NL], scratch[NL];
+    cn_rng r = cn_rng_seed(11);
+    fill(x, NL, &r, 1.0);
+    fill(y, NL, &r, 1.0);
+    const float scales[2] = {2.0f / (3 * 16), 2.0f * 2500 / 16};
+    for (int k = 0; k < 2; k++) {
+        const float s = scales[k];
+        const double se = cn_sq_error(g, x, y, NL, s);
+        double want = 0;
+        for (int i = 0; i < NL; i++)
+            want += ((double)x[i] - y[i]) * ((double)x[i] - y[i]);
+        assert_float_equal(se, want, 1e-9 * want);
+        int bad = 0;
+        for (int i = 0; i < NL; i++) {
+            const double h = 1e-3;
+            const float keep = x[i];
+            x[i] = keep + (float)h;
+            const double lp = s / 2.0 * cn_sq_error(scratch, x, y, NL, s);
+            x[i] = keep - (float)h;
+            const double lm = s / 2.0 * cn_sq_error(scratch, x, y, NL, s);
+            x[i] = keep;
+            const double num = (lp - lm) / (2 * h);
+            if (!close_enough(g[i] / s, num / s)) {
+                print_error("scale %g, x[%d]: analytic %g numeric %g\n", s, i, g[i], num);
+                bad++;
+            }
+        }
+        assert_int_equal(bad, 0);
+    }
+}
+
 static void test_posenc_values(void **state)
 {
     (void)state;
@@ -421,6 +459,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_linear_relu),
         cmocka_unit_test(test_volume_rendering),
+        cmocka_unit_test(test_loss),
         cmocka_unit_test(test_posenc_values),
         cmocka_unit_test(test_fine_sampling),
         cmocka_unit_test(test_render_grads_view),
