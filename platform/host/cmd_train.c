@@ -1,7 +1,9 @@
 /* cnerf train DATASET -o model.ckpt: trains the float NeRF. */
+#include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "cli.h"
@@ -18,11 +20,59 @@
     "       [--eval-every N] [--every K]\n"                                              \
     "       [--occupancy-start N] [--skip-saturated EPS]"
 
+/* Ctrl-C during training: the loop stops after the current iteration and saves.
+ *
+ * No signal handler may run on a thread that is inside a matrix product: oneDNN's x64 GEMM
+ * kernels (before its 3.11.2; Debian 12 has 2.6.3) point the stack pointer into a heap
+ * workspace while they run, and a handler's frame written there corrupts the heap (glibc
+ * aborts at a later malloc or free: "corrupted size vs. prev_size while consolidating").
+ * So SIGINT is blocked in the calling thread and in every thread of OpenMP's pool, whose
+ * threads run the products (a thread created later inherits the mask), and is taken with
+ * sigtimedwait between iterations. The handler stays for threads outside that pool
+ * (OpenBLAS's own, in a -DCNERF_GEMM=openblas build, whose kernels keep their stack). The
+ * guard lasts until the final checkpoint is written, so a second Ctrl-C does not lose it,
+ * and on to the exit of a stopped command. */
 static volatile sig_atomic_t interrupted;
 static void on_sigint(int sig)
 {
     (void)sig;
     interrupted = 1;
+}
+
+typedef struct sigint_guard {
+    struct sigaction old_action;
+    sigset_t set, old_mask;
+} sigint_guard;
+
+static void sigint_guard_begin(sigint_guard *g)
+{
+    sigemptyset(&g->set);
+    sigaddset(&g->set, SIGINT);
+    interrupted = 0;
+    pthread_sigmask(SIG_BLOCK, &g->set, &g->old_mask);
+#pragma omp parallel
+    pthread_sigmask(SIG_BLOCK, &g->set, NULL);
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_sigint;
+    sigaction(SIGINT, &sa, &g->old_action);
+}
+
+/* 1 once Ctrl-C has been pressed. */
+static int sigint_seen(const sigint_guard *g)
+{
+    const struct timespec now = {0, 0};
+    while (sigtimedwait(&g->set, NULL, &now) == SIGINT)
+        interrupted = 1;
+    return interrupted;
+}
+
+/* Restores the caller's mask and handler. The pool's threads keep SIGINT blocked: it goes
+ * to the caller's thread from then on. */
+static void sigint_guard_end(sigint_guard *g)
+{
+    pthread_sigmask(SIG_SETMASK, &g->old_mask, NULL);
+    sigaction(SIGINT, &g->old_action, NULL);
 }
 
 int cli_load_dataset(const char *cmd, const char *dir, long downscale, int black, double near,
@@ -79,18 +129,15 @@ int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt
         printf("%s is at iteration %ld of %ld: nothing to train\n", ckpt, t->step, t->opts.iters);
         return 0;
     }
-    struct sigaction sa, old;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_sigint;
-    interrupted = 0;
-    sigaction(SIGINT, &sa, &old);
+    sigint_guard guard;
+    sigint_guard_begin(&guard);
     cli_progress p;
     cli_progress_init(&p, t->step, t->opts.iters, log_every);
     double mse = 0, loss = 0, bits = 0;
     const double t0 = cli_now();
     const long first = t->step;
     double eval_secs = 0; /* time spent on evaluations, left out of the training time */
-    while (rc == 0 && t->step < t->opts.iters && !interrupted) {
+    while (rc == 0 && t->step < t->opts.iters && !sigint_seen(&guard)) {
         loss = cn_trainer_step(t, &mse, &bits);
         char extra[64] = "";
         if (t->model.compressed)
@@ -111,16 +158,19 @@ int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt
         }
     }
     cli_progress_done(&p);
-    sigaction(SIGINT, &old, NULL);
-    *stopped = interrupted;
     if (rc == 0 && cn_checkpoint_save(t, ckpt, err, sizeof err))
         rc = cli_fail(cmd, "%s", err);
+    *stopped = sigint_seen(&guard); /* a Ctrl-C during the save stops the command too */
     if (rc == 0) {
         const double el = cli_now() - t0 - eval_secs;
         printf("%s %s at iteration %ld: %.1f s, %.3f s/it, train psnr %.2f dB\n",
-               interrupted ? "interrupted: saved" : "saved", ckpt, t->step, el,
+               *stopped ? "interrupted: saved" : "saved", ckpt, t->step, el,
                t->step > first ? el / (double)(t->step - first) : 0.0, cn_psnr_from_mse(mse));
     }
+    /* A stopped command exits next, and takes any further Ctrl-C until then; a finished
+     * run gives Ctrl-C back its default meaning for the work after training. */
+    if (!*stopped && rc == 0)
+        sigint_guard_end(&guard);
     return rc;
 }
 

@@ -9,9 +9,9 @@ set -euo pipefail
 cnerf=$1 data=$2 work=$3 sigstorm=$4
 rm -rf "$work" && mkdir -p "$work"
 fail() { echo "FAIL: $*" >&2; exit 1; }
-common=(--preset small --downscale 8 --batch 4096 --iters 100000 --log-every 1 --threads 2)
+common=(--preset small --downscale 8 --batch 2048 --iters 100000 --log-every 1 --threads 2)
 
-for round in 1 2 3; do
+for round in 1 2; do
   for cmd in train encode; do
     out="$work/$cmd$round"
     extra=()
