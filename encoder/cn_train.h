@@ -83,10 +83,12 @@ double cn_trainer_pixels(const cn_trainer *t);
 /* Current learning rate. */
 double cn_trainer_lr(const cn_trainer *t);
 
-/* Checkpoints: magic, version, step, options, header, parameters and Adam moments, CRC. */
+/* Checkpoints: magic, version, step, options, header, parameters, Adam moments, the
+ * occupancy grids, CRC (train.c has the layout). A resumed run continues bit for bit. */
 int cn_checkpoint_save(const cn_trainer *t, const char *path, char *err, size_t errlen);
-/* Restores parameters, moments and the step into an initialised trainer whose topology
- * matches. */
+/* Restores parameters, moments, the step and the occupancy grids into an initialised
+ * trainer whose topology matches; a grid that the checkpoint lacks (version 1) or has at
+ * another size stays empty and is rebuilt from the model at the next step. */
 int cn_checkpoint_resume(cn_trainer *t, const char *path, char *err, size_t errlen);
 /* Loads a checkpoint's model alone (for evaluation); m is initialised by this call.
  * *step receives the iteration count when not NULL. */
