@@ -154,6 +154,38 @@ cnerf_status cn_rans_decode(const uint8_t *payload, size_t len, const uint32_t *
                             unsigned prec, int32_t offset, void *out, unsigned elem_bytes,
                             uint32_t count);
 
+/* Decodes a GRID payload[0..len): g^3 bits in raster order (x fastest, then y, then z),
+ * each with binary rANS of precision `prec` under the context of its already decoded
+ * neighbours (cn_grid_context), into the bitmap `bits` (bit i at bits[i >> 3],
+ * 1 << (i & 7); the bits after the last cell are 0). Counts the occupied cells into *occupied. CNERF_E_PAYLOAD unless the
+ * payload is consumed exactly and ends in the encoder's initial state. */
+cnerf_status cn_grid_decode(const uint8_t *payload, size_t len, uint32_t g, unsigned prec,
+                            const uint16_t *f1, uint8_t *bits, uint32_t *occupied);
+
+static inline uint32_t cn_grid_bit(const uint8_t *bits, uint32_t i)
+{
+    return (bits[i >> 3] >> (i & 7u)) & 1u;
+}
+
+/* Context of cell (x, y, z): occupied(x-1, y, z) + 2 occupied(x, y-1, z) +
+ * 4 occupied(x, y, z-1), a neighbour outside the grid counting as empty. */
+static inline uint32_t cn_grid_context(const uint8_t *bits, uint32_t g, uint32_t x, uint32_t y,
+                                       uint32_t z)
+{
+    const uint32_t i = (z * g + y) * g + x;
+    return (x ? cn_grid_bit(bits, i - 1u) : 0u) | (y ? cn_grid_bit(bits, i - g) << 1 : 0u) |
+           (z ? cn_grid_bit(bits, i - g * g) << 2 : 0u);
+}
+
+/* The cell along one axis of an offset s from the box's minimum, in Q16 units
+ * (0 <= s <= w, w the box's width in Q16), with r = floor(g 2^32 / w):
+ * min(g - 1, (s r) >> 32). s r <= g 2^32 < 2^39 (docs/bitstream.md, GRID). */
+static inline uint32_t cn_grid_cell(uint64_t s, uint64_t r, uint32_t g)
+{
+    const uint64_t c = (s * r) >> 32;
+    return c >= g ? g - 1u : (uint32_t)c;
+}
+
 /* ---- container walk ---- */
 
 /* Parses a HEAD payload of clen bytes into info (render parameters, expanded topology). */

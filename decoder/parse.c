@@ -230,6 +230,33 @@ static cnerf_status parse_layer(const uint8_t *buf, uint32_t off, uint32_t clen,
     return CNERF_OK;
 }
 
+/* Parses a GRID payload [off, off + clen) of the stream into info. */
+static cnerf_status parse_grid(const uint8_t *buf, uint32_t off, uint32_t clen, cnerf_info *info)
+{
+    cn_reader r;
+    cn_rd_init(&r, buf + off, clen);
+    const uint32_t g = cn_rd_u8(&r), prec = cn_rd_u8(&r);
+    uint32_t f1[CNERF_GRID_CONTEXTS];
+    for (unsigned c = 0; c < CNERF_GRID_CONTEXTS; c++)
+        f1[c] = cn_rd_u16(&r);
+    if (r.err)
+        return CNERF_E_CHUNK;
+    if (g < 1u || g > CNERF_MAX_GRID)
+        return CNERF_E_LIMIT;
+    if (prec < 1u || prec > CNERF_MAX_PREC)
+        return CNERF_E_TABLE;
+    for (unsigned c = 0; c < CNERF_GRID_CONTEXTS; c++) {
+        if (f1[c] < 1u || f1[c] >= ((uint32_t)1u << prec))
+            return CNERF_E_TABLE; /* both symbols need a frequency of at least 1 */
+        info->grid_f1[c] = (uint16_t)f1[c];
+    }
+    info->grid_g = (uint8_t)g;
+    info->grid_prec = (uint8_t)prec;
+    info->grid_payload_offset = off + CNERF_GRID_FIXED_BYTES;
+    info->grid_payload_bytes = clen - CNERF_GRID_FIXED_BYTES;
+    return info->grid_payload_bytes < 4u ? CNERF_E_PAYLOAD : CNERF_OK;
+}
+
 static int tag_ok(uint32_t tag)
 {
     for (int i = 0; i < 4; i++) {
@@ -306,6 +333,14 @@ cnerf_status cn_parse(const uint8_t *buf, size_t len, cnerf_info *info)
             L->chunk_offset = off;
             L->chunk_bytes = cbytes;
             next_layer++;
+        } else if (tag == CNERF_TAG_GRID && info->version_minor >= 1u) {
+            /* At most one, before the first layer. (A 1.0 stream cannot have one: there
+             * GRID is an unknown critical chunk, as it is to a 1.0 decoder.) */
+            if (info->grid_g || next_layer > 0u)
+                return CNERF_E_CHUNK_ORDER;
+            if ((st = parse_grid(buf, poff, clen, info)) != CNERF_OK)
+                return st;
+            info->grid_bytes = cbytes;
         } else if (tag == CNERF_TAG_DONE) {
             if (clen != 0u)
                 return CNERF_E_CHUNK;
@@ -341,6 +376,9 @@ static uint32_t alphabet(const cnerf_layer_info *L)
     return L->kmin < L->kmax ? (uint32_t)(L->kmax - L->kmin) + 1u : 0u;
 }
 
+/* Bytes of the occupancy bitmap of g^3 cells (g <= CNERF_MAX_GRID: at most 2^18). */
+static size_t grid_bitmap_bytes(uint32_t g) { return ((size_t)g * g * g + 7u) >> 3; }
+
 size_t cnerf_workspace_size(const cnerf_info *info)
 {
     if (!info || info->n_layers > CNERF_MAX_LAYERS)
@@ -356,6 +394,8 @@ size_t cnerf_workspace_size(const cnerf_info *info)
         if (alphabet(L) > max_n)
             max_n = alphabet(L);
     }
+    if (info->grid_g)
+        total += align8(grid_bitmap_bytes(info->grid_g));
     if (max_n)
         total += align8(((size_t)max_n + 1u) * 4u);
     return total;
@@ -425,6 +465,14 @@ cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void
             w += align8((size_t)L->n_in * L->n_out * L->latent_bytes);
             dec->bias[l] = (const int32_t *)(void *)w;
             w += align8((size_t)L->n_out * 4u);
+        }
+        if (info->grid_g) {
+            const size_t nb = grid_bitmap_bytes(info->grid_g);
+            st = cn_grid_decode(buf + info->grid_payload_offset, info->grid_payload_bytes,
+                                info->grid_g, info->grid_prec, info->grid_f1, w,
+                                &dec->grid_occupied);
+            dec->grid = w;
+            w += align8(nb);
         }
         cum = (uint32_t *)(void *)w;
     }

@@ -46,20 +46,25 @@ static uint32_t find_symbol(const uint32_t *cum, uint32_t n, uint32_t slot)
     return lo;
 }
 
+/* The payload's initial state (little-endian u32) into *x; 0 unless len >= 4 and the state
+ * lies in [L, 256 L), where the encoder always leaves it. */
+static int initial_state(const uint8_t *p, size_t len, uint32_t *x)
+{
+    if (len < 4u)
+        return 0;
+    *x = (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
+    return *x >= CNERF_RANS_L && *x < CNERF_RANS_L * 256u;
+}
+
 cnerf_status cn_rans_decode(const uint8_t *payload, size_t len, const uint32_t *cum, uint32_t n,
                             unsigned prec, int32_t offset, void *out, unsigned elem_bytes,
                             uint32_t count)
 {
-    if (len < 4u)
+    uint32_t x;
+    if (!initial_state(payload, len, &x))
         return CNERF_E_PAYLOAD;
-    const uint8_t *p = payload;
+    const uint8_t *p = payload + 4;
     const uint8_t *end = payload + len;
-    uint32_t x = (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) |
-                 ((uint32_t)p[3] << 24);
-    p += 4;
-    /* The encoder's state is always in [L, 256 L). */
-    if (x < CNERF_RANS_L || x >= CNERF_RANS_L * 256u)
-        return CNERF_E_PAYLOAD;
     const uint32_t mask = ((uint32_t)1u << prec) - 1u;
     for (uint32_t i = 0; i < count; i++) {
         uint32_t slot = x & mask;
@@ -83,5 +88,42 @@ cnerf_status cn_rans_decode(const uint8_t *payload, size_t len, const uint32_t *
     /* A clean payload is consumed exactly and returns to the encoder's initial state. */
     if (p != end || x != CNERF_RANS_L)
         return CNERF_E_PAYLOAD;
+    return CNERF_OK;
+}
+
+cnerf_status cn_grid_decode(const uint8_t *payload, size_t len, uint32_t g, unsigned prec,
+                            const uint16_t *f1, uint8_t *bits, uint32_t *occupied)
+{
+    uint32_t x;
+    if (!initial_state(payload, len, &x))
+        return CNERF_E_PAYLOAD;
+    const uint8_t *p = payload + 4;
+    const uint8_t *end = payload + len;
+    const uint32_t total = (uint32_t)1u << prec, mask = total - 1u;
+    uint32_t n1 = 0, i = 0;
+    for (uint32_t cz = 0; cz < g; cz++)
+        for (uint32_t cy = 0; cy < g; cy++)
+            for (uint32_t cx = 0; cx < g; cx++, i++) {
+                /* symbol 0 (empty) owns [0, f0), symbol 1 (occupied) [f0, 2^prec) */
+                if ((i & 7u) == 0u)
+                    bits[i >> 3] = 0; /* the bitmap need not be zeroed beforehand */
+                const uint32_t one = f1[cn_grid_context(bits, g, cx, cy, cz)];
+                const uint32_t f0 = total - one, slot = x & mask;
+                if (slot >= f0) {
+                    x = one * (x >> prec) + slot - f0;
+                    bits[i >> 3] = (uint8_t)(bits[i >> 3] | (1u << (i & 7u)));
+                    n1++;
+                } else {
+                    x = f0 * (x >> prec) + slot;
+                }
+                while (x < CNERF_RANS_L) {
+                    if (end - p < 1)
+                        return CNERF_E_PAYLOAD;
+                    x = (x << 8) | *p++;
+                }
+            }
+    if (p != end || x != CNERF_RANS_L)
+        return CNERF_E_PAYLOAD;
+    *occupied = n1;
     return CNERF_OK;
 }

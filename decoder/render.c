@@ -233,6 +233,7 @@ void cnerf_render_defaults(const cnerf_info *info, cnerf_render_opts *opts)
     opts->n_coarse = info ? info->n_coarse : 0;
     opts->n_fine = info ? info->n_fine : 0;
     opts->t_stop = 1u << 18; /* 2^30 / 4096 */
+    opts->flags = 0;
 }
 
 /* ---- one network at one point: raw (r, g, b, sigma) in Q16 ---- */
@@ -359,6 +360,38 @@ typedef struct march {
     int64_t rgb[3];   /* sum w c, Q46 */
 } march;
 
+/* The occupancy grid's integer cell mapping (docs/bitstream.md, GRID), set up per tile. */
+typedef struct gridmap {
+    const uint8_t *bits; /* NULL: no grid, or ignored */
+    uint32_t g;
+    int64_t lo[3];       /* box minimum, Q32 */
+    uint64_t r[3];       /* floor(g 2^32 / w), w the box's width in Q16 */
+} gridmap;
+
+static void gridmap_init(const cnerf_decoder *dec, int skip, gridmap *gm)
+{
+    const cnerf_info *I = &dec->info;
+    gm->bits = skip && I->grid_g ? dec->grid : (const uint8_t *)0;
+    gm->g = I->grid_g;
+    for (unsigned a = 0; a < 3; a++) {
+        gm->lo[a] = (int64_t)I->aabb_q16[a] * 65536;
+        /* 0 < w < 2^32 by the header checks */
+        const uint64_t w = (uint64_t)((int64_t)I->aabb_q16[a + 3] - I->aabb_q16[a]);
+        gm->r[a] = gm->bits ? cn_udiv_frac(gm->g, w, 32) : 0u;
+    }
+}
+
+/* 1 when p (inside the bounds, Q32) lies in an occupied cell or there is no grid. */
+static int occupied(const gridmap *gm, const int64_t p[3])
+{
+    if (!gm->bits)
+        return 1;
+    uint32_t c[3];
+    for (unsigned a = 0; a < 3; a++)
+        c[a] = cn_grid_cell((uint64_t)(p[a] - gm->lo[a]) >> 16, gm->r[a], gm->g);
+    return (int)cn_grid_bit(gm->bits, (c[2] * gm->g + c[1]) * gm->g + c[0]);
+}
+
 static int inside(const cnerf_info *I, const int64_t p[3])
 {
     for (unsigned a = 0; a < 3; a++)
@@ -368,8 +401,8 @@ static int inside(const cnerf_info *I, const int64_t p[3])
 }
 
 static void march_ray(const cnerf_decoder *dec, unsigned net, const scratch *s, const ray *r,
-                      const int64_t *t, unsigned n, int64_t far, uint32_t t_stop, uint32_t *w,
-                      march *m)
+                      const gridmap *gm, const int64_t *t, unsigned n, int64_t far,
+                      uint32_t t_stop, uint32_t *w, march *m, cnerf_render_stats *stats)
 {
     const cnerf_info *I = &dec->info;
     int64_t depth = 0; /* optical depth before sample i, Q16, at most MAX_DEPTH_Q16 */
@@ -386,6 +419,10 @@ static void march_ray(const cnerf_decoder *dec, unsigned net, const scratch *s, 
             p[a] = r->o[a] + cn_mul_exp(t[i], r->d[a], -28);
         if (!inside(I, p))
             continue;
+        stats->in_bounds++;
+        if (!occupied(gm, p))
+            continue; /* an empty cell: density 0, like a sample outside the bounds */
+        stats->evals++;
         posenc(s->buf[0], p, I->l_pos, I->pe_flags & CNERF_PE_INCLUDE_INPUT);
         for (uint32_t k = 0; k < I->in_pos; k++)
             s->buf[1][k] = s->buf[0][k];
@@ -445,6 +482,16 @@ cnerf_status cnerf_render_tile(const cnerf_decoder *dec, const cnerf_camera *cam
                                uint32_t w, uint32_t h, uint8_t *rgb, size_t stride,
                                void *scratch_mem, size_t scratch_size)
 {
+    return cnerf_render_tile_stats(dec, cam, opts, x0, y0, w, h, rgb, stride, scratch_mem,
+                                   scratch_size, (cnerf_render_stats *)0);
+}
+
+cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camera *cam,
+                                     const cnerf_render_opts *opts, uint32_t x0, uint32_t y0,
+                                     uint32_t w, uint32_t h, uint8_t *rgb, size_t stride,
+                                     void *scratch_mem, size_t scratch_size,
+                                     cnerf_render_stats *stats_out)
+{
     if (!dec || !cam || !rgb || !scratch_mem)
         return CNERF_E_NULL;
     const cnerf_info *I = &dec->info;
@@ -458,7 +505,8 @@ cnerf_status cnerf_render_tile(const cnerf_decoder *dec, const cnerf_camera *cam
     cnerf_render_defaults(I, &o);
     if (opts)
         o = *opts;
-    if (o.n_coarse < 1u || o.n_coarse > I->n_coarse || o.n_fine > I->n_fine)
+    if (o.n_coarse < 1u || o.n_coarse > I->n_coarse || o.n_fine > I->n_fine ||
+        (o.flags & ~CNERF_RENDER_NO_SKIP))
         return CNERF_E_ARG;
     if (w == 0 || h == 0 || x0 >= cam->width || y0 >= cam->height || w > cam->width - x0 ||
         h > cam->height - y0)
@@ -471,6 +519,9 @@ cnerf_status cnerf_render_tile(const cnerf_decoder *dec, const cnerf_camera *cam
 
     scratch s;
     carve(I, (uint8_t *)scratch_mem, &s);
+    gridmap gm;
+    gridmap_init(dec, !(o.flags & CNERF_RENDER_NO_SKIP), &gm);
+    cnerf_render_stats stats = {0, 0, 0};
     const unsigned nc = o.n_coarse, nf = I->n_nets > 1 ? o.n_fine : 0;
     const unsigned net = nf ? 1u : 0u;
     const int64_t near = (int64_t)I->near_q16 * 65536, far = (int64_t)I->far_q16 * 65536;
@@ -497,7 +548,7 @@ cnerf_status cnerf_render_tile(const cnerf_decoder *dec, const cnerf_camera *cam
             m.rgb[0] = m.rgb[1] = m.rgb[2] = 0;
             if (make_ray(I, cam, sx, sy, x0 + xx, y0 + yy, &r)) {
                 posenc(s.vpe, r.vd, I->l_dir, I->pe_flags & CNERF_PE_INCLUDE_INPUT);
-                march_ray(dec, 0, &s, &r, s.t_c, nc, far, o.t_stop, s.w_c, &m);
+                march_ray(dec, 0, &s, &r, &gm, s.t_c, nc, far, o.t_stop, s.w_c, &m, &stats);
                 if (net == 1) {
                     sample_fine(s.t_f, nf, s.w_c, nc, near, step);
                     unsigned i = 0, j = 0, k = 0;
@@ -507,13 +558,18 @@ cnerf_status cnerf_render_tile(const cnerf_decoder *dec, const cnerf_camera *cam
                         s.t_all[k++] = s.t_c[i++];
                     while (j < nf)
                         s.t_all[k++] = s.t_f[j++];
-                    march_ray(dec, 1, &s, &r, s.t_all, nc + nf, far, o.t_stop, (uint32_t *)0,
-                              &m);
+                    march_ray(dec, 1, &s, &r, &gm, s.t_all, nc + nf, far, o.t_stop,
+                              (uint32_t *)0, &m, &stats);
                 }
             }
             for (unsigned c = 0; c < 3; c++)
                 row[3 * xx + c] = to_u8(m.rgb[c], m.T, I->background[c]);
         }
+    }
+    if (stats_out) {
+        stats_out->rays += (uint64_t)w * h;
+        stats_out->evals += stats.evals;
+        stats_out->in_bounds += stats.in_bounds;
     }
     return CNERF_OK;
 }

@@ -60,6 +60,9 @@ typedef struct cn_model {
     size_t off_ab, off_prior;
     float *kernel, *kgrad;  /* materialized kernels and their gradients */
     size_t kofs[CNERF_MAX_LAYERS];
+    /* The stream's occupancy grid (owned; NULL: none): a sample in an empty cell has
+     * density 0 and is not evaluated, by every renderer of the model. */
+    struct cn_occ *grid;
 } cn_model;
 
 /* Glorot-uniform limit of a layer's kernel, sqrt(6 / (n_in + n_out)). */

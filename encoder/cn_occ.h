@@ -12,6 +12,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <math.h>
 
 #include "cn_nerf.h"
 #include "cn_rng.h"
@@ -19,13 +20,27 @@
 typedef struct cn_occ {
     int g;               /* cells per axis */
     float lo[3], scale[3]; /* cell coordinate = (p - lo) * scale */
-    float *density;      /* g^3 decaying maxima */
+    float *density;      /* g^3 decaying maxima (NULL for a stream's grid) */
     uint8_t *occupied;   /* g^3 flags */
     int valid;           /* an update has run since the grid was made */
+    /* A stream's grid maps points to cells with the stream's integer rule
+     * (docs/bitstream.md, GRID): the offset from the box's minimum in Q16, times r. */
+    int exact;
+    double lo_d[3];      /* box minimum */
+    uint64_t r[3];       /* floor(g 2^32 / w), w the box's width in Q16 */
 } cn_occ;
 
 int cn_occ_init(cn_occ *o, const cnerf_info *topo, int g);
+/* A stream's grid (exact mapping) from g^3 flags occ[(z g + y) g + x]; NULL occ: all empty. */
+int cn_occ_init_stream(cn_occ *o, const cnerf_info *topo, int g, const uint8_t *occ);
 void cn_occ_free(cn_occ *o);
+
+/* The cell index along one axis of a stream's grid for an offset s >= 0 in Q16. */
+static inline int cn_occ_cell_exact(uint64_t s, uint64_t r, int g)
+{
+    const uint64_t c = (s * r) >> 32;
+    return c >= (uint64_t)g ? g - 1 : (int)c;
+}
 
 /* 1 when p (inside the bounds) lies in an occupied cell, or when the grid has no estimate. */
 static inline int cn_occ_test(const cn_occ *o, const float p[3])
@@ -34,6 +49,12 @@ static inline int cn_occ_test(const cn_occ *o, const float p[3])
         return 1;
     int c[3];
     for (int a = 0; a < 3; a++) {
+        if (o->exact) {
+            /* the Q16 offset, floored as the decoder's (p - lo) >> 16 of Q32 values */
+            const double s = floor(((double)p[a] - o->lo_d[a]) * 65536.0);
+            c[a] = cn_occ_cell_exact(s > 0 ? (uint64_t)s : 0u, o->r[a], o->g);
+            continue;
+        }
         int v = (int)((p[a] - o->lo[a]) * o->scale[a]);
         c[a] = v < 0 ? 0 : v >= o->g ? o->g - 1 : v;
     }

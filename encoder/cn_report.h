@@ -14,6 +14,7 @@ typedef struct cn_totals {
     uint64_t layer_hdr; /* layer chunk framing and layer headers */
     uint64_t stream_hdr; /* signature, HEAD and DONE chunks */
     uint64_t ancillary; /* ancillary chunks (metadata) */
+    uint64_t grid;      /* occupancy grid chunk, framing included */
     uint64_t total;     /* sum of the above */
 } cn_totals;
 

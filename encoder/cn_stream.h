@@ -62,6 +62,14 @@ double cn_table_cost_bits(const uint64_t *cnt, const uint32_t *freq, uint32_t n,
 int cn_rans_encode(const uint32_t *syms, size_t count, const uint32_t *freq, uint32_t n,
                    unsigned prec, cn_buf *out);
 
+/* Codes an occupancy grid of g^3 cells (occ[i] != 0: occupied, i = (z g + y) g + x) as a
+ * GRID payload (docs/bitstream.md): u8 g, u8 prec, the "occupied" frequency of each
+ * neighbour context (u16 each, from the grid's own counts), then binary rANS. Appends to
+ * `out`. Returns 0, or -1 on invalid input or allocation failure. */
+int cn_grid_encode(const uint8_t *occ, uint32_t g, unsigned prec, cn_buf *out);
+/* The precision the writer uses for grids. */
+#define CN_GRID_PREC 12u
+
 /* ---- number formats ---- */
 
 /* m24e8: v ~ m * 2^e with |m| <= 2^23 - 1, e in [CNERF_EXP_MIN, CNERF_EXP_MAX], rounded
@@ -100,6 +108,10 @@ typedef struct cn_stream_src {
     cnerf_info hdr;
     cn_layer_src layer[CNERF_MAX_LAYERS];
     const char *meta; /* optional provenance text for the 'meta' chunk */
+    /* Optional occupancy grid: grid_g^3 flags (non-zero: occupied), x fastest; grid_g = 0
+     * writes none. A stream with a grid is version 1.1, one without stays 1.0. */
+    const uint8_t *grid;
+    uint32_t grid_g;
 } cn_stream_src;
 
 typedef struct cn_write_report {

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "cn_export.h"
+#include "cn_occ.h"
 #include "cn_prior.h"
 
 static size_t layer_size(const cn_model *m, unsigned l)
@@ -186,5 +187,22 @@ int cn_model_from_stream(const cnerf_decoder *dec, cn_model *m, char *err, size_
             b[o] = L->bias_bits ? (float)ldexp(dec->bias[l][o], L->bias_e) : 0.0f;
     }
     cn_model_materialize(m);
+    if (I->grid_g) {
+        const size_t g = I->grid_g, cells = g * g * g;
+        uint8_t *occ = malloc(cells);
+        m->grid = malloc(sizeof *m->grid);
+        if (occ)
+            for (size_t c = 0; c < cells; c++)
+                occ[c] = (uint8_t)((dec->grid[c >> 3] >> (c & 7u)) & 1u);
+        if (!occ || !m->grid || cn_occ_init_stream(m->grid, I, (int)g, occ)) {
+            free(occ);
+            free(m->grid);
+            m->grid = NULL;
+            cn_model_free(m);
+            snprintf(err, errlen, "out of memory");
+            return -1;
+        }
+        free(occ);
+    }
     return 0;
 }

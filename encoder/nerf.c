@@ -6,6 +6,7 @@
 
 #include "cn_gemm.h"
 #include "cn_nerf.h"
+#include "cn_occ.h"
 #include "cn_prior.h"
 #include "cn_rng.h"
 
@@ -265,6 +266,11 @@ void cn_model_free(cn_model *m)
     free(m->kernel);
     free(m->kgrad);
     m->params = m->grads = m->adam_m = m->adam_v = m->kernel = m->kgrad = NULL;
+    if (m->grid) {
+        cn_occ_free(m->grid);
+        free(m->grid);
+        m->grid = NULL;
+    }
 }
 
 const float *cn_model_kernel(const cn_model *m, unsigned l)

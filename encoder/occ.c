@@ -7,6 +7,7 @@
 
 #include "cn_render.h"
 #include "cnerf/format.h"
+#include "../decoder/cn_fixed.h"
 
 int cn_occ_init(cn_occ *o, const cnerf_info *topo, int g)
 {
@@ -29,6 +30,31 @@ int cn_occ_init(cn_occ *o, const cnerf_info *topo, int g)
     for (size_t c = 0; c < cells; c++) {
         o->density[c] = INFINITY;
         o->occupied[c] = 1;
+    }
+    return 0;
+}
+
+int cn_occ_init_stream(cn_occ *o, const cnerf_info *topo, int g, const uint8_t *occ)
+{
+    memset(o, 0, sizeof *o);
+    if (g < 1 || g > (int)CNERF_MAX_GRID)
+        return -1;
+    const size_t cells = (size_t)g * g * g;
+    o->occupied = calloc(cells, 1);
+    if (!o->occupied)
+        return -1;
+    if (occ)
+        for (size_t c = 0; c < cells; c++)
+            o->occupied[c] = occ[c] != 0;
+    o->g = g;
+    o->exact = 1;
+    o->valid = 1;
+    for (int a = 0; a < 3; a++) {
+        const int64_t lo = topo->aabb_q16[a], hi = topo->aabb_q16[a + 3];
+        o->lo_d[a] = (double)lo / 65536.0;
+        o->lo[a] = (float)o->lo_d[a];
+        o->scale[a] = (float)g / (float)((double)(hi - lo) / 65536.0);
+        o->r[a] = cn_udiv_frac((uint64_t)g, (uint64_t)(hi - lo), 32);
     }
     return 0;
 }

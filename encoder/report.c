@@ -1,5 +1,8 @@
 /* Size breakdown and `cnerf info` output. */
 #include <inttypes.h>
+#include <stdlib.h>
+
+#include "../decoder/cn_internal.h"
 
 #include "cn_report.h"
 
@@ -22,8 +25,9 @@ void cn_breakdown(const cnerf_info *info, cn_totals *t)
     }
     t->stream_hdr = (uint64_t)info->signature_bytes + info->head_bytes + info->done_bytes;
     t->ancillary = info->ancillary_bytes;
+    t->grid = info->grid_bytes;
     t->total = t->payload + t->tables + t->affine + t->biases + t->layer_hdr + t->stream_hdr +
-               t->ancillary;
+               t->ancillary + t->grid;
 }
 
 static double q16(int32_t v) { return v / 65536.0; }
@@ -61,6 +65,24 @@ void cn_print_info(FILE *f, const char *name, const uint8_t *buf, const cnerf_in
             fprintf(f, ", no view branch");
         fprintf(f, ", %u linear layers\n", N->n_layers);
     }
+    if (I->grid_g) {
+        const size_t g = I->grid_g, bytes = (g * g * g + 7) / 8;
+        uint8_t *bits = malloc(bytes);
+        uint32_t occupied = 0;
+        const cnerf_status st =
+            bits ? cn_grid_decode(buf + I->grid_payload_offset, I->grid_payload_bytes, I->grid_g,
+                                  I->grid_prec, I->grid_f1, bits, &occupied)
+                 : CNERF_E_WS_SMALL;
+        fprintf(f, "occupancy grid: %zu^3 cells, %" PRIu32 " bytes", g, I->grid_bytes);
+        if (st == CNERF_OK)
+            fprintf(f, ", %" PRIu32 " occupied (%.1f%%)\n", occupied,
+                    100.0 * occupied / (double)(g * g * g));
+        else
+            fprintf(f, ", does not decode: %s\n", cnerf_status_str(st));
+        free(bits);
+    } else {
+        fprintf(f, "occupancy grid: none (every sample inside the bounds is evaluated)\n");
+    }
     if (I->meta_len)
         fprintf(f, "meta: %.*s\n", (int)I->meta_len, (const char *)buf + I->meta_offset);
     fprintf(f, "\n%-5s %-3s %-7s %11s %8s %13s %4s %6s %8s %6s %5s %7s\n", "layer", "net", "role",
@@ -87,6 +109,7 @@ void cn_print_info(FILE *f, const char *name, const uint8_t *buf, const cnerf_in
     row(f, "layer headers + framing", t.layer_hdr, t.total);
     row(f, "stream header", t.stream_hdr, t.total);
     row(f, "ancillary (meta)", t.ancillary, t.total);
+    row(f, "occupancy grid", t.grid, t.total);
     fprintf(f, "  %-26s %10" PRIu64 " bytes  (file: %" PRIu32 " bytes%s)\n", "total", t.total,
             I->file_bytes, t.total == I->file_bytes ? "" : ", MISMATCH");
     fprintf(f, "parameters: %" PRIu32 " latents, %" PRIu32 " biases\n", I->n_params, I->n_biases);

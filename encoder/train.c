@@ -519,6 +519,7 @@ int cn_render_view(const cn_model *m, const cn_camera *cam, int ndc, float *rgb,
     cn_batch b;
     if (cn_batch_init(&b, &m->topo, chunk))
         return -1;
+    b.occ[0] = b.occ[1] = m->grid;
     const size_t total = (size_t)cam->w * cam->h;
     const unsigned last = m->topo.n_nets - 1;
     for (size_t start = 0; start < total; start += chunk) {

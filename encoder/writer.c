@@ -217,8 +217,9 @@ int cn_write_stream(const cn_stream_src *src, cn_buf *out, cn_write_report *rep,
     out->oom = 0;
     const uint8_t sig[4] = {CNERF_MAGIC_0, CNERF_MAGIC_1, CNERF_MAGIC_2, CNERF_MAGIC_3};
     cn_buf_put(out, sig, 4);
+    /* The lowest minor revision whose chunks the stream uses: 1 for a grid. */
     cn_buf_u16(out, CNERF_VERSION_MAJOR);
-    cn_buf_u16(out, CNERF_VERSION_MINOR);
+    cn_buf_u16(out, src->grid_g ? 1u : 0u);
     cn_buf c = {0};
     cn_put_head(&c, info);
     put_chunk(out, CNERF_TAG_HEAD, &c);
@@ -228,6 +229,14 @@ int cn_write_stream(const cn_stream_src *src, cn_buf *out, cn_write_report *rep,
         put_chunk(out, CNERF_TAG_META, &c);
     }
     int rc = 0;
+    if (src->grid_g) {
+        c.n = 0;
+        if (!src->grid || cn_grid_encode(src->grid, src->grid_g, CN_GRID_PREC, &c))
+            rc = fail(err, errlen, "occupancy grid of %u cells per axis: invalid or out of memory",
+                      src->grid_g);
+        else
+            put_chunk(out, CNERF_TAG_GRID, &c);
+    }
     for (unsigned l = 0; l < info->n_layers && rc == 0; l++) {
         c.n = 0;
         rc = put_layer(&c, &info->layer[l], &src->layer[l], l, rep, err, errlen);

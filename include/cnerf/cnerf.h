@@ -104,12 +104,22 @@ typedef struct cnerf_info {
     uint32_t ancillary_bytes; /* all ancillary chunks including framing */
     uint32_t done_bytes;      /* DONE chunk */
     uint32_t meta_offset, meta_len; /* first 'meta' chunk's payload (text), 0 if none */
+    /* Occupancy grid (GRID chunk, minor >= 1): grid_g^3 cells over the scene bounds, x
+     * fastest; a sample in an empty cell has density 0 and is not evaluated. grid_g = 0:
+     * no grid (every cell occupied). */
+    uint8_t grid_g;
+    uint8_t grid_prec;                          /* probability precision in bits */
+    uint16_t grid_f1[CNERF_GRID_CONTEXTS];      /* frequency of "occupied" per context */
+    uint32_t grid_bytes;                        /* GRID chunk including framing */
+    uint32_t grid_payload_offset, grid_payload_bytes;
 } cnerf_info;
 
 typedef struct cnerf_decoder {
     cnerf_info info;
     const void *latent[CNERF_MAX_LAYERS];  /* int8_t or int16_t, [n_out][n_in] row-major */
     const int32_t *bias[CNERF_MAX_LAYERS]; /* n_out bias mantissas */
+    const uint8_t *grid;   /* occupancy bitmap, bit (z g + y) g + x, LSB first; NULL: none */
+    uint32_t grid_occupied; /* occupied cells */
 } cnerf_decoder;
 
 /* Parses and validates the whole structure (signature, every chunk's CRC, header, layer
@@ -121,11 +131,13 @@ cnerf_status cnerf_peek(const uint8_t *buf, size_t len, cnerf_info *info);
 size_t cnerf_workspace_size(const cnerf_info *info);
 
 /* Upper bound of cnerf_workspace_size over all streams whose layers are at most
- * `params` latents and `outputs` biases in total, with at most `layers` layers;
+ * `params` latents and `outputs` biases in total, with at most `layers` layers and an
+ * occupancy grid of at most `grid` cells per axis (0: streams without a grid);
  * for static arrays (a compile-time constant when the arguments are). */
-#define CNERF_WORKSPACE_BOUND(params, outputs, layers)                                   \
+#define CNERF_WORKSPACE_BOUND(params, outputs, layers, grid)                             \
     ((size_t)(params) * 2u + (size_t)(outputs) * 4u + (size_t)(layers) * 16u +             \
-     ((size_t)65536u + 1u) * 4u + 16u)
+     ((size_t)65536u + 1u) * 4u + 16u +                                                    \
+     ((size_t)(grid) * (size_t)(grid) * (size_t)(grid) + 7u) / 8u + 8u)
 
 /* Decodes the stream into `ws` (aligned to CNERF_WS_ALIGN, at least
  * cnerf_workspace_size() bytes). On error `dec` is left zeroed. */
@@ -159,7 +171,20 @@ typedef struct cnerf_render_opts {
     uint16_t n_fine;   /* 0 .. the stream's n_fine; 0 renders the coarse network's image */
     uint32_t t_stop;   /* early ray termination: stop a ray once its transmittance is below
                           t_stop / 2^30 (the rest of the ray shows the background); 0 = never */
+    uint32_t flags;    /* CNERF_RENDER_* */
 } cnerf_render_opts;
+
+/* Ignore the stream's occupancy grid: evaluate the networks at every sample inside the
+ * bounds (the image a decoder without grid support would make; for comparisons only). */
+#define CNERF_RENDER_NO_SKIP 1u
+
+/* Work counters of cnerf_render_tile_stats, added to what the caller's struct holds. */
+typedef struct cnerf_render_stats {
+    uint64_t rays;      /* rays rendered */
+    uint64_t evals;     /* network evaluations, both networks */
+    uint64_t in_bounds; /* samples inside the scene bounds and before early termination:
+                           the evaluations at the same sample positions without the grid */
+} cnerf_render_stats;
 
 /* The stream's sample counts and t_stop = 2^30 / 4096 (an error below 1/4096 per channel). */
 void cnerf_render_defaults(const cnerf_info *info, cnerf_render_opts *opts);
@@ -175,6 +200,13 @@ cnerf_status cnerf_render_tile(const cnerf_decoder *dec, const cnerf_camera *cam
                                const cnerf_render_opts *opts, uint32_t x0, uint32_t y0,
                                uint32_t w, uint32_t h, uint8_t *rgb, size_t stride,
                                void *scratch, size_t scratch_size);
+
+/* cnerf_render_tile that also adds its work to *stats (NULL: not counted). */
+cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camera *cam,
+                                     const cnerf_render_opts *opts, uint32_t x0, uint32_t y0,
+                                     uint32_t w, uint32_t h, uint8_t *rgb, size_t stride,
+                                     void *scratch, size_t scratch_size,
+                                     cnerf_render_stats *stats);
 
 /* CRC-32 (ISO-HDLC, as zlib and PNG) of `len` bytes, continuing from `crc` (start at 0). */
 uint32_t cnerf_crc32(uint32_t crc, const uint8_t *p, size_t len);

@@ -15,7 +15,9 @@
 #define CNERF_MAGIC_3 'F'
 #define CNERF_SIGNATURE_BYTES 8u
 #define CNERF_VERSION_MAJOR 1u
-#define CNERF_VERSION_MINOR 0u
+/* The newest minor revision this code knows (1.1 adds the GRID chunk). A writer stamps
+ * the lowest minor whose chunks the stream uses, so a stream without a grid stays 1.0. */
+#define CNERF_VERSION_MINOR 1u
 
 /* Chunk framing: tag[4], u32 length, payload[length], u32 CRC-32 of tag+payload. */
 #define CNERF_CHUNK_OVERHEAD 12u
@@ -28,6 +30,13 @@
 #define CNERF_TAG_LAYR CNERF_TAG('L', 'A', 'Y', 'R')
 #define CNERF_TAG_DONE CNERF_TAG('D', 'O', 'N', 'E')
 #define CNERF_TAG_META CNERF_TAG('m', 'e', 't', 'a')
+#define CNERF_TAG_GRID CNERF_TAG('G', 'R', 'I', 'D') /* occupancy grid, minor >= 1 */
+
+/* GRID: g^3 cells over the scene bounds, coded bit by bit with binary rANS under
+ * CNERF_GRID_CONTEXTS contexts (the left, front and lower neighbours). */
+#define CNERF_MAX_GRID 128u
+#define CNERF_GRID_CONTEXTS 8u
+#define CNERF_GRID_FIXED_BYTES (2u + 2u * CNERF_GRID_CONTEXTS)
 
 /* HEAD payload size in bytes (fixed layout, see docs/bitstream.md). */
 #define CNERF_HEAD_FIXED_BYTES 44u

@@ -136,7 +136,7 @@ int main(int argc, char **argv)
     fprintf(f, "#define CNERF_FW_TILE_W %lldu\n#define CNERF_FW_TILE_H %lldu\n", tile[2], tile[3]);
     fprintf(f, "#define CNERF_FW_TILE_STRIDE %lluu /* w * 3 rounded up to 4 bytes */\n", stride);
     fprintf(f, "#define CNERF_FW_HAVE_KNOBS %d\n", have_knobs);
-    fprintf(f, "#define CNERF_FW_KNOBS_INIT {%lldu, %lldu, %lldu}\n", knobs[0], knobs[1],
+    fprintf(f, "#define CNERF_FW_KNOBS_INIT {%lldu, %lldu, %lldu, 0u}\n", knobs[0], knobs[1],
             knobs[2]);
     fprintf(f, "#define CNERF_FW_CAMERA_INIT {{");
     for (int i = 0; i < 9; i++) {

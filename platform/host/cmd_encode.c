@@ -9,6 +9,7 @@
 #include "cli.h"
 #include "cli_args.h"
 #include "cn_export.h"
+#include "cn_grid.h"
 #include "cn_metrics.h"
 #include "cn_report.h"
 #include "cn_train.h"
@@ -19,7 +20,13 @@
     "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N] [--log-every N]\n" \
     "       [--depth D] [--width W] [--coarse N] [--fine N] [--latent-lr latent|weight]\n"  \
     "       [--eval-every N] [--prior-lr X] [--affine-lr X]\n"   \
-    "       [--skip-saturated EPS]"
+    "       [--skip-saturated EPS] [--grid G|0] [--grid-verbose]"
+
+static void say(const char *line)
+{
+    printf("%s\n", line);
+    fflush(stdout);
+}
 
 int cmd_encode(int argc, char **argv)
 {
@@ -29,10 +36,10 @@ int cmd_encode(int argc, char **argv)
     const char *out = NULL, *resume = NULL, *pos[1], *latent_lr = "weight";
     long iters = o.iters, downscale = 1, threads = 0, batch = o.batch, every = 1;
     long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 1000, log_every = 100;
-    long eval_every = 0;
+    long eval_every = 0, grid_g = -1;
     double lambda = -1, levels = o.levels;
     uint64_t seed = o.seed;
-    int black = 0, n_pos;
+    int black = 0, n_pos, grid_verbose = 0;
     const cli_opt opts[] = {
         {"-o", CLI_STR, &out, 0, 0},
         {"--lambda", CLI_DOUBLE, &lambda, 0, 1e3},
@@ -57,6 +64,8 @@ int cmd_encode(int argc, char **argv)
         {"--prior-lr", CLI_DOUBLE, &o.lr_prior, 0, 1},
         {"--skip-saturated", CLI_DOUBLE, &o.sat_eps, 0, 1},
         {"--affine-lr", CLI_DOUBLE, &o.lr_affine, 0, 1},
+        {"--grid", CLI_LONG, &grid_g, -1, CNERF_MAX_GRID},
+        {"--grid-verbose", CLI_FLAG, &grid_verbose, 0, 0},
     };
     if (cli_parse("encode", ENCODE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
                   &n_pos))
@@ -64,6 +73,9 @@ int cmd_encode(int argc, char **argv)
     if (n_pos != 1 || !out || lambda < 0)
         return cli_fail("encode", "need a dataset directory, -o FILE and --lambda L\n%s",
                         ENCODE_USAGE);
+    if (grid_g > 0 && (grid_g < 16 || (grid_g & (grid_g - 1))))
+        return cli_fail("encode", "--grid takes 16, 32, 64 or 128 cells per axis, or 0 for no "
+                        "grid, not %ld", grid_g);
     if (strcmp(latent_lr, "latent") && strcmp(latent_lr, "weight"))
         return cli_fail("encode", "--latent-lr takes 'latent' (Adam's step in latent units, "
                         "the paper's) or 'weight' (in weight units), not '%s'", latent_lr);
@@ -122,9 +134,32 @@ int cmd_encode(int argc, char **argv)
                     cn_export_compressed(&t.model, meta, &e, err, sizeof err)))
         rc = cli_fail("encode", "%s", err);
     else if (rc == 0) {
-        if (cn_write_stream(&e.src, &b, &rep, err, sizeof err) ||
-            cn_write_file_atomic(out, b.p, b.n, err, sizeof err))
+        cn_grid_choice grid;
+        memset(&grid, 0, sizeof grid);
+        /* The grid is measured on the kernels of the exported numbers (the last step's
+         * update, and a resumed run's parameters, are not materialized yet). */
+        cn_model_materialize(&t.model);
+        if (cn_write_stream(&e.src, &b, &rep, err, sizeof err))
             rc = cli_fail("encode", "%s", err);
+        else if (grid_g != 0 && cn_grid_choose(&t.model, &ds, b.n, (int)grid_g, &grid, grid_verbose ? say : NULL,
+                                            err, sizeof err))
+            rc = cli_fail("encode", "%s", err);
+        else if (grid.g) {
+            printf("occupancy grid: %d^3, %.1f%% of the cells occupied, %zu bytes; %.1f%% of the "
+                   "evaluations left on the training rays, %+.3f dB on the training views "
+                   "(threshold %.3g)\n",
+                   grid.g, 100 * grid.occupied, grid.bytes, 100 * grid.eval_fraction,
+                   -grid.psnr_drop, grid.threshold);
+            e.src.grid = grid.occ;
+            e.src.grid_g = (uint32_t)grid.g;
+            if (cn_write_stream(&e.src, &b, &rep, err, sizeof err))
+                rc = cli_fail("encode", "%s", err);
+        } else if (grid_g != 0) {
+            printf("occupancy grid: none (it would not skip enough to pay for itself)\n");
+        }
+        if (rc == 0 && cn_write_file_atomic(out, b.p, b.n, err, sizeof err))
+            rc = cli_fail("encode", "%s", err);
+        cn_grid_choice_free(&grid);
         cn_export_free(&e);
     }
     /* The closed loop: read the file back through the decoder's parser. */

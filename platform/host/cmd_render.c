@@ -23,7 +23,7 @@
     "usage: cnerf render scene.cnrf [--dataset DIR [--split test|val|train] [--downscale F]\n" \
     "       [--every N]] [--orbit N [--size PX] [--radius R] [--elevation DEG] [--fov DEG]]\n" \
     "       [-o DIR] [--float] [--verify MD5] [--coarse N] [--fine N] [--t-stop X]\n"        \
-    "       [--tile PX] [--threads T] [--save-cameras FILE]"
+    "       [--tile PX] [--threads T] [--save-cameras FILE] [--no-skip]"
 
 typedef struct render_cfg {
     cnerf_render_opts opts;
@@ -32,7 +32,7 @@ typedef struct render_cfg {
 
 /* The fixed-point render of one camera, tile by tile (tiles in parallel). */
 static int render_fixed(const cnerf_decoder *dec, const cnerf_camera *cam, const render_cfg *cfg,
-                        uint8_t *px, char *err, size_t errlen)
+                        uint8_t *px, cnerf_render_stats *stats, char *err, size_t errlen)
 {
     const size_t need = cnerf_render_scratch_size(&dec->info);
     const int W = cam->width, H = cam->height, T = (int)cfg->tile;
@@ -42,15 +42,17 @@ static int render_fixed(const cnerf_decoder *dec, const cnerf_camera *cam, const
 #pragma omp parallel
     {
         void *scratch = aligned_alloc(CNERF_WS_ALIGN, (need + 7) & ~(size_t)7);
+        cnerf_render_stats mine = {0, 0, 0};
 #pragma omp for schedule(dynamic, 1)
         for (int k = 0; k < tx * ty; k++) {
             const int x0 = k % tx * T, y0 = k / tx * T;
             const int w = x0 + T > W ? W - x0 : T, h = y0 + T > H ? H - y0 : T;
-            cnerf_status st = scratch ? cnerf_render_tile(dec, cam, &cfg->opts, (uint32_t)x0,
-                                                          (uint32_t)y0, (uint32_t)w, (uint32_t)h,
-                                                          px + ((size_t)y0 * W + x0) * 3,
-                                                          (size_t)W * 3, scratch, need)
-                                      : CNERF_E_WS_SMALL;
+            cnerf_status st =
+                scratch ? cnerf_render_tile_stats(dec, cam, &cfg->opts, (uint32_t)x0, (uint32_t)y0,
+                                                  (uint32_t)w, (uint32_t)h,
+                                                  px + ((size_t)y0 * W + x0) * 3, (size_t)W * 3,
+                                                  scratch, need, &mine)
+                        : CNERF_E_WS_SMALL;
             if (st != CNERF_OK) {
 #pragma omp critical
                 {
@@ -60,6 +62,12 @@ static int render_fixed(const cnerf_decoder *dec, const cnerf_camera *cam, const
             }
         }
         free(scratch);
+#pragma omp critical
+        {
+            stats->rays += mine.rays;
+            stats->evals += mine.evals;
+            stats->in_bounds += mine.in_bounds;
+        }
     }
     if (bad)
         snprintf(err, errlen, "the decoder refuses to render: %s", cnerf_status_str(first));
@@ -152,7 +160,7 @@ int cmd_render(int argc, char **argv)
     long downscale = 1, every = 1, threads = 0, orbit = 0, size = 100, coarse = -1, fine = -1;
     long tile = 32;
     double radius = 4.0, elev = 30.0, fov = 40.0, t_stop = -1;
-    int use_float = 0, n_pos;
+    int use_float = 0, no_skip = 0, n_pos;
     const cli_opt opts[] = {
         {"--dataset", CLI_STR, &dataset, 0, 0},
         {"--split", CLI_STR, &split, 0, 0},
@@ -172,6 +180,7 @@ int cmd_render(int argc, char **argv)
         {"--tile", CLI_LONG, &tile, 1, 65535},
         {"--threads", CLI_LONG, &threads, 1, 256},
         {"--save-cameras", CLI_STR, &cam_path, 0, 0},
+        {"--no-skip", CLI_FLAG, &no_skip, 0, 0},
     };
     if (cli_parse("render", RENDER_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
                   &n_pos))
@@ -197,6 +206,13 @@ int cmd_render(int argc, char **argv)
         cfg.opts.n_fine = (uint16_t)fine;
     if (t_stop >= 0)
         cfg.opts.t_stop = (uint32_t)llround(t_stop * 1073741824.0);
+    /* --no-skip: both renderers ignore the stream's occupancy grid. */
+    struct cn_occ *grid = ref.grid;
+    if (no_skip) {
+        cfg.opts.flags |= CNERF_RENDER_NO_SKIP;
+        ref.grid = NULL;
+    }
+    cnerf_render_stats stats = {0, 0, 0};
     int rc = 0;
     if (cfg.opts.n_coarse > I->n_coarse || cfg.opts.n_fine > I->n_fine)
         rc = cli_fail("render", "%s has %u coarse and %u fine samples: --coarse %u --fine %u "
@@ -266,7 +282,7 @@ int cmd_render(int argc, char **argv)
             break;
         }
         double t0 = cli_now();
-        if (!use_float && render_fixed(st.dec, &fc, &cfg, px, err, sizeof err)) {
+        if (!use_float && render_fixed(st.dec, &fc, &cfg, px, &stats, err, sizeof err)) {
             free(px), free(refpx), free(rgb);
             rc = cli_fail("render", "%s: %s", name, err);
             break;
@@ -344,6 +360,12 @@ int cmd_render(int argc, char **argv)
         char hex[33];
         MD5End(&all, hex);
         printf("md5 of all frames: %s\n", hex);
+        if (!use_float && stats.rays)
+            printf("network evaluations per ray: %.2f (%.2f without skipping%s)\n",
+                   (double)stats.evals / (double)stats.rays,
+                   (double)stats.in_bounds / (double)stats.rays,
+                   I->grid_g ? (no_skip ? "; --no-skip: the grid is ignored" : "")
+                             : "; the stream has no occupancy grid");
         if (verify && strcmp(hex, verify)) {
             rc = cli_fail("render", "verification failed: the frames' md5 is %s, expected %s",
                           hex, verify);
@@ -362,6 +384,7 @@ int cmd_render(int argc, char **argv)
             remove(cam_tmp);
     }
     cn_dataset_free(&ds);
+    ref.grid = grid;
     cn_model_free(&ref);
     cli_stream_free(&st);
     return rc;

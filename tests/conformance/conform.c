@@ -173,7 +173,7 @@ static int cmd_tiles(char **argv)
     }
     const uint32_t T = (uint32_t)atoi(argv[2]);
     cnerf_render_opts k = {(uint16_t)atoi(argv[3]), (uint16_t)atoi(argv[4]),
-                           (uint32_t)strtoul(argv[5], NULL, 10)};
+                           (uint32_t)strtoul(argv[5], NULL, 10), 0};
     for (int c = 0; c < n && rc == 0; c++) {
         const cnerf_camera *cam = &cams[c].c;
         uint8_t *px = malloc((size_t)T * T * 3 + 1);
@@ -269,7 +269,7 @@ static void check_valid(const char *dir, const char *name)
             if (!strcmp(cams[c].name, cname))
                 cam = &cams[c];
         uint8_t *px = malloc((size_t)w * h * 3 + 1);
-        cnerf_render_opts k = {(uint16_t)nc, (uint16_t)nf, ts};
+        cnerf_render_opts k = {(uint16_t)nc, (uint16_t)nf, ts, 0};
         st = cam && px ? render(&o, &cam->c, &k, x0, y0, w, h, px, (size_t)w * 3) : CNERF_E_ARG;
         if (st == CNERF_OK) {
             md5_tile(px, w, h, (size_t)w * 3, got);

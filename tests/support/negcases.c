@@ -238,6 +238,71 @@ static void e_missing_done(chunks *c) { remove_chunk(c, DONE); }
 static void e_done_payload(chunks *c) { c->c[DONE].len = 1; }
 static void e_no_chunks(chunks *c) { c->n = 0; }
 
+/* ---- occupancy grids (format 1.1) ---- */
+
+/* A valid GRID payload of g^3 cells (a ball in the middle) into chunk-sized data. */
+static uint32_t grid_payload(uint32_t g, uint8_t *data)
+{
+    uint8_t occ[8 * 8 * 8];
+    for (uint32_t i = 0; i < g * g * g; i++) {
+        const int x = (int)(i % g) * 2 - (int)g + 1, y = (int)(i / g % g) * 2 - (int)g + 1,
+                  z = (int)(i / g / g) * 2 - (int)g + 1;
+        occ[i] = x * x + y * y + z * z <= (int)(g * g);
+    }
+    cn_buf b = {0};
+    if (g > 8 || cn_grid_encode(occ, g, CN_GRID_PREC, &b) || b.n > sizeof(((chunk *)0)->data)) {
+        cn_buf_free(&b);
+        return 0;
+    }
+    memcpy(data, b.p, b.n);
+    const uint32_t n = (uint32_t)b.n;
+    cn_buf_free(&b);
+    return n;
+}
+
+/* Inserts a grid of g cells after HEAD (chunk 1) and stamps the stream 1.1. */
+static chunk *add_grid(chunks *c, uint32_t g)
+{
+    uint8_t data[256];
+    const uint32_t n = grid_payload(g, data);
+    insert_chunk(c, 1, "GRID", data, n);
+    put16(c->sig + 6, 1);
+    return &c->c[1];
+}
+static void e_grid_ok(chunks *c) { add_grid(c, 4); }
+static void e_grid_v10(chunks *c)
+{
+    add_grid(c, 4);
+    put16(c->sig + 6, 0);
+}
+static void e_grid_g0(chunks *c) { add_grid(c, 4)->data[0] = 0; }
+static void e_grid_g129(chunks *c) { add_grid(c, 4)->data[0] = CNERF_MAX_GRID + 1; }
+static void e_grid_size(chunks *c) { add_grid(c, 4)->data[0] = 5; }
+static void e_grid_prec0(chunks *c) { add_grid(c, 4)->data[1] = 0; }
+static void e_grid_prec17(chunks *c) { add_grid(c, 4)->data[1] = CNERF_MAX_PREC + 1; }
+static void e_grid_f0(chunks *c) { put16(add_grid(c, 4)->data + 2 + 2 * 3, 0); }
+static void e_grid_fmax(chunks *c) { put16(add_grid(c, 4)->data + 2 + 2 * 5, 1u << CN_GRID_PREC); }
+static void e_grid_cut(chunks *c) { add_grid(c, 4)->len = CNERF_GRID_FIXED_BYTES - 1; }
+static void e_grid_short(chunks *c) { add_grid(c, 4)->len = CNERF_GRID_FIXED_BYTES + 3; }
+static void e_grid_byte(chunks *c) { add_grid(c, 4)->data[CNERF_GRID_FIXED_BYTES + 4] ^= 0x04; }
+static void e_grid_extra(chunks *c)
+{
+    chunk *g = add_grid(c, 4);
+    g->data[g->len++] = 0;
+}
+static void e_grid_twice(chunks *c)
+{
+    add_grid(c, 4);
+    insert_chunk(c, 2, "GRID", c->c[1].data, c->c[1].len);
+}
+static void e_grid_after_layer(chunks *c)
+{
+    add_grid(c, 4);
+    chunk t = c->c[1];
+    c->c[1] = c->c[2];
+    c->c[2] = t; /* HEAD, LAYR 0, GRID, ... */
+}
+
 /* Raw edits after joining (no CRC repair). */
 static void r_trailing(cn_buf *b) { cn_buf_u8(b, 0); }
 static void r_crc(cn_buf *b) { b->p[8 + 8 + base_info.head_bytes - 12] ^= 1; }
@@ -299,6 +364,21 @@ const neg_case neg_cases[] = {
     {"missing DONE", e_missing_done, NULL, CNERF_E_TRUNCATED, CNERF_E_TRUNCATED},
     {"DONE with a payload", e_done_payload, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK},
     {"signature only", e_no_chunks, NULL, CNERF_E_TRUNCATED, CNERF_E_TRUNCATED},
+    {"grid in a 1.1 stream is accepted", e_grid_ok, NULL, CNERF_OK, CNERF_OK},
+    {"grid in a 1.0 stream", e_grid_v10, NULL, CNERF_E_UNKNOWN_CHUNK, CNERF_E_UNKNOWN_CHUNK},
+    {"grid of 0 cells", e_grid_g0, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT},
+    {"grid over the limit", e_grid_g129, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT},
+    {"grid size disagrees with its payload", e_grid_size, NULL, CNERF_OK, CNERF_E_PAYLOAD},
+    {"grid precision 0", e_grid_prec0, NULL, CNERF_E_TABLE, CNERF_E_TABLE},
+    {"grid precision 17", e_grid_prec17, NULL, CNERF_E_TABLE, CNERF_E_TABLE},
+    {"grid frequency 0", e_grid_f0, NULL, CNERF_E_TABLE, CNERF_E_TABLE},
+    {"grid frequency 2^prec", e_grid_fmax, NULL, CNERF_E_TABLE, CNERF_E_TABLE},
+    {"grid chunk cut in its tables", e_grid_cut, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK},
+    {"grid payload under 4 bytes", e_grid_short, NULL, CNERF_E_PAYLOAD, CNERF_E_PAYLOAD},
+    {"grid payload byte changed, CRC fixed", e_grid_byte, NULL, CNERF_OK, CNERF_E_PAYLOAD},
+    {"grid payload with an extra byte", e_grid_extra, NULL, CNERF_OK, CNERF_E_PAYLOAD},
+    {"two grids", e_grid_twice, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER},
+    {"grid after a layer", e_grid_after_layer, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER},
     {"trailing byte", NULL, r_trailing, CNERF_E_TRAILING, CNERF_E_TRAILING},
     {"HEAD CRC flipped", NULL, r_crc, CNERF_E_CRC, CNERF_E_CRC},
     {"chunk length past the end", NULL, r_length_huge, CNERF_E_TRUNCATED, CNERF_E_TRUNCATED},

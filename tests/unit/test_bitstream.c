@@ -274,7 +274,7 @@ static void test_pinned_workspace(void **state)
         print_message("# workspace %s: %zu bytes for %u latents\n", pins[i].preset, ws,
                       info.n_params);
         assert_int_equal(ws, pins[i].bytes);
-        assert_true(ws <= CNERF_WORKSPACE_BOUND(info.n_params, info.n_biases, info.n_layers));
+        assert_true(ws <= CNERF_WORKSPACE_BOUND(info.n_params, info.n_biases, info.n_layers, info.grid_g));
         cn_buf_free(&b);
     }
 }

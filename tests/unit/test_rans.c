@@ -168,6 +168,115 @@ static void test_encoder_rejects_bad_input(void **state)
     cn_buf_free(&b);
 }
 
+/* ---- occupancy grids: context-coded bits ---- */
+
+/* Codes occ (g^3 flags) with cn_grid_encode, reads the fixed fields back and decodes with
+ * the decoder's cn_grid_decode; returns the payload size and checks every bit and the count. */
+static size_t grid_roundtrip(const uint8_t *occ, uint32_t g, unsigned prec)
+{
+    cn_buf b = {0};
+    assert_int_equal(cn_grid_encode(occ, g, prec, &b), 0);
+    assert_true(b.n >= CNERF_GRID_FIXED_BYTES + 4);
+    assert_int_equal(b.p[0], g);
+    assert_int_equal(b.p[1], prec);
+    uint16_t f1[CNERF_GRID_CONTEXTS];
+    for (unsigned c = 0; c < CNERF_GRID_CONTEXTS; c++) {
+        f1[c] = (uint16_t)(b.p[2 + 2 * c] | b.p[3 + 2 * c] << 8);
+        assert_true(f1[c] >= 1 && f1[c] < (1u << prec));
+    }
+    const size_t cells = (size_t)g * g * g, nbytes = (cells + 7) / 8;
+    uint8_t *bits = malloc(nbytes);
+    memset(bits, 0xA5, nbytes); /* the decoder needs no zeroed bitmap */
+    uint32_t occupied = 12345, want = 0;
+    assert_int_equal(cn_grid_decode(b.p + CNERF_GRID_FIXED_BYTES, b.n - CNERF_GRID_FIXED_BYTES,
+                                    g, prec, f1, bits, &occupied),
+                     CNERF_OK);
+    for (size_t i = 0; i < cells; i++) {
+        assert_int_equal(cn_grid_bit(bits, (uint32_t)i), occ[i] != 0);
+        want += occ[i] != 0;
+    }
+    for (size_t i = cells; i < nbytes * 8; i++)
+        assert_int_equal(cn_grid_bit(bits, (uint32_t)i), 0);
+    assert_int_equal(occupied, want);
+    /* One cell more or fewer than coded: the payload is not consumed exactly. */
+    if (g > 1) {
+        uint8_t *big = malloc(((size_t)(g + 1) * (g + 1) * (g + 1) + 7) / 8);
+        assert_int_equal(cn_grid_decode(b.p + CNERF_GRID_FIXED_BYTES,
+                                        b.n - CNERF_GRID_FIXED_BYTES, g + 1, prec, f1, big,
+                                        &occupied),
+                         CNERF_E_PAYLOAD);
+        assert_int_equal(cn_grid_decode(b.p + CNERF_GRID_FIXED_BYTES,
+                                        b.n - CNERF_GRID_FIXED_BYTES, g - 1, prec, f1, big,
+                                        &occupied),
+                         CNERF_E_PAYLOAD);
+        free(big);
+    }
+    const size_t len = b.n;
+    cn_buf_free(&b);
+    free(bits);
+    return len;
+}
+
+static void test_grid_roundtrip(void **state)
+{
+    (void)state;
+    cn_rng r = cn_rng_seed(41);
+    const uint32_t gs[] = {1, 2, 3, 7, 16, 33};
+    const double p1[] = {0.0, 0.02, 0.5, 0.97, 1.0};
+    for (size_t a = 0; a < sizeof gs / sizeof gs[0]; a++)
+        for (size_t b = 0; b < sizeof p1 / sizeof p1[0]; b++) {
+            const uint32_t g = gs[a];
+            const size_t cells = (size_t)g * g * g;
+            uint8_t *occ = malloc(cells);
+            for (size_t i = 0; i < cells; i++)
+                occ[i] = cn_rng_uniform(&r) < p1[b];
+            grid_roundtrip(occ, g, CN_GRID_PREC);
+            grid_roundtrip(occ, g, 2);
+            grid_roundtrip(occ, g, CNERF_MAX_PREC);
+            free(occ);
+        }
+}
+
+/* A ball: the contexts make a smooth shape cost far less than a bit per cell, and an empty or
+ * full grid next to nothing. */
+static void test_grid_coding_cost(void **state)
+{
+    (void)state;
+    const uint32_t g = 64;
+    const size_t cells = (size_t)g * g * g;
+    uint8_t *occ = malloc(cells);
+    size_t n1 = 0;
+    for (size_t i = 0; i < cells; i++) {
+        const double x = (double)(i % g) - 31.5, y = (double)(i / g % g) - 31.5,
+                     z = (double)(i / g / g) - 31.5;
+        occ[i] = x * x + y * y + z * z < 20.0 * 20.0;
+        n1 += occ[i];
+    }
+    const size_t ball = grid_roundtrip(occ, g, CN_GRID_PREC);
+    memset(occ, 0, cells);
+    const size_t empty = grid_roundtrip(occ, g, CN_GRID_PREC);
+    memset(occ, 1, cells);
+    const size_t full = grid_roundtrip(occ, g, CN_GRID_PREC);
+    print_message("# grid 64^3: ball of %zu cells %zu bytes (%.4f bits per cell), empty %zu, "
+                  "full %zu\n", n1, ball, 8.0 * (double)ball / (double)cells, empty, full);
+    assert_true(8 * ball < cells / 10);
+    assert_true(empty < 128 && full < 128);
+    free(occ);
+}
+
+static void test_grid_encoder_rejects(void **state)
+{
+    (void)state;
+    uint8_t occ[8] = {0};
+    cn_buf b = {0};
+    assert_int_equal(cn_grid_encode(occ, 0, CN_GRID_PREC, &b), -1);
+    assert_int_equal(cn_grid_encode(occ, CNERF_MAX_GRID + 1, CN_GRID_PREC, &b), -1);
+    assert_int_equal(cn_grid_encode(occ, 2, 1, &b), -1);
+    assert_int_equal(cn_grid_encode(occ, 2, CNERF_MAX_PREC + 1, &b), -1);
+    assert_int_equal(b.n, 0);
+    cn_buf_free(&b);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -178,6 +287,9 @@ int main(void)
         cmocka_unit_test(test_long_payload_gap),
         cmocka_unit_test(test_corrupt_payload_detected),
         cmocka_unit_test(test_encoder_rejects_bad_input),
+        cmocka_unit_test(test_grid_roundtrip),
+        cmocka_unit_test(test_grid_coding_cost),
+        cmocka_unit_test(test_grid_encoder_rejects),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

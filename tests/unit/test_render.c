@@ -9,6 +9,7 @@
 #include "cn_export.h"
 #include "cn_fixcam.h"
 #include "cn_fixed.h"
+#include "cn_internal.h"
 #include "cn_render.h"
 #include "cn_rng.h"
 #include "cn_train.h"
@@ -572,6 +573,159 @@ static void test_ndc(void **state)
     free_scene(&s);
 }
 
+/* ---- occupancy grids ---- */
+
+#define GRID_G 8
+static uint8_t grid_cells[GRID_G * GRID_G * GRID_G];
+
+/* The fog of test_inside_and_axes, with the stream grid grid_cells. */
+static void dense_grid(cn_synth *syn, const cnerf_info *I)
+{
+    dense(syn, I);
+    syn->src.grid = grid_cells;
+    syn->src.grid_g = GRID_G;
+}
+
+static void grid_ball(void)
+{
+    for (int i = 0; i < GRID_G * GRID_G * GRID_G; i++) {
+        const int x = 2 * (i % GRID_G) - GRID_G + 1, y = 2 * (i / GRID_G % GRID_G) - GRID_G + 1,
+                  z = 2 * (i / GRID_G / GRID_G) - GRID_G + 1;
+        grid_cells[i] = x * x + y * y + z * z <= 5 * 5 * 2;
+    }
+}
+
+/* Renders cam in one tile with opts, counting the work. */
+static uint8_t *render_counted(scene *s, const cn_camera *cam, uint32_t flags,
+                               cnerf_render_stats *st)
+{
+    cnerf_camera fc;
+    char err[256];
+    assert_int_equal(cnerf_camera_from_float(cam, &fc, err, sizeof err), 0);
+    cnerf_render_opts o;
+    cnerf_render_defaults(&s->dec.info, &o);
+    o.flags = flags;
+    uint8_t *px = malloc((size_t)cam->w * cam->h * 3);
+    memset(st, 0, sizeof *st);
+    assert_int_equal(cnerf_render_tile_stats(&s->dec, &fc, &o, 0, 0, (uint32_t)cam->w,
+                                             (uint32_t)cam->h, px, (size_t)cam->w * 3,
+                                             s->scratch, s->scratch_size, st),
+                     CNERF_OK);
+    assert_int_equal(st->rays, (uint64_t)cam->w * (uint64_t)cam->h);
+    return px;
+}
+
+/* A grid changes what is evaluated and nothing else: a full grid renders the stream
+ * without a grid bit for bit, an empty one the background with no evaluation; a partial one
+ * skips work, matches the float reference, and with CNERF_RENDER_NO_SKIP is the stream
+ * without a grid again. */
+static void test_grid(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    tu_small_header(&hdr, 3, 16, 1);
+    density_e = -15;
+    cn_camera cam;
+    look_at(&cam, 2.5, -3.0, 2.0, 24, 20, 40);
+    const size_t nv = (size_t)cam.w * cam.h * 3;
+    scene plain;
+    make_scene_edit(&plain, &hdr, 3.0, 21, dense);
+    assert_int_equal(plain.dec.info.version_minor, 0);
+    assert_int_equal(plain.dec.info.grid_g, 0);
+    cnerf_render_stats st0, st;
+    uint8_t *px0 = render_counted(&plain, &cam, 0, &st0);
+    assert_true(st0.evals > 0 && st0.evals == st0.in_bounds);
+
+    memset(grid_cells, 1, sizeof grid_cells);
+    scene full;
+    make_scene_edit(&full, &hdr, 3.0, 21, dense_grid);
+    assert_int_equal(full.dec.info.version_minor, 1);
+    assert_int_equal(full.dec.info.grid_g, GRID_G);
+    assert_int_equal(full.dec.grid_occupied, GRID_G * GRID_G * GRID_G);
+    uint8_t *px = render_counted(&full, &cam, 0, &st);
+    assert_memory_equal(px, px0, nv);
+    assert_true(st.evals == st0.evals && st.in_bounds == st0.in_bounds);
+    free(px);
+    free_scene(&full);
+
+    memset(grid_cells, 0, sizeof grid_cells);
+    scene empty;
+    make_scene_edit(&empty, &hdr, 3.0, 21, dense_grid);
+    assert_int_equal(empty.dec.grid_occupied, 0);
+    px = render_counted(&empty, &cam, 0, &st);
+    expect_background(&empty, px, nv / 3);
+    assert_true(st.evals == 0 && st.in_bounds > 0);
+    const cmp ce = compare(&empty, &cam, 24, NULL);
+    assert_true(ce.maxdiff == 0 && ce.n_scene == 0);
+    free(px);
+    free_scene(&empty);
+
+    grid_ball();
+    scene ball;
+    make_scene_edit(&ball, &hdr, 3.0, 21, dense_grid);
+    px = render_counted(&ball, &cam, 0, &st);
+    printf("ball grid: %llu of %llu in-bounds samples evaluated (no grid: %llu)\n",
+           (unsigned long long)st.evals, (unsigned long long)st.in_bounds,
+           (unsigned long long)st0.evals);
+    assert_true(st.evals > 0 && st.evals < st.in_bounds * 3 / 4);
+    assert_true(memcmp(px, px0, nv) != 0);
+    const cmp c = compare(&ball, &cam, 7, NULL);
+    printf("ball grid, fixed vs float: %.2f dB, max diff %d, %zu scene pixels\n", c.psnr,
+           c.maxdiff, c.n_scene);
+    assert_true(c.psnr >= 50.0 && c.maxdiff <= 2 && c.n_scene > 0);
+    free(px);
+    px = render_counted(&ball, &cam, CNERF_RENDER_NO_SKIP, &st);
+    assert_memory_equal(px, px0, nv);
+    assert_true(st.evals == st0.evals);
+    free(px);
+    /* An unknown flag is misuse. */
+    cnerf_camera fc;
+    char err[256];
+    assert_int_equal(cnerf_camera_from_float(&cam, &fc, err, sizeof err), 0);
+    cnerf_render_opts o;
+    cnerf_render_defaults(&ball.dec.info, &o);
+    o.flags = 2;
+    uint8_t one[3];
+    assert_int_equal(cnerf_render_tile(&ball.dec, &fc, &o, 0, 0, 1, 1, one, 3, ball.scratch,
+                                       ball.scratch_size),
+                     CNERF_E_ARG);
+    free_scene(&ball);
+    free(px0);
+    free_scene(&plain);
+}
+
+/* The cell of a point: the float reference's exact mapping is the decoder's integer one, on
+ * offsets at and around every cell boundary of boxes of awkward widths. */
+static void test_grid_cell_mapping(void **state)
+{
+    (void)state;
+    cn_rng r = cn_rng_seed(17);
+    const uint64_t widths[] = {1, 3, 65536, 196608, 0x7FFFFFFFu, 0xFFFFFFFEu, 12345678};
+    for (size_t k = 0; k < sizeof widths / sizeof widths[0]; k++)
+        for (uint32_t g = 1; g <= CNERF_MAX_GRID; g = g * 2 + (g & 1u)) {
+            const uint64_t w = widths[k], rr = cn_udiv_frac(g, w, 32);
+            for (uint32_t c = 0; c <= g; c++) {
+                /* the first offset of cell c: ceil(c w / g) */
+                const uint64_t s0 = ((uint64_t)c * w + g - 1) / g;
+                for (int d = -2; d <= 2; d++) {
+                    const int64_t sd = (int64_t)s0 + d;
+                    if (sd < 0 || (uint64_t)sd > w)
+                        continue;
+                    const uint64_t sv = (uint64_t)sd;
+                    const uint32_t dec = cn_grid_cell(sv, rr, g);
+                    assert_int_equal(dec, cn_occ_cell_exact(sv, rr, (int)g));
+                    /* within one cell of floor(s g / w) (the reciprocal is rounded down) */
+                    const uint64_t ideal = sv * g / w >= g ? g - 1 : sv * g / w;
+                    assert_true(dec <= ideal && dec + 1 >= ideal);
+                }
+            }
+            for (int i = 0; i < 100; i++) {
+                const uint64_t sv = cn_rng_u64(&r) % (w + 1);
+                assert_int_equal(cn_grid_cell(sv, rr, g), cn_occ_cell_exact(sv, rr, (int)g));
+            }
+        }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -589,6 +743,8 @@ int main(void)
         cmocka_unit_test(test_bad_arguments),
         cmocka_unit_test(test_knobs),
         cmocka_unit_test(test_ndc),
+        cmocka_unit_test(test_grid),
+        cmocka_unit_test(test_grid_cell_mapping),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

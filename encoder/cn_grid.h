@@ -1,0 +1,58 @@
+/*
+ * The stream's occupancy grid, derived at export from the final model (docs/bitstream.md,
+ * GRID, has its semantics; docs/decoder.md the rule by which the encoder builds it).
+ *
+ * 1. Density on a lattice: both networks' density max(sigma, 0) at the (M + 1)^3 corners of
+ *    M^3 equal cells of the scene box, then a max over each point's 26 neighbours (one lattice
+ *    step of dilation, so a feature thinner than the lattice still marks its cells).
+ * 2. A grid of g cells per axis (g divides M): a cell is occupied when some lattice point of
+ *    its closed box has density above the threshold.
+ * 3. The threshold starts at the density that makes an opacity of 1% over the box's diagonal
+ *    and is halved until rendering the training views with the grid loses at most 0.05 dB
+ *    (half the issue's budget for test views, a margin) against rendering them without.
+ * 4. The resolution: among g = 16, 32, 64, 128, the one whose grid leaves the fewest network
+ *    evaluations on the training rays, among those whose coded size is at most 1% of the rest
+ *    of the stream; fewer evaluations by less than 1% do not pay for a finer grid. A grid
+ *    that leaves more than 99% of the evaluations is not written.
+ */
+#ifndef CNERF_ENC_GRID_H
+#define CNERF_ENC_GRID_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "cn_dataset.h"
+#include "cn_nerf.h"
+
+/* Densities at the (M + 1)^3 lattice points, index (k (M + 1) + j) (M + 1) + i for the point
+ * lo + (i, j, k) w / M, maximum of both networks, then dilated by one lattice step.
+ * Returns a malloc'ed array or NULL. */
+float *cn_grid_lattice(const cn_model *m, int M);
+
+/* occ[(z g + y) g + x] = 1 when a lattice point of the cell's closed box exceeds thr
+ * (g divides M). Returns the number of occupied cells. */
+size_t cn_grid_from_lattice(const float *lat, int M, int g, float thr, uint8_t *occ);
+
+/* The fraction of the in-bounds coarse samples (bin midpoints) of `rays` rays spread evenly
+ * over the views that fall in occupied cells of a stream grid g^3 (the exact mapping). */
+double cn_grid_eval_fraction(const cnerf_info *topo, int g, const uint8_t *occ,
+                             const cn_view *views, int n_views, int ndc, size_t rays);
+
+typedef struct cn_grid_choice {
+    int g;                 /* 0: no grid is worth writing */
+    uint8_t *occ;          /* g^3 flags (malloc'ed) */
+    float threshold;       /* density threshold used */
+    double occupied;       /* fraction of occupied cells */
+    double eval_fraction;  /* estimated fraction of evaluations left on the training rays */
+    size_t bytes;          /* GRID payload bytes */
+    double psnr_drop;      /* training views: PSNR without the grid minus with it (dB) */
+} cn_grid_choice;
+
+/* Steps 1-4 above on the model (already snapped to the stream's numbers). stream_bytes is
+ * the size of the stream without a grid; force_g > 0 skips step 4 and takes that resolution; `log` (may be NULL) receives one line per trial.
+ * Returns 0, or -1 with a message. */
+int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes, int force_g,
+                   cn_grid_choice *out, void (*say)(const char *line), char *err, size_t errlen);
+void cn_grid_choice_free(cn_grid_choice *c);
+
+#endif /* CNERF_ENC_GRID_H */

@@ -1,0 +1,275 @@
+/* The stream's occupancy grid from the final model (see cn_grid.h for the rule). */
+#include "cn_grid.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cn_metrics.h"
+#include "cn_occ.h"
+#include "cn_render.h"
+#include "cn_stream.h"
+#include "cn_train.h"
+
+float *cn_grid_lattice(const cn_model *m, int M)
+{
+    const cnerf_info *T = &m->topo;
+    const size_t n1 = (size_t)M + 1, pts_n = n1 * n1 * n1, chunk = 16384;
+    float *sig = malloc(sizeof(float) * pts_n), *tmp = malloc(sizeof(float) * pts_n);
+    float *pts = malloc(sizeof(float) * 3 * chunk);
+    cn_net_buf nb[2];
+    memset(nb, 0, sizeof nb);
+    int bad = !sig || !tmp || !pts;
+    for (unsigned n = 0; n < T->n_nets && !bad; n++)
+        bad = cn_net_buf_init(&nb[n], T, n, chunk) != 0;
+    if (bad) {
+        free(sig), free(tmp), free(pts);
+        for (unsigned n = 0; n < 2; n++)
+            if (nb[n].cap)
+                cn_net_buf_free(&nb[n]);
+        return NULL;
+    }
+    double lo[3], step[3];
+    for (int a = 0; a < 3; a++) {
+        lo[a] = T->aabb_q16[a] / 65536.0;
+        step[a] = ((double)T->aabb_q16[a + 3] - T->aabb_q16[a]) / 65536.0 / M;
+    }
+    float vpe[CNERF_MAX_IN_DIR];
+    const float up[3] = {0.0f, 0.0f, 1.0f}; /* density does not depend on the direction */
+    if (T->in_dir)
+        cn_posenc(vpe, T->in_dir, up, 1, T->l_dir, T->pe_flags & CNERF_PE_INCLUDE_INPUT);
+    for (size_t c0 = 0; c0 < pts_n; c0 += chunk) {
+        const size_t P = pts_n - c0 < chunk ? pts_n - c0 : chunk;
+        for (size_t j = 0; j < P; j++) {
+            const size_t c = c0 + j, idx[3] = {c % n1, c / n1 % n1, c / (n1 * n1)};
+            for (int a = 0; a < 3; a++)
+                pts[3 * j + a] = (float)(lo[a] + (double)idx[a] * step[a]);
+        }
+        for (size_t j = 0; j < P; j++)
+            sig[c0 + j] = 0.0f;
+        for (unsigned n = 0; n < T->n_nets; n++) {
+            cn_net_inputs(T, n, &nb[n], pts, P, vpe, NULL, 1);
+            cn_net_forward(m, n, &nb[n], P);
+            for (size_t j = 0; j < P; j++)
+                sig[c0 + j] = fmaxf(sig[c0 + j], nb[n].out[4 * j + 3]);
+        }
+    }
+    for (unsigned n = 0; n < 2; n++)
+        if (nb[n].cap)
+            cn_net_buf_free(&nb[n]);
+    free(pts);
+    /* One lattice step of dilation: a separable max over -1..1 along each axis. */
+    const size_t stride[3] = {1, n1, n1 * n1};
+    for (int a = 0; a < 3; a++) {
+        float *src = a & 1 ? tmp : sig, *dst = a & 1 ? sig : tmp;
+#pragma omp parallel for schedule(static)
+        for (size_t c = 0; c < pts_n; c++) {
+            const size_t i = c / stride[a] % n1;
+            float v = src[c];
+            if (i > 0)
+                v = fmaxf(v, src[c - stride[a]]);
+            if (i + 1 < n1)
+                v = fmaxf(v, src[c + stride[a]]);
+            dst[c] = v;
+        }
+    }
+    /* three passes: sig -> tmp -> sig -> tmp */
+    free(sig);
+    return tmp;
+}
+
+size_t cn_grid_from_lattice(const float *lat, int M, int g, float thr, uint8_t *occ)
+{
+    const size_t n1 = (size_t)M + 1, G = (size_t)g, k = (size_t)(M / g);
+    size_t count = 0;
+    for (size_t z = 0; z < G; z++)
+        for (size_t y = 0; y < G; y++)
+            for (size_t x = 0; x < G; x++) {
+                int on = 0;
+                for (size_t kz = z * k; kz <= (z + 1) * k && !on; kz++)
+                    for (size_t ky = y * k; ky <= (y + 1) * k && !on; ky++)
+                        for (size_t kx = x * k; kx <= (x + 1) * k && !on; kx++)
+                            on = lat[(kz * n1 + ky) * n1 + kx] > thr;
+                occ[(z * G + y) * G + x] = (uint8_t)on;
+                count += (size_t)on;
+            }
+    return count;
+}
+
+double cn_grid_eval_fraction(const cnerf_info *topo, int g, const uint8_t *occ,
+                             const cn_view *views, int n_views, int ndc, size_t rays)
+{
+    cn_occ o;
+    if (n_views < 1 || cn_occ_init_stream(&o, topo, g, occ))
+        return 1.0;
+    const float near = (float)topo->near_q16 / 65536.0f, far = (float)topo->far_q16 / 65536.0f;
+    float lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        lo[a] = (float)topo->aabb_q16[a] / 65536.0f;
+        hi[a] = (float)topo->aabb_q16[a + 3] / 65536.0f;
+    }
+    size_t per_view = (views[0].w * (size_t)views[0].h);
+    size_t total_px = per_view * (size_t)n_views;
+    const size_t stride = total_px > rays && rays ? total_px / rays : 1;
+    unsigned long long in = 0, hit = 0;
+    float t[CNERF_MAX_SAMPLES];
+    cn_sample_coarse(t, topo->n_coarse, near, far, NULL);
+    for (int v = 0; v < n_views; v++) {
+        cn_camera cam;
+        cn_view_camera(&views[v], &cam);
+        const size_t npx = (size_t)cam.w * cam.h;
+        for (size_t px = (size_t)v % stride; px < npx; px += stride) {
+            float ro[3], rd[3], vd[3];
+            cn_camera_ray(&cam, ndc, (double)(px % (size_t)cam.w), (double)(px / (size_t)cam.w),
+                          ro, rd, vd);
+            for (unsigned i = 0; i < topo->n_coarse; i++) {
+                float p[3];
+                int inside = 1;
+                for (int a = 0; a < 3; a++) {
+                    p[a] = ro[a] + t[i] * rd[a];
+                    inside &= p[a] >= lo[a] && p[a] <= hi[a];
+                }
+                if (!inside)
+                    continue;
+                in++;
+                hit += (unsigned long long)cn_occ_test(&o, p);
+            }
+        }
+    }
+    cn_occ_free(&o);
+    return in ? (double)hit / (double)in : 1.0;
+}
+
+/* Mean PSNR against the ground truth of up to 8 training views spread evenly, rendered with
+ * the model (and its grid, if any). */
+static double views_psnr(const cn_model *m, const cn_dataset *ds, int *ok)
+{
+    const int n = ds->n_train < 8 ? ds->n_train : 8;
+    double sum = 0;
+    for (int k = 0; k < n; k++) {
+        const cn_view *v = &ds->train[(size_t)k * (size_t)ds->n_train / (size_t)n];
+        cn_camera cam;
+        cn_view_camera(v, &cam);
+        const size_t nv = (size_t)cam.w * cam.h * 3;
+        float *rgb = malloc(sizeof(float) * nv);
+        if (!rgb || cn_render_view(m, &cam, ds->ndc, rgb, 4096)) {
+            free(rgb);
+            *ok = 0;
+            return 0;
+        }
+        sum += cn_psnr_from_mse(cn_mse(rgb, v->rgb, nv));
+        free(rgb);
+    }
+    return n ? sum / n : 0;
+}
+
+void cn_grid_choice_free(cn_grid_choice *c)
+{
+    free(c->occ);
+    memset(c, 0, sizeof *c);
+}
+
+#define GRID_M 128
+#define GRID_RAYS 40000
+#define GRID_MAX_DROP_DB 0.025
+#define GRID_TRIES 6
+
+int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes, int force_g,
+                   cn_grid_choice *out, void (*say)(const char *line), char *err, size_t errlen)
+{
+    memset(out, 0, sizeof *out);
+    const cnerf_info *T = &m->topo;
+    char line[256];
+    float *lat = cn_grid_lattice(m, GRID_M);
+    const size_t cells_max = (size_t)GRID_M * GRID_M * GRID_M;
+    uint8_t *occ = malloc(cells_max), *best = malloc(cells_max);
+    if (!lat || !occ || !best) {
+        free(lat), free(occ), free(best);
+        snprintf(err, errlen, "occupancy grid: out of memory");
+        return -1;
+    }
+    double diag = 0;
+    for (int a = 0; a < 3; a++) {
+        const double w = ((double)T->aabb_q16[a + 3] - T->aabb_q16[a]) / 65536.0;
+        diag += w * w;
+    }
+    diag = sqrt(diag);
+    int ok = 1;
+    cn_model plain = *m;
+    plain.grid = NULL;
+    const double psnr0 = views_psnr(&plain, ds, &ok);
+    const size_t budget = stream_bytes / 100 > 64 ? stream_bytes / 100 : 64;
+    float thr = (float)(-log(0.99) / diag);
+    for (int tries = 0; ok && tries < GRID_TRIES && !out->g; tries++, thr *= 0.5f) {
+        /* The resolution with the fewest evaluations within the byte budget. */
+        int g_best = 0;
+        double e_best = 2, frac_best = 0;
+        size_t b_best = 0;
+        for (int g = 16; g <= GRID_M; g *= 2) {
+            if (force_g > 0 && g != force_g)
+                continue;
+            const size_t occupied = cn_grid_from_lattice(lat, GRID_M, g, thr, occ);
+            cn_buf b = {0};
+            const int bad = cn_grid_encode(occ, (uint32_t)g, CN_GRID_PREC, &b);
+            const size_t bytes = b.n;
+            cn_buf_free(&b);
+            if (bad) {
+                ok = 0;
+                break;
+            }
+            const double e = cn_grid_eval_fraction(T, g, occ, ds->train, ds->n_train, ds->ndc,
+                                                   GRID_RAYS);
+            const double frac = (double)occupied / ((double)g * g * g);
+            if (say) {
+                snprintf(line, sizeof line,
+                         "grid: threshold %.3g, %d^3: %.1f%% occupied, %zu bytes, %.1f%% of "
+                         "the evaluations%s",
+                         thr, g, 100 * frac, bytes, 100 * e, bytes > budget ? " (over budget)" : "");
+                say(line);
+            }
+            if ((force_g > 0 || (bytes <= budget && e < e_best * 0.99))) {
+                g_best = g, e_best = e, b_best = bytes, frac_best = frac;
+                memcpy(best, occ, (size_t)g * g * g);
+            }
+        }
+        if (!ok || !g_best || (e_best > 0.99 && force_g <= 0))
+            break; /* nothing worth writing (no budget, or nothing to skip) */
+        cn_occ o;
+        if (cn_occ_init_stream(&o, T, g_best, best)) {
+            ok = 0;
+            break;
+        }
+        cn_model with = *m;
+        with.grid = &o;
+        const double psnr1 = views_psnr(&with, ds, &ok);
+        cn_occ_free(&o);
+        if (say) {
+            snprintf(line, sizeof line,
+                     "grid: %d^3 at threshold %.3g: training views %.3f dB with it, %.3f dB "
+                     "without",
+                     g_best, thr, psnr1, psnr0);
+            say(line);
+        }
+        if (ok && psnr0 - psnr1 <= GRID_MAX_DROP_DB) {
+            out->g = g_best;
+            out->threshold = thr;
+            out->occupied = frac_best;
+            out->eval_fraction = e_best;
+            out->bytes = b_best;
+            out->psnr_drop = psnr0 - psnr1;
+            out->occ = malloc((size_t)g_best * g_best * g_best);
+            if (out->occ)
+                memcpy(out->occ, best, (size_t)g_best * g_best * g_best);
+            else
+                ok = 0;
+        }
+    }
+    free(lat), free(occ), free(best);
+    if (!ok) {
+        cn_grid_choice_free(out);
+        snprintf(err, errlen, "occupancy grid: out of memory");
+        return -1;
+    }
+    return 0;
+}
