@@ -10,10 +10,10 @@
  * 3. The threshold starts at the density that makes an opacity of 1% over the box's diagonal
  *    and is halved until rendering the training views with the grid loses at most 0.05 dB
  *    (half the issue's budget for test views, a margin) against rendering them without.
- * 4. The resolution: among g = 16, 32, 64, 128, the one whose grid leaves the fewest network
- *    evaluations on the training rays, among those whose coded size is at most 1% of the rest
- *    of the stream; fewer evaluations by less than 1% do not pay for a finer grid. A grid
- *    that leaves more than 99% of the evaluations is not written.
+ * 4. The resolution: going from no grid through g = 16, 32, 64, 128, a finer grid is taken
+ *    when each 1% that it adds to the file removes at least 2% of the network evaluations
+ *    still left on the training rays (the in-bounds coarse samples, a proxy for both
+ *    networks' work); no grid is written when even 16^3 does not pay that way.
  */
 #ifndef CNERF_ENC_GRID_H
 #define CNERF_ENC_GRID_H

@@ -174,6 +174,7 @@ void cn_grid_choice_free(cn_grid_choice *c)
 #define GRID_RAYS 40000
 #define GRID_MAX_DROP_DB 0.025
 #define GRID_TRIES 6
+#define GRID_GAIN_PER_BYTE 2.0
 
 int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes, int force_g,
                    cn_grid_choice *out, void (*say)(const char *line), char *err, size_t errlen)
@@ -199,12 +200,11 @@ int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes,
     cn_model plain = *m;
     plain.grid = NULL;
     const double psnr0 = views_psnr(&plain, ds, &ok);
-    const size_t budget = stream_bytes / 100 > 64 ? stream_bytes / 100 : 64;
     float thr = (float)(-log(0.99) / diag);
     for (int tries = 0; ok && tries < GRID_TRIES && !out->g; tries++, thr *= 0.5f) {
-        /* The resolution with the fewest evaluations within the byte budget. */
+        /* The resolution: finer while the evaluations it removes pay for its bytes. */
         int g_best = 0;
-        double e_best = 2, frac_best = 0;
+        double e_best = 1, frac_best = 0;
         size_t b_best = 0;
         for (int g = 16; g <= GRID_M; g *= 2) {
             if (force_g > 0 && g != force_g)
@@ -224,17 +224,22 @@ int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes,
             if (say) {
                 snprintf(line, sizeof line,
                          "grid: threshold %.3g, %d^3: %.1f%% occupied, %zu bytes, %.1f%% of "
-                         "the evaluations%s",
-                         thr, g, 100 * frac, bytes, 100 * e, bytes > budget ? " (over budget)" : "");
+                         "the evaluations",
+                         thr, g, 100 * frac, bytes, 100 * e);
                 say(line);
             }
-            if ((force_g > 0 || (bytes <= budget && e < e_best * 0.99))) {
+            /* A finer grid pays when each 1% of the file it adds removes at least
+             * GRID_GAIN_PER_BYTE % of the evaluations still left (e_best starts at 1 with 0
+             * bytes: no grid). */
+            const double removed = 1.0 - e / e_best;
+            const double added = ((double)bytes - (double)b_best) / (double)stream_bytes;
+            if (force_g > 0 || (removed > 0 && removed >= GRID_GAIN_PER_BYTE * added)) {
                 g_best = g, e_best = e, b_best = bytes, frac_best = frac;
                 memcpy(best, occ, (size_t)g * g * g);
             }
         }
-        if (!ok || !g_best || (e_best > 0.99 && force_g <= 0))
-            break; /* nothing worth writing (no budget, or nothing to skip) */
+        if (!ok || !g_best)
+            break; /* no grid pays for its bytes */
         cn_occ o;
         if (cn_occ_init_stream(&o, T, g_best, best)) {
             ok = 0;

@@ -74,13 +74,13 @@ vector() {
 
 # Real scenes through the encoder (few iterations: these test the decoder, not the encoder).
 CAMS="--dataset $data/lego --downscale 8 --every 100"
-vector 001-lego-encode-tiny "a real 360-degree scene from cnerf encode (Blender Lego, 50x50)" \
+vector 001-lego-encode-tiny "a real 360-degree scene from cnerf encode (Blender Lego, 50x50; format 1.0, no grid)" \
   $cnerf encode "$data/lego" -o "$tmp/s.cnrf" --lambda 1e-3 --preset tiny --downscale 8 \
-  --iters 200 --seed $seed --threads 2 --every 100
+  --iters 200 --seed $seed --threads 2 --every 100 --grid 0
 CAMS="--dataset $data/fern --downscale 8 --every 2"
-vector 002-fern-encode-tiny-ndc "a real forward-facing scene in NDC from cnerf encode (LLFF Fern, 63x47)" \
+vector 002-fern-encode-tiny-ndc "a real forward-facing scene in NDC from cnerf encode (LLFF Fern, 63x47; format 1.0, no grid)" \
   $cnerf encode "$data/fern" -o "$tmp/s.cnrf" --lambda 1e-3 --preset tiny --downscale 8 \
-  --iters 200 --seed $seed --threads 2 --every 100
+  --iters 200 --seed $seed --threads 2 --every 100 --grid 0
 
 # Features of the format, on random models (cnerf synth).
 CAMS="--orbit 2 --size 24"
@@ -111,6 +111,26 @@ vector 011-minor-version-7 "a newer minor version (accepted)" \
   cp "$tmp/minor-version-7-is-accepted.cnrf" "$tmp/s.cnrf"
 vector 012-unknown-ancillary-chunk "an unknown ancillary chunk (skipped)" \
   cp "$tmp/unknown-ancillary-chunk-is-skipped.cnrf" "$tmp/s.cnrf"
+
+# Occupancy grids (format 1.1): a real scene's grid from the encoder, grids of several
+# resolutions (one that divides no power of two) on a fog that fills the box, empty and full.
+CAMS="--dataset $data/lego --downscale 8 --every 100"
+vector 013-lego-encode-grid "a real scene's occupancy grid, chosen by cnerf encode (Lego, 50x50, a 32^3 grid)" \
+  $cnerf encode "$data/lego" -o "$tmp/s.cnrf" --lambda 1e-3 --preset tiny --downscale 8 \
+  --iters 200 --seed $seed --threads 2 --every 100 --grid 32
+CAMS="--orbit 2 --size 24"
+vector 014-grid-16-ball "a 16^3 grid: a ball of occupied cells in a fog" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --grid 16
+vector 015-grid-128-ball "the largest grid (128^3): a ball of occupied cells in a fog" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --grid 128
+vector 016-grid-5-ball "a 5^3 grid (cell boundaries at no power of two)" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --grid 5
+vector 017-grid-empty "an empty grid: every pixel is the background, no network is evaluated" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --grid 32 --grid-shape empty
+vector 018-grid-full "a full grid: the same picture as without one" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --grid 32 --grid-shape full
+vector 019-grid-ndc "a grid in NDC space (forward-facing)" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --grid 16 --ndc
 
 # The table of docs/conformance.md, between its markers.
 python3 - <<'PY'

@@ -1,5 +1,6 @@
 /* cnerf synth: writes a random model of a preset's (or a custom) topology. */
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "cli.h"
@@ -9,7 +10,7 @@
 #define SYNTH_USAGE                                                                          \
     "usage: cnerf synth -o FILE.cnrf [--preset tiny|small|paper] [--seed S] [--spread X]\n" \
     "       [--depth D] [--width W] [--view-width V] [--coarse N] [--fine N] [--lpos L]\n"  \
-    "       [--ldir L] [--ndc] [--black]"
+    "       [--ldir L] [--ndc] [--black] [--grid G [--grid-shape ball|full|empty]]"
 
 int cmd_synth(int argc, char **argv)
 {
@@ -17,6 +18,8 @@ int cmd_synth(int argc, char **argv)
     uint64_t seed = 1;
     double spread = 2.0;
     long depth = -1, width = -1, view = -1, coarse = -1, fine = -1, lpos = -1, ldir = -1;
+    long grid = 0;
+    const char *shape = "ball";
     int ndc = 0, black = 0, n_pos;
     const cli_opt opts[] = {
         {"-o", CLI_STR, &out, 0, 0},
@@ -32,12 +35,16 @@ int cmd_synth(int argc, char **argv)
         {"--ldir", CLI_LONG, &ldir, 0, CNERF_MAX_L_DIR},
         {"--ndc", CLI_FLAG, &ndc, 0, 0},
         {"--black", CLI_FLAG, &black, 0, 0},
+        {"--grid", CLI_LONG, &grid, 0, CNERF_MAX_GRID},
+        {"--grid-shape", CLI_STR, &shape, 0, 0},
     };
     if (cli_parse("synth", SYNTH_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], NULL, 0,
                   &n_pos))
         return 1;
     if (!out)
         return cli_fail("synth", "no output file (-o)\n%s", SYNTH_USAGE);
+    if (strcmp(shape, "ball") && strcmp(shape, "full") && strcmp(shape, "empty"))
+        return cli_fail("synth", "--grid-shape takes ball, full or empty, not '%s'", shape);
     cnerf_info hdr;
     if (cn_preset_header(preset, &hdr))
         return cli_fail("synth", "unknown preset '%s' (tiny, small, paper)", preset);
@@ -77,6 +84,26 @@ int cmd_synth(int argc, char **argv)
     if (cn_synth_make(&s, &hdr, seed, spread, err, sizeof err))
         return cli_fail("synth", "%s", err);
     s.src.meta = meta;
+    /* An occupancy grid: the cells whose centre lies within 0.7 of the half-width from the
+     * box's centre (in cell units on each axis), or all, or none. */
+    uint8_t *occ = NULL;
+    if (grid > 0) {
+        const size_t g = (size_t)grid, cells = g * g * g;
+        occ = malloc(cells);
+        if (!occ) {
+            cn_synth_free(&s);
+            return cli_fail("synth", "out of memory");
+        }
+        for (size_t i = 0; i < cells; i++) {
+            const double x = (double)(i % g) + 0.5 - 0.5 * (double)g,
+                         y = (double)(i / g % g) + 0.5 - 0.5 * (double)g,
+                         z = (double)(i / g / g) + 0.5 - 0.5 * (double)g, r = 0.35 * (double)g;
+            occ[i] = !strcmp(shape, "full") ||
+                     (!strcmp(shape, "ball") && x * x + y * y + z * z <= r * r);
+        }
+        s.src.grid = occ;
+        s.src.grid_g = (uint32_t)grid;
+    }
     cn_buf b = {0};
     int rc = cn_write_stream(&s.src, &b, NULL, err, sizeof err);
     if (rc == 0)
@@ -84,6 +111,7 @@ int cmd_synth(int argc, char **argv)
     size_t n = b.n;
     cn_synth_free(&s);
     cn_buf_free(&b);
+    free(occ);
     if (rc)
         return cli_fail("synth", "%s", err);
     printf("wrote %s (%zu bytes)\n", out, n);
