@@ -391,6 +391,7 @@ size_t cnerf_workspace_size(const cnerf_info *info)
         const cnerf_layer_info *L = &info->layer[l];
         total += align8((size_t)L->n_in * L->n_out * (L->latent_bytes ? L->latent_bytes : 2u));
         total += align8((size_t)L->n_out * 4u);
+        total += align8((size_t)L->n_out * 2u);
         if (alphabet(L) > max_n)
             max_n = alphabet(L);
     }
@@ -439,6 +440,26 @@ static cnerf_status decode_layer(const uint8_t *buf, const cnerf_layer_info *L, 
                           lat, L->latent_bytes, count);
 }
 
+/* The layer's output indices into `rows`: those whose kernel row holds a non-zero latent
+ * first, in increasing order, then the others; returns how many are first. */
+static uint16_t order_rows(const cnerf_layer_info *L, const void *lat, uint16_t *rows)
+{
+    uint32_t live = 0, dead = L->n_out;
+    for (uint32_t o = 0; o < L->n_out; o++) {
+        uint32_t nz = 0;
+        for (uint32_t i = 0; i < L->n_in && !nz; i++) {
+            const size_t idx = (size_t)o * L->n_in + i;
+            nz = L->latent_bytes == 1u ? ((const int8_t *)lat)[idx] != 0
+                                       : ((const int16_t *)lat)[idx] != 0;
+        }
+        if (nz)
+            rows[live++] = (uint16_t)o;
+        else
+            rows[--dead] = (uint16_t)o; /* fills from the end, in decreasing order */
+    }
+    return (uint16_t)live;
+}
+
 cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void *ws,
                         size_t ws_size)
 {
@@ -458,13 +479,15 @@ cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void
     const cnerf_info *info = &dec->info;
     uint32_t *cum = (uint32_t *)0;
     if (st == CNERF_OK) {
-        /* Layout: per layer latents then biases; the table scratch last. */
+        /* Layout: per layer latents, biases and row order; the grid; the table scratch last. */
         for (uint32_t l = 0; l < info->n_layers; l++) {
             const cnerf_layer_info *L = &info->layer[l];
             dec->latent[l] = w;
             w += align8((size_t)L->n_in * L->n_out * L->latent_bytes);
             dec->bias[l] = (const int32_t *)(void *)w;
             w += align8((size_t)L->n_out * 4u);
+            dec->rows[l] = (const uint16_t *)(void *)w;
+            w += align8((size_t)L->n_out * 2u);
         }
         if (info->grid_g) {
             const size_t nb = grid_bitmap_bytes(info->grid_g);
@@ -481,6 +504,8 @@ cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void
         st = read_biases(buf, L, (int32_t *)(uintptr_t)dec->bias[l]);
         if (st == CNERF_OK)
             st = decode_layer(buf, L, (void *)(uintptr_t)dec->latent[l], cum);
+        if (st == CNERF_OK)
+            dec->n_live[l] = order_rows(L, dec->latent[l], (uint16_t *)(uintptr_t)dec->rows[l]);
     }
     if (st != CNERF_OK)
         cn_memzero(dec, sizeof *dec);

@@ -111,12 +111,12 @@ static void posenc(int32_t *out, const int64_t v[3], unsigned L, int inc)
 
 /* ---- one linear layer: y = a (sum k x) + b (sum x) + bias, in Q16 ---- */
 
-/* sum_i k[o][i] x[i] for OB consecutive outputs o at once: each activation is loaded once per
- * block and the latent rows are read in order. Exact int64 sums (bounds above). */
+/* sum_i k[o][i] x[i] for four outputs at once (rows k0..k3): each activation is loaded once
+ * per block and the latent rows are read in order. Exact int64 sums (bounds above). */
 #define CN_DOT_BLOCK(T)                                                                     \
-    static void dot4_##T(const T *k, uint32_t n_in, const int32_t *x, int64_t acc[4])      \
+    static void dot4_##T(const T *k0, const T *k1, const T *k2, const T *k3, uint32_t n_in, \
+                         const int32_t *x, int64_t acc[4])                                  \
     {                                                                                       \
-        const T *k0 = k, *k1 = k + n_in, *k2 = k + 2u * n_in, *k3 = k + 3u * n_in;          \
         int64_t a0 = 0, a1 = 0, a2 = 0, a3 = 0;                                             \
         for (uint32_t i = 0; i < n_in; i++) {                                               \
             const int64_t xi = x[i];                                                        \
@@ -137,39 +137,52 @@ static void posenc(int32_t *out, const int64_t v[3], unsigned L, int inc)
 CN_DOT_BLOCK(int8_t)
 CN_DOT_BLOCK(int16_t)
 
+/* y[o] from sum_i k[o][i] x[i] = acc: a acc + b sum x + bias, clamped (ReLU or int32). */
+static int32_t finish(const cnerf_layer_info *L, int64_t acc, int64_t tb, int32_t bias_m, int relu)
+{
+    int64_t v = cn_mul_exp(acc, L->a_m, L->a_e) + tb;
+    if (L->bias_bits)
+        v += cn_mul_exp(bias_m, 1, L->bias_e + 16);
+    return (int32_t)cn_clamp64(v, relu ? 0 : INT32_MIN, INT32_MAX);
+}
+
+/* The rows with a non-zero latent (dec->rows[l][0 .. n_live)) go through the dot products,
+ * four at a time; the others have sum k x = 0 exactly and only take a b sum x + bias. The
+ * order of the outputs does not change any value: each is its own exact sum. */
 static void linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, int32_t *y, int relu)
 {
     const cnerf_layer_info *L = &dec->info.layer[l];
-    const uint32_t n_in = L->n_in, n_out = L->n_out;
+    const uint32_t n_in = L->n_in, n_out = L->n_out, live = dec->n_live[l];
+    const uint16_t *rows = dec->rows[l];
     int64_t sx = 0;
     for (uint32_t i = 0; i < n_in; i++)
         sx += x[i];
     const int64_t tb = cn_mul_exp(sx, L->b_m, L->b_e);
     const int32_t *bias = dec->bias[l];
-    for (uint32_t o = 0; o < n_out;) {
+    uint32_t j = 0;
+    for (; j + 4u <= live; j += 4u) {
         int64_t acc[4];
-        uint32_t nb = n_out - o >= 4u ? 4u : 1u;
+        const size_t r0 = (size_t)rows[j] * n_in, r1 = (size_t)rows[j + 1u] * n_in,
+                     r2 = (size_t)rows[j + 2u] * n_in, r3 = (size_t)rows[j + 3u] * n_in;
         if (L->latent_bytes == 1u) {
-            const int8_t *k = (const int8_t *)dec->latent[l] + (size_t)o * n_in;
-            if (nb == 4u)
-                dot4_int8_t(k, n_in, x, acc);
-            else
-                acc[0] = dot1_int8_t(k, n_in, x);
+            const int8_t *k = (const int8_t *)dec->latent[l];
+            dot4_int8_t(k + r0, k + r1, k + r2, k + r3, n_in, x, acc);
         } else {
-            const int16_t *k = (const int16_t *)dec->latent[l] + (size_t)o * n_in;
-            if (nb == 4u)
-                dot4_int16_t(k, n_in, x, acc);
-            else
-                acc[0] = dot1_int16_t(k, n_in, x);
+            const int16_t *k = (const int16_t *)dec->latent[l];
+            dot4_int16_t(k + r0, k + r1, k + r2, k + r3, n_in, x, acc);
         }
-        for (uint32_t j = 0; j < nb; j++, o++) {
-            int64_t v = cn_mul_exp(acc[j], L->a_m, L->a_e) + tb;
-            if (L->bias_bits)
-                v += cn_mul_exp(bias[o], 1, L->bias_e + 16);
-            v = cn_clamp64(v, relu ? 0 : INT32_MIN, INT32_MAX);
-            y[o] = (int32_t)v;
-        }
+        for (uint32_t q = 0; q < 4u; q++)
+            y[rows[j + q]] = finish(L, acc[q], tb, bias[rows[j + q]], relu);
     }
+    for (; j < live; j++) {
+        const size_t r = (size_t)rows[j] * n_in;
+        const int64_t acc = L->latent_bytes == 1u
+                                ? dot1_int8_t((const int8_t *)dec->latent[l] + r, n_in, x)
+                                : dot1_int16_t((const int16_t *)dec->latent[l] + r, n_in, x);
+        y[rows[j]] = finish(L, acc, tb, bias[rows[j]], relu);
+    }
+    for (; j < n_out; j++)
+        y[rows[j]] = finish(L, 0, tb, bias[rows[j]], relu);
 }
 
 /* ---- scratch layout ---- */

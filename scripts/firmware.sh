@@ -6,10 +6,11 @@
 # Then reports what the firmware costs on the target: flash, RAM, worst-case stack and
 # instructions per ray.
 #
-#   scripts/firmware.sh STREAM CAMERA "X0 Y0 W H" [N_COARSE N_FINE T_STOP]
+#   scripts/firmware.sh STREAM CAMERA "X0 Y0 W H" [N_COARSE N_FINE T_STOP [FLAGS]]
 #
 # CAMERA is the text file tests/xarch/render_tile.c reads (18 integers); T_STOP is Q30, as
-# there. Environment:
+# there; FLAGS is cnerf_render_opts.flags (1: CNERF_RENDER_NO_SKIP, ignore the stream's
+# occupancy grid). Environment:
 #   FW_BUILD_DIR   build directory (build-fw)
 #   FW_BUILD_TYPE  MinSizeRel (default): -Os, the configuration scripts/build-m4.sh measures
 #                  and docs/decoder.md states (code size, stack), and the one a flash-bound
@@ -23,13 +24,14 @@
 # validated by the firmware on a loop of known length (see platform/cortex-m/fw_render.c).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
-if [ $# -ne 3 ] && [ $# -ne 6 ]; then
-  sed -n '2,23p' "$0" >&2
+if [ $# -ne 3 ] && [ $# -ne 6 ] && [ $# -ne 7 ]; then
+  sed -n '2,25p' "$0" >&2
   exit 2
 fi
 stream=$1 camera=$2 tile=$3
 knobs=""
-[ $# -eq 6 ] && knobs="$4 $5 $6"
+[ $# -ge 6 ] && knobs="$4 $5 $6"
+[ $# -eq 7 ] && knobs="$knobs $7"
 for f in "$stream" "$camera"; do
   [ -f "$f" ] || { echo "firmware.sh: $f: no such file" >&2; exit 2; }
 done
@@ -237,6 +239,10 @@ if ok_cal and ok_cross:
           f"{r['x0']},{r['y0']}; {r['n_coarse']} coarse + {r['n_fine']} fine samples, t_stop "
           f"{r['t_stop']}): {n(round(ins['render'] / rays))} instructions per ray, per-tile "
           f"set-up included")
+    grid = f"{r['grid']}^3 grid" if r["grid"] else "no grid"
+    use = "ignored (CNERF_RENDER_NO_SKIP)" if r["flags"] & 1 else "used"
+    print(f"  network evaluations per ray: {r['evals'] / rays:.2f} ({r['in_bounds'] / rays:.2f} "
+          f"samples inside the bounds); {grid}, {use}")
 else:
     print("firmware.sh: the instruction counts are not valid (is this QEMU 7.2 with "
           "-icount shift=0?); not reported", file=sys.stderr)

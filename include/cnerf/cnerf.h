@@ -118,6 +118,10 @@ typedef struct cnerf_decoder {
     cnerf_info info;
     const void *latent[CNERF_MAX_LAYERS];  /* int8_t or int16_t, [n_out][n_in] row-major */
     const int32_t *bias[CNERF_MAX_LAYERS]; /* n_out bias mantissas */
+    /* Per layer its output indices, those whose kernel row has a non-zero latent first
+     * (n_live[l] of them), then the rest, whose sum k x is 0 and is not computed. */
+    const uint16_t *rows[CNERF_MAX_LAYERS];
+    uint16_t n_live[CNERF_MAX_LAYERS];
     const uint8_t *grid;   /* occupancy bitmap, bit (z g + y) g + x, LSB first; NULL: none */
     uint32_t grid_occupied; /* occupied cells */
 } cnerf_decoder;
@@ -135,7 +139,7 @@ size_t cnerf_workspace_size(const cnerf_info *info);
  * occupancy grid of at most `grid` cells per axis (0: streams without a grid);
  * for static arrays (a compile-time constant when the arguments are). */
 #define CNERF_WORKSPACE_BOUND(params, outputs, layers, grid)                             \
-    ((size_t)(params) * 2u + (size_t)(outputs) * 4u + (size_t)(layers) * 16u +             \
+    ((size_t)(params) * 2u + (size_t)(outputs) * 6u + (size_t)(layers) * 24u +             \
      ((size_t)65536u + 1u) * 4u + 16u +                                                    \
      ((size_t)(grid) * (size_t)(grid) * (size_t)(grid) + 7u) / 8u + 8u)
 

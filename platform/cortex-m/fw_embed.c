@@ -39,25 +39,27 @@ static void put_ll(FILE *f, long long v)
 
 int main(int argc, char **argv)
 {
-    if (argc != 8 && argc != 11) {
+    if (argc != 8 && argc != 11 && argc != 12) {
         fprintf(stderr, "usage: cnerf_fw_embed OUT.h STREAM CAMERA X0 Y0 W H [N_COARSE N_FINE "
-                        "T_STOP]\n");
+                        "T_STOP [FLAGS]]\n");
         return 2;
     }
     const char *out_path = argv[1], *stream_path = argv[2], *cam_path = argv[3];
 
     /* The tile and knobs: only their syntax and ranges here; whether the tile lies in the
      * image and the knobs suit the stream is for the decoder to say, at run time. */
-    long long tile[4], knobs[3] = {0, 0, 0};
+    long long tile[4], knobs[4] = {0, 0, 0, 0};
     for (int i = 0; i < 4; i++)
         if (!parse_int(argv[4 + i], 0, 65535, &tile[i]))
             return die(argv[4 + i], "a tile coordinate must be an integer in 0..65535");
-    const int have_knobs = argc == 11;
+    const int have_knobs = argc >= 11;
     if (have_knobs) {
         if (!parse_int(argv[8], 0, 65535, &knobs[0]) || !parse_int(argv[9], 0, 65535, &knobs[1]))
             return die(argv[8], "sample counts must be integers in 0..65535");
         if (!parse_int(argv[10], 0, 4294967295LL, &knobs[2]))
             return die(argv[10], "T_STOP must be an integer in 0..2^32-1 (Q30)");
+        if (argc == 12 && !parse_int(argv[11], 0, 4294967295LL, &knobs[3]))
+            return die(argv[11], "FLAGS must be an integer in 0..2^32-1 (CNERF_RENDER_*)");
     }
 
     /* The camera: 18 integers, as tests/xarch/render_tile.c reads them. */
@@ -136,8 +138,8 @@ int main(int argc, char **argv)
     fprintf(f, "#define CNERF_FW_TILE_W %lldu\n#define CNERF_FW_TILE_H %lldu\n", tile[2], tile[3]);
     fprintf(f, "#define CNERF_FW_TILE_STRIDE %lluu /* w * 3 rounded up to 4 bytes */\n", stride);
     fprintf(f, "#define CNERF_FW_HAVE_KNOBS %d\n", have_knobs);
-    fprintf(f, "#define CNERF_FW_KNOBS_INIT {%lldu, %lldu, %lldu, 0u}\n", knobs[0], knobs[1],
-            knobs[2]);
+    fprintf(f, "#define CNERF_FW_KNOBS_INIT {%lldu, %lldu, %lldu, %lldu}\n", knobs[0],
+            knobs[1], knobs[2], knobs[3]);
     fprintf(f, "#define CNERF_FW_CAMERA_INIT {{");
     for (int i = 0; i < 9; i++) {
         put_ll(f, cam[i]);

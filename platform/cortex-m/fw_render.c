@@ -190,9 +190,10 @@ int main(void)
     }
 #endif
     const uint64_t t4 = ticks_now();
-    st = cnerf_render_tile(&dec, &camera, &opts, CNERF_FW_TILE_X0, CNERF_FW_TILE_Y0,
-                           CNERF_FW_TILE_W, CNERF_FW_TILE_H, tile, CNERF_FW_TILE_STRIDE, scratch,
-                           sizeof scratch);
+    cnerf_render_stats work = {0, 0, 0};
+    st = cnerf_render_tile_stats(&dec, &camera, &opts, CNERF_FW_TILE_X0, CNERF_FW_TILE_Y0,
+                                 CNERF_FW_TILE_W, CNERF_FW_TILE_H, tile, CNERF_FW_TILE_STRIDE,
+                                 scratch, sizeof scratch, &work);
     const uint64_t t5 = ticks_now();
     if (st != CNERF_OK)
         return fail("cnerf_render_tile", st);
@@ -225,6 +226,10 @@ int main(void)
     put_kv("n_coarse", opts.n_coarse);
     put_kv("n_fine", opts.n_fine);
     put_kv("t_stop", opts.t_stop);
+    put_kv("flags", opts.flags);
+    put_kv("evals", work.evals);
+    put_kv("in_bounds", work.in_bounds);
+    put_kv("grid", dec.info.grid_g);
     sh_puts("\nfw calib");
     put_kv("insns", 2u * (uint64_t)(n2 - n1));
     put_kv("ticks", c2 - c1);

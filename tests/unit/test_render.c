@@ -726,6 +726,56 @@ static void test_grid_cell_mapping(void **state)
         }
 }
 
+/* ---- rows without latents ---- */
+
+/* Zeroes every third kernel row of every layer (a row of layer 2 keeps one int16 latent). */
+static void zero_rows(cn_synth *syn, const cnerf_info *I)
+{
+    for (unsigned l = 0; l < I->n_layers; l++) {
+        const cnerf_layer_info *L = &I->layer[l];
+        for (uint32_t o = 0; o < L->n_out; o += 3)
+            for (uint32_t i = 0; i < L->n_in; i++)
+                syn->k[l][(size_t)o * L->n_in + i] = 0;
+    }
+    syn->k[2][0] = 0;
+    syn->k[2][1] = 300; /* int16 storage; row 0 stays live */
+}
+
+/* The decoder skips the dot products of rows whose latents are all 0 (their sum is exactly
+ * 0): the rows are counted at open, and the picture still matches the float reference. */
+static void test_zero_rows(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    tu_small_header(&hdr, 3, 16, 1);
+    scene s;
+    make_scene_edit(&s, &hdr, 3.0, 7, zero_rows);
+    const cnerf_info *I = &s.dec.info;
+    assert_int_equal(I->layer[2].latent_bytes, 2);
+    for (unsigned l = 0; l < I->n_layers; l++) {
+        const cnerf_layer_info *L = &I->layer[l];
+        const uint32_t zero = (L->n_out + 2) / 3 - (l == 2 ? 1u : 0u);
+        assert_int_equal(s.dec.n_live[l], L->n_out - zero);
+        /* rows[] is a permutation: live rows first, each with a non-zero latent */
+        uint8_t seen[CNERF_MAX_WIDTH] = {0};
+        for (uint32_t j = 0; j < L->n_out; j++) {
+            const uint16_t o = s.dec.rows[l][j];
+            assert_true(o < L->n_out && !seen[o]);
+            seen[o] = 1;
+            int nz = 0;
+            for (uint32_t i = 0; i < L->n_in; i++)
+                nz |= cnerf_latent(&s.dec, l, o, i) != 0;
+            assert_int_equal(nz, j < s.dec.n_live[l]);
+        }
+    }
+    cn_camera cam;
+    look_at(&cam, 2.5, -3.0, 2.0, 24, 20, 40);
+    const cmp c = compare(&s, &cam, 7, NULL);
+    printf("zero rows, fixed vs float: %.2f dB, max diff %d\n", c.psnr, c.maxdiff);
+    assert_true(c.psnr >= 50.0 && c.maxdiff <= 2 && c.n_scene > 0);
+    free_scene(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -745,6 +795,7 @@ int main(void)
         cmocka_unit_test(test_ndc),
         cmocka_unit_test(test_grid),
         cmocka_unit_test(test_grid_cell_mapping),
+        cmocka_unit_test(test_zero_rows),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,7 +1,7 @@
 /* Renders one tile of a stream with the fixed-point decoder and writes its RGB888 bytes to
  * stdout, row by row. Hosted C99 and the decoder only, so that it cross-compiles for any
  * Linux target; scripts/xarch.sh runs it under qemu-user and compares the MD5s.
- *   render_tile STREAM CAMERA X0 Y0 W H [N_COARSE N_FINE T_STOP]
+ *   render_tile STREAM CAMERA X0 Y0 W H [N_COARSE N_FINE T_STOP [FLAGS]]
  * CAMERA is a text file of 18 integers: rot[9] (Q30), pos[3] (Q32), fx fy cx cy (Q16),
  * width height. */
 #include <stdio.h>
@@ -17,8 +17,9 @@ static int fail(const char *msg, cnerf_status st)
 
 int main(int argc, char **argv)
 {
-    if (argc != 7 && argc != 10) {
-        fprintf(stderr, "usage: render_tile STREAM CAMERA X0 Y0 W H [N_COARSE N_FINE T_STOP]\n");
+    if (argc != 7 && argc != 10 && argc != 11) {
+        fprintf(stderr,
+                "usage: render_tile STREAM CAMERA X0 Y0 W H [N_COARSE N_FINE T_STOP [FLAGS]]\n");
         return 2;
     }
     FILE *f = fopen(argv[1], "rb");
@@ -64,11 +65,13 @@ int main(int argc, char **argv)
 
     cnerf_render_opts o;
     cnerf_render_defaults(&dec.info, &o);
-    if (argc == 10) {
+    if (argc >= 10) {
         o.n_coarse = (uint16_t)atoi(argv[7]);
         o.n_fine = (uint16_t)atoi(argv[8]);
         o.t_stop = (uint32_t)strtoul(argv[9], NULL, 10);
     }
+    if (argc == 11)
+        o.flags = (uint32_t)strtoul(argv[10], NULL, 10);
     const uint32_t x0 = (uint32_t)atoi(argv[3]), y0 = (uint32_t)atoi(argv[4]);
     const uint32_t w = (uint32_t)atoi(argv[5]), h = (uint32_t)atoi(argv[6]);
     uint8_t *px = malloc((size_t)w * h * 3 + 1);
