@@ -440,23 +440,33 @@ static cnerf_status decode_layer(const uint8_t *buf, const cnerf_layer_info *L, 
                           lat, L->latent_bytes, count);
 }
 
-/* The layer's output indices into `rows`: those whose kernel row holds a non-zero latent
- * first, in increasing order, then the others; returns how many are first. */
-static uint16_t order_rows(const cnerf_layer_info *L, const void *lat, uint16_t *rows)
+/* Moves the layer's rows that hold a non-zero latent to the front of `lat`, in increasing
+ * order, zeroes the rest, and writes the output index of each stored row into `rows` (then
+ * the all-zero rows' indices); returns how many rows are live. A live row moves only down
+ * (to slot live <= o), onto a row already moved or all-zero: nothing is lost. */
+static uint16_t order_rows(const cnerf_layer_info *L, void *lat, uint16_t *rows)
 {
+    const uint32_t n_in = L->n_in, eb = L->latent_bytes;
+    uint8_t *b = (uint8_t *)lat;
     uint32_t live = 0, dead = L->n_out;
     for (uint32_t o = 0; o < L->n_out; o++) {
+        const uint8_t *row = b + (size_t)o * n_in * eb;
         uint32_t nz = 0;
-        for (uint32_t i = 0; i < L->n_in && !nz; i++) {
-            const size_t idx = (size_t)o * L->n_in + i;
-            nz = L->latent_bytes == 1u ? ((const int8_t *)lat)[idx] != 0
-                                       : ((const int16_t *)lat)[idx] != 0;
-        }
-        if (nz)
-            rows[live++] = (uint16_t)o;
-        else
+        for (uint32_t i = 0; i < n_in * eb && !nz; i++)
+            nz = row[i] != 0u;
+        if (!nz) {
             rows[--dead] = (uint16_t)o; /* fills from the end, in decreasing order */
+            continue;
+        }
+        if (live != o) {
+            uint8_t *to = b + (size_t)live * n_in * eb;
+            for (uint32_t i = 0; i < n_in * eb; i++)
+                to[i] = row[i];
+        }
+        rows[live++] = (uint16_t)o;
     }
+    for (size_t i = (size_t)live * n_in * eb; i < (size_t)L->n_out * n_in * eb; i++)
+        b[i] = 0;
     return (uint16_t)live;
 }
 
@@ -505,7 +515,8 @@ cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void
         if (st == CNERF_OK)
             st = decode_layer(buf, L, (void *)(uintptr_t)dec->latent[l], cum);
         if (st == CNERF_OK)
-            dec->n_live[l] = order_rows(L, dec->latent[l], (uint16_t *)(uintptr_t)dec->rows[l]);
+            dec->n_live[l] = order_rows(L, (void *)(uintptr_t)dec->latent[l],
+                                        (uint16_t *)(uintptr_t)dec->rows[l]);
     }
     if (st != CNERF_OK)
         cn_memzero(dec, sizeof *dec);
@@ -519,7 +530,14 @@ int32_t cnerf_latent(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t 
     const cnerf_layer_info *L = &dec->info.layer[l];
     if (o >= L->n_out || i >= L->n_in || !dec->latent[l])
         return 0;
-    const uint32_t idx = o * L->n_in + i;
+    /* Live rows are stored first, in increasing output order (order_rows): a search, since
+     * this accessor is for tools and tests, not for rendering. */
+    uint32_t j = 0;
+    while (j < dec->n_live[l] && dec->rows[l][j] != o)
+        j++;
+    if (j == dec->n_live[l])
+        return 0; /* an all-zero row */
+    const uint32_t idx = j * L->n_in + i;
     if (L->latent_bytes == 1u)
         return ((const int8_t *)dec->latent[l])[idx];
     return ((const int16_t *)dec->latent[l])[idx];

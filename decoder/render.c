@@ -111,12 +111,12 @@ static void posenc(int32_t *out, const int64_t v[3], unsigned L, int inc)
 
 /* ---- one linear layer: y = a (sum k x) + b (sum x) + bias, in Q16 ---- */
 
-/* sum_i k[o][i] x[i] for four outputs at once (rows k0..k3): each activation is loaded once
- * per block and the latent rows are read in order. Exact int64 sums (bounds above). */
+/* sum_i k[o][i] x[i] for four consecutive rows at once: each activation is loaded once per
+ * block and the latent rows are read in order. Exact int64 sums (bounds above). */
 #define CN_DOT_BLOCK(T)                                                                     \
-    static void dot4_##T(const T *k0, const T *k1, const T *k2, const T *k3, uint32_t n_in, \
-                         const int32_t *x, int64_t acc[4])                                  \
+    static void dot4_##T(const T *k, uint32_t n_in, const int32_t *x, int64_t acc[4])      \
     {                                                                                       \
+        const T *k0 = k, *k1 = k + n_in, *k2 = k + 2u * n_in, *k3 = k + 3u * n_in;          \
         int64_t a0 = 0, a1 = 0, a2 = 0, a3 = 0;                                             \
         for (uint32_t i = 0; i < n_in; i++) {                                               \
             const int64_t xi = x[i];                                                        \
@@ -146,9 +146,10 @@ static int32_t finish(const cnerf_layer_info *L, int64_t acc, int64_t tb, int32_
     return (int32_t)cn_clamp64(v, relu ? 0 : INT32_MIN, INT32_MAX);
 }
 
-/* The rows with a non-zero latent (dec->rows[l][0 .. n_live)) go through the dot products,
- * four at a time; the others have sum k x = 0 exactly and only take a b sum x + bias. The
- * order of the outputs does not change any value: each is its own exact sum. */
+/* The rows with a non-zero latent, stored first (row j of the workspace is output
+ * dec->rows[l][j], j < n_live), go through the dot products, four at a time; the others
+ * have sum k x = 0 exactly and only take a b sum x + bias. The order of the outputs does not
+ * change any value: each is its own exact sum. */
 static void linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, int32_t *y, int relu)
 {
     const cnerf_layer_info *L = &dec->info.layer[l];
@@ -162,20 +163,16 @@ static void linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, int32
     uint32_t j = 0;
     for (; j + 4u <= live; j += 4u) {
         int64_t acc[4];
-        const size_t r0 = (size_t)rows[j] * n_in, r1 = (size_t)rows[j + 1u] * n_in,
-                     r2 = (size_t)rows[j + 2u] * n_in, r3 = (size_t)rows[j + 3u] * n_in;
-        if (L->latent_bytes == 1u) {
-            const int8_t *k = (const int8_t *)dec->latent[l];
-            dot4_int8_t(k + r0, k + r1, k + r2, k + r3, n_in, x, acc);
-        } else {
-            const int16_t *k = (const int16_t *)dec->latent[l];
-            dot4_int16_t(k + r0, k + r1, k + r2, k + r3, n_in, x, acc);
-        }
+        const size_t r = (size_t)j * n_in; /* live rows are stored first, in order */
+        if (L->latent_bytes == 1u)
+            dot4_int8_t((const int8_t *)dec->latent[l] + r, n_in, x, acc);
+        else
+            dot4_int16_t((const int16_t *)dec->latent[l] + r, n_in, x, acc);
         for (uint32_t q = 0; q < 4u; q++)
             y[rows[j + q]] = finish(L, acc[q], tb, bias[rows[j + q]], relu);
     }
     for (; j < live; j++) {
-        const size_t r = (size_t)rows[j] * n_in;
+        const size_t r = (size_t)j * n_in;
         const int64_t acc = L->latent_bytes == 1u
                                 ? dot1_int8_t((const int8_t *)dec->latent[l] + r, n_in, x)
                                 : dot1_int16_t((const int16_t *)dec->latent[l] + r, n_in, x);

@@ -116,10 +116,12 @@ typedef struct cnerf_info {
 
 typedef struct cnerf_decoder {
     cnerf_info info;
-    const void *latent[CNERF_MAX_LAYERS];  /* int8_t or int16_t, [n_out][n_in] row-major */
+    /* int8_t or int16_t rows of n_in latents: the n_live[l] rows with a non-zero latent,
+     * in increasing output order, then zeros (cnerf_latent reads by output index) */
+    const void *latent[CNERF_MAX_LAYERS];
     const int32_t *bias[CNERF_MAX_LAYERS]; /* n_out bias mantissas */
-    /* Per layer its output indices, those whose kernel row has a non-zero latent first
-     * (n_live[l] of them), then the rest, whose sum k x is 0 and is not computed. */
+    /* Per layer the output index of each stored row: the n_live[l] rows with a non-zero
+     * latent first, then the all-zero rows, whose sum k x is 0 and is not computed. */
     const uint16_t *rows[CNERF_MAX_LAYERS];
     uint16_t n_live[CNERF_MAX_LAYERS];
     const uint8_t *grid;   /* occupancy bitmap, bit (z g + y) g + x, LSB first; NULL: none */
@@ -153,7 +155,8 @@ cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void
  * Returns CNERF_E_LIMIT or CNERF_E_HEADER for an invalid topology. */
 cnerf_status cnerf_expand_topology(cnerf_info *info);
 
-/* Latent k[o][i] of layer `l` (no bounds checks beyond an assert-free clamp to 0). */
+/* Latent k[o][i] of layer `l` (0 out of range); searches the layer's row order: for tools
+ * and tests, not for rendering. */
 int32_t cnerf_latent(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t i);
 
 /* ---- rendering (decoder/render.c; formats and error analysis in docs/fixed-point.md) ---- */
