@@ -115,7 +115,7 @@ vector 012-unknown-ancillary-chunk "an unknown ancillary chunk (skipped)" \
 # Occupancy grids (format 1.1): a real scene's grid from the encoder, grids of several
 # resolutions (one that divides no power of two) on a fog that fills the box, empty and full.
 CAMS="--dataset $data/lego --downscale 8 --every 100"
-vector 013-lego-encode-grid "a real scene's occupancy grid, chosen by cnerf encode (Lego, 50x50, a 32^3 grid)" \
+vector 013-lego-encode-grid "a real scene's occupancy grid from cnerf encode (Lego, 50x50, 32^3 cells by --grid 32)" \
   $cnerf encode "$data/lego" -o "$tmp/s.cnrf" --lambda 1e-3 --preset tiny --downscale 8 \
   --iters 200 --seed $seed --threads 2 --every 100 --grid 32
 CAMS="--orbit 2 --size 24"
