@@ -154,8 +154,12 @@ int cmd_encode(int argc, char **argv)
             e.src.grid_g = (uint32_t)grid.g;
             if (cn_write_stream(&e.src, &b, &rep, err, sizeof err))
                 rc = cli_fail("encode", "%s", err);
+        } else if (grid_g > 0) {
+            printf("occupancy grid: none: at every threshold tried, the %ld^3 grid cost the "
+                   "training views more than 0.025 dB\n", grid_g);
         } else if (grid_g != 0) {
-            printf("occupancy grid: none (it would not skip enough to pay for itself)\n");
+            printf("occupancy grid: none (no resolution skips enough to pay for its bytes, or "
+                   "none kept the training views within 0.025 dB)\n");
         }
         if (rc == 0 && cn_write_file_atomic(out, b.p, b.n, err, sizeof err))
             rc = cli_fail("encode", "%s", err);

@@ -77,6 +77,35 @@ grep -q "mean over 2 views (fixed point, 8+8 samples.*(float reference $enc_psnr
 md5=$(sed -n 's/^md5 of all frames: //p' <<<"$out")
 "$cnerf" render "$work/s.cnrf" --dataset "$data/lego" --downscale 16 --every 100 --verify "$md5" \
   | grep -q "verified: $md5" || fail "render --verify of its own md5"
+
+# The occupancy grid: a forced 16^3 grid is written (format 1.1), shown by info, applied by
+# eval (the PSNR encode printed) and counted by render, which --no-skip turns off.
+out=$("$cnerf" encode "$data/lego" -o "$work/gr.cnrf" --lambda 1e-3 --iters 3 --every 100 \
+  --grid 16 "${common[@]}")
+grep -q "^occupancy grid: 16^3, [0-9.]*% of the cells occupied, [0-9]* bytes" <<<"$out" \
+  || fail "encode --grid 16: $out"
+info=$("$cnerf" info "$work/gr.cnrf")
+grep -q "format version 1.1" <<<"$info" || fail "info: version of a stream with a grid: $info"
+grep -q "^occupancy grid: 16^3 cells, [0-9]* bytes, [0-9]* occupied" <<<"$info" \
+  || fail "info: grid line: $info"
+enc_psnr=$(sed -n 's/^test: 2 views, psnr \([0-9.]*\) dB.*/\1/p' <<<"$out")
+out=$("$cnerf" eval "$work/gr.cnrf" "$data/lego" --downscale 16 --every 100)
+grep -q "mean over 2 test views (stream): psnr $enc_psnr dB" <<<"$out" \
+  || fail "eval of a stream with a grid ($enc_psnr): $out"
+out=$("$cnerf" render "$work/gr.cnrf" --dataset "$data/lego" --downscale 16 --every 100)
+grep -q "^network evaluations per ray: [0-9.]* ([0-9.]* without skipping)$" <<<"$out" \
+  || fail "render: evaluations per ray: $out"
+out=$("$cnerf" render "$work/gr.cnrf" --dataset "$data/lego" --downscale 16 --every 100 --no-skip)
+grep -q "^network evaluations per ray: \([0-9.]*\) (\1 without skipping; --no-skip" <<<"$out" \
+  || fail "render --no-skip: $out"
+info=$("$cnerf" info "$work/s.cnrf")
+! grep -q "^occupancy grid: none" <<<"$info" || grep -q "format version 1.0" <<<"$info" \
+  || fail "a stream without a grid is 1.0: $info"
+set +e
+msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --grid 12 2>&1); rc=$?
+[ $rc = 1 ] && grep -q "\-\-grid takes 16, 32, 64 or 128" <<<"$msg" || fail "--grid 12: $rc $msg"
+[ ! -e "$work/z.cnrf" ] || fail "--grid 12 wrote a file"
+set -e
 set +e
 msg=$("$cnerf" render "$work/s.cnrf" --dataset "$data/lego" --downscale 16 --every 100 \
       --verify 00000000000000000000000000000000 2>&1); rc=$?
