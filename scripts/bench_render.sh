@@ -2,13 +2,15 @@
 # Speed against error of the fixed-point renderer, for one stream and its dataset.
 #
 #   scripts/bench_render.sh STREAM DATASET OUTDIR [--downscale F] [--every N] [--cg-px PX]
-#                           [--settings "NC NF TSTOP; ..."] [--plot-only]
+#                           [--settings "NC NF TSTOP [noskip]; ..."] [--plot-only]
 #
-# For every knob setting (coarse samples, fine samples, early-termination threshold):
+# For every knob setting (coarse samples, fine samples, early-termination threshold, and
+# `noskip` to ignore the stream's occupancy grid in both renderers):
 #   - `cnerf render --threads 1` on every N-th test view: median ms per megapixel of the
 #     fixed-point decoder and of the float reference renderer of the same file (same run,
 #     same thread count), PSNR against the ground truth; PSNR, largest difference and share
 #     of pixels off by more than 2 against the float reference with the same sample counts;
+#     network evaluations per ray;
 #   - instructions per ray of cnerf_render_tile alone (valgrind --tool=callgrind with
 #     --toggle-collect), on the first view's camera scaled down to PX x PX pixels (the whole
 #     view, so rays that miss the object count as they do in a frame).
@@ -18,7 +20,7 @@
 # Builds build/ first. --plot-only redraws the table and chart from an existing CSV.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-[ $# -ge 3 ] || { sed -n '2,16p' "$0"; exit 2; }
+[ $# -ge 3 ] || { sed -n '2,18p' "$0"; exit 2; }
 stream=$1 data=$2 out=$3
 shift 3
 downscale=4 every=40 cgpx=20 settings="" plot_only=0
@@ -50,19 +52,26 @@ if [ -z "$settings" ]; then
   settings="$NC $NF 0; $NC $NF 0.000244140625; $NC $NF 0.0009765625; $NC $NF 0.00390625;"
   settings+=" $NC $NF 0.015625; $NC $h 0.000244140625; $NC $q 0.000244140625;"
   settings+=" $c $h 0.000244140625; $NC 0 0.000244140625; $c 0 0.000244140625"
+  # a stream with an occupancy grid: the main settings again without it
+  if ./build/cnerf info "$stream" | grep -q "^occupancy grid: [0-9]"; then
+    settings+="; $NC $NF 0.000244140625 noskip; $NC $h 0.000244140625 noskip;"
+    settings+=" $NC 0 0.000244140625 noskip"
+  fi
 fi
 
-echo "n_coarse,n_fine,t_stop,instr_per_ray,ms_per_mp,float_ms_per_mp,speed_ratio,psnr_gt,float_psnr_gt,psnr_vs_float,max_diff,pct_px_over2" > "$csv"
+echo "n_coarse,n_fine,t_stop,instr_per_ray,ms_per_mp,float_ms_per_mp,speed_ratio,psnr_gt,float_psnr_gt,psnr_vs_float,max_diff,pct_px_over2,grid,evals_per_ray" > "$csv"
 IFS=';' read -ra rows <<< "$settings"
 n=${#rows[@]} k=0
 for row in "${rows[@]}"; do
-  read -r nc nf ts <<< "$row"
+  read -r nc nf ts skip <<< "$row"
   k=$((k + 1))
-  echo "[$k/$n] $nc coarse + $nf fine samples, t_stop $ts" >&2
-  log=$out/render_${nc}_${nf}_${ts}.log
+  noskip=() flags=0
+  [ "${skip:-}" = noskip ] && noskip=(--no-skip) flags=1
+  echo "[$k/$n] $nc coarse + $nf fine samples, t_stop $ts ${skip:-}" >&2
+  log=$out/render_${nc}_${nf}_${ts}${skip:+_$skip}.log
   $cnerf render "$stream" --dataset "$data" --downscale "$downscale" --every "$every" \
     --threads 1 --coarse "$nc" --fine "$nf" --t-stop "$ts" --save-cameras "$out/cameras.txt" \
-    > "$log"
+    "${noskip[@]}" > "$log"
   # The first view's camera, scaled down to cgpx x cgpx, for callgrind.
   python3 - "$out/cameras.txt" "$cgpx" > "$out/cam_cg.txt" <<'PY'
 import sys
@@ -76,12 +85,18 @@ PY
   read -r cw chh < <(awk '{print $17, $18}' "$out/cam_cg.txt")
   valgrind --tool=callgrind --toggle-collect=cnerf_render_tile \
     --callgrind-out-file="$out/callgrind.out" build/tests/render_tile "$stream" "$out/cam_cg.txt" \
-    0 0 "$cw" "$chh" "$nc" "$nf" "$(python3 -c "print(round($ts * 2**30))")" > /dev/null 2> "$out/callgrind.err"
+    0 0 "$cw" "$chh" "$nc" "$nf" "$(python3 -c "print(round($ts * 2**30))")" "$flags" > /dev/null \
+    2> "$out/callgrind.err"
   ir=$(sed -n 's/^totals: *\([0-9]*\).*/\1/p' "$out/callgrind.out")
-  python3 - "$log" "$nc" "$nf" "$ts" "$ir" "$((cw * chh))" >> "$csv" <<'PY'
+  python3 - "$log" "$nc" "$nf" "$ts" "$ir" "$((cw * chh))" "${skip:-}" >> "$csv" <<'PY'
 import re, statistics, sys
-log, nc, nf, ts, ir, rays = sys.argv[1:]
-ms, fms, px = [], [], None
+log, nc, nf, ts, ir, rays, skip = sys.argv[1:]
+ms, fms, px, ev, grid = [], [], None, "", "none"
+for line in open(log):
+    m = re.match(r"network evaluations per ray: ([0-9.]+) \(([0-9.]+) without skipping(.*)\)", line)
+    if m:
+        ev = m.group(1)
+        grid = "none" if "no occupancy grid" in m.group(3) else ("ignored" if skip else "used")
 for line in open(log):
     m = re.search(r"psnr .*?([0-9.]+) ms  float +([0-9.]+) ms", line)
     if m:
@@ -93,7 +108,7 @@ for line in open(log):
 size = open(sys.argv[1].rsplit("/", 1)[0] + "/cameras.txt").readline().split()[16:18]
 mp = int(size[0]) * int(size[1]) / 1e6
 a, b = statistics.median(ms) / mp, statistics.median(fms) / mp
-print(f"{nc},{nf},{ts},{int(ir) / int(rays):.0f},{a:.1f},{b:.1f},{a / b:.3f},{g},{fg},{vs},{md},{over2:.3f}")
+print(f"{nc},{nf},{ts},{int(ir) / int(rays):.0f},{a:.1f},{b:.1f},{a / b:.3f},{g},{fg},{vs},{md},{over2:.3f},{grid},{ev}")
 PY
 done
 rm -f "$out/callgrind.out" "$out/callgrind.err" "$out/cam_cg.txt"
@@ -103,11 +118,13 @@ fi
 python3 - "$csv" > "$out/render_speed.md" <<'PY'
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
-print("| coarse + fine | t_stop | instructions / ray | ms / MP | float ref. ms / MP | fixed / float time | PSNR vs truth | float ref. vs truth | fixed vs float ref. | max diff | px > 2 |")
-print("|---|---|---|---|---|---|---|---|---|---|---|")
+grid = any(r.get("grid") for r in rows)
+print("| coarse + fine | t_stop |" + (" grid | evaluations / ray |" if grid else "") + " instructions / ray | ms / MP | float ref. ms / MP | fixed / float time | PSNR vs truth | float ref. vs truth | fixed vs float ref. | max diff | px > 2 |")
+print("|---|---|" + ("---|---|" if grid else "") + "---|---|---|---|---|---|---|---|---|")
 for r in rows:
     ts = float(r["t_stop"]); tss = "0" if ts == 0 else f"1/{round(1 / ts)}"
-    print(f"| {r['n_coarse']} + {r['n_fine']} | {tss} | {int(r['instr_per_ray']):,} | {float(r['ms_per_mp']):,.0f} | "
+    g = f" {r.get('grid', '')} | {r.get('evals_per_ray', '')} |" if grid else ""
+    print(f"| {r['n_coarse']} + {r['n_fine']} | {tss} |{g} {int(r['instr_per_ray']):,} | {float(r['ms_per_mp']):,.0f} | "
           f"{float(r['float_ms_per_mp']):,.0f} | {float(r['speed_ratio']):.2f} | {r['psnr_gt']} dB | {r['float_psnr_gt']} dB | "
           f"{r['psnr_vs_float']} dB | {r['max_diff']} | {r['pct_px_over2']}% |")
 PY
@@ -125,14 +142,15 @@ lbl(c) = sprintf("%s+%s", stringcolumn(1), stringcolumn(2))
 set title "PSNR against the ground truth (default early termination)"
 set xlabel "seconds per megapixel (median over the views)"
 set ylabel "test PSNR (dB)"
-plot "$csv" every ::1 using (\$3 == 0.000244140625 ? \$5 / 1000 : NaN):8:(lbl(0)) with labels offset 0,0.8 font ",8" notitle, \
-     "$csv" every ::1 using (\$3 == 0.000244140625 ? \$5 / 1000 : NaN):8 with points pt 7 ps 1.2 title "fixed-point decoder", \
-     "$csv" every ::1 using (\$3 == 0.000244140625 ? \$6 / 1000 : NaN):9 with points pt 6 ps 1.2 title "float reference renderer"
+main(x) = (\$3 == 0.000244140625 && strcol(13) ne "ignored") ? x : NaN
+plot "$csv" every ::1 using (main(\$5 / 1000)):8:(lbl(0)) with labels offset 0,0.8 font ",8" notitle, \
+     "$csv" every ::1 using (main(\$5 / 1000)):8 with points pt 7 ps 1.2 title "fixed-point decoder", \
+     "$csv" every ::1 using (main(\$6 / 1000)):9 with points pt 6 ps 1.2 title "float reference renderer"
 set title "Error against the float reference (all settings)"
 set xlabel "instructions per ray (callgrind)"
 set ylabel "PSNR against the float reference (dB)"
 unset key
-plot "$csv" every ::1 using 4:10:(sprintf("%s %s", lbl(0), \$3 == 0 ? "exact" : sprintf("1/%.0f", 1 / \$3))) with labels offset 0,0.8 font ",8", \
+plot "$csv" every ::1 using 4:10:(sprintf("%s %s%s", lbl(0), \$3 == 0 ? "exact" : sprintf("1/%.0f", 1 / \$3), strcol(13) eq "ignored" ? " no grid" : "")) with labels offset 0,0.8 font ",8", \
      "$csv" every ::1 using 4:10 with points pt 7 ps 1.2
 unset multiplot
 GP
