@@ -164,7 +164,7 @@ cnerf_status cn_grid_decode(const uint8_t *payload, size_t len, uint32_t g, unsi
 
 static inline uint32_t cn_grid_bit(const uint8_t *bits, uint32_t i)
 {
-    return (bits[i >> 3] >> (i & 7u)) & 1u;
+    return ((uint32_t)bits[i >> 3] >> (i & 7u)) & 1u;
 }
 
 /* Context of cell (x, y, z): occupied(x-1, y, z) + 2 occupied(x, y-1, z) +
