@@ -11,7 +11,7 @@
  *    and is halved until rendering the training views with the grid loses at most 0.025 dB
  *    against rendering them without (half of the 0.05 dB the grid may cost on test views).
  * 4. The resolution: going from no grid through g = 16, 32, 64, 128, a finer grid is taken
- *    when each 1% that it adds to the file removes at least 2% of the network evaluations
+ *    when each 1% that it adds to the file removes at least 4% of the network evaluations
  *    still left on the training rays (the in-bounds coarse samples, a proxy for both
  *    networks' work); no grid is written when even 16^3 does not pay that way.
  */

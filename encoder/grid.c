@@ -174,7 +174,7 @@ void cn_grid_choice_free(cn_grid_choice *c)
 #define GRID_RAYS 40000
 #define GRID_MAX_DROP_DB 0.025
 #define GRID_TRIES 6
-#define GRID_GAIN_PER_BYTE 2.0
+#define GRID_GAIN_PER_BYTE 4.0
 
 int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes, int force_g,
                    cn_grid_choice *out, void (*say)(const char *line), char *err, size_t errlen)

@@ -28,7 +28,9 @@ grep -q "mean over 2 test views (iteration 4): psnr $train_eval dB" <<<"$out" ||
 "$cnerf" train "$data/lego" -o "$work/int.ckpt" --iters 100000 "${common[@]}" \
   > "$work/int.log" 2>&1 &
 pid=$!
-for _ in $(seq 100); do grep -q "iter" "$work/int.log" 2>/dev/null && break; sleep 0.2; done
+# (a signal before the first progress line would find SIGINT ignored, as for any background
+# job of a non-interactive shell: wait for it, up to 5 minutes on a loaded machine)
+for _ in $(seq 1500); do grep -q "iter" "$work/int.log" 2>/dev/null && break; sleep 0.2; done
 sleep 1
 kill -INT $pid
 set +e; wait $pid; rc=$?; set -e
