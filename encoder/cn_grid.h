@@ -8,8 +8,9 @@
  * 2. A grid of g cells per axis (g divides M): a cell is occupied when some lattice point of
  *    its closed box has density above the threshold.
  * 3. The threshold starts at the density that makes an opacity of 1% over the box's diagonal
- *    and is halved until rendering the training views with the grid loses at most 0.025 dB
- *    against rendering them without (half of the 0.05 dB the grid may cost on test views).
+ *    and is halved until rendering training views (up to 8, about 2^17 pixels) with the grid
+ *    loses at most 0.025 dB against rendering them without (half of the 0.05 dB the grid may
+ *    cost on test views).
  * 4. The resolution: going from no grid through g = 16, 32, 64, 128, a finer grid is taken
  *    when each 1% that it adds to the file removes at least 4% of the network evaluations
  *    still left on the training rays (the in-bounds coarse samples, a proxy for both

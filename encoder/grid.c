@@ -141,11 +141,16 @@ double cn_grid_eval_fraction(const cnerf_info *topo, int g, const uint8_t *occ,
     return in ? (double)hit / (double)in : 1.0;
 }
 
-/* Mean PSNR against the ground truth of up to 8 training views spread evenly, rendered with
- * the model (and its grid, if any). */
+/* Mean PSNR against the ground truth of training views spread evenly, rendered with the model
+ * (and its grid, if any): up to 8 views and about 2^17 pixels, at least one view (a large
+ * image costs one view per trial, not eight). */
 static double views_psnr(const cn_model *m, const cn_dataset *ds, int *ok)
 {
-    const int n = ds->n_train < 8 ? ds->n_train : 8;
+    const size_t px = ds->n_train ? (size_t)ds->train[0].w * (size_t)ds->train[0].h : 1;
+    const size_t fit = px ? ((size_t)1 << 17) / px : 8;
+    int n = ds->n_train < 8 ? ds->n_train : 8;
+    if ((size_t)n > fit)
+        n = fit > 0 ? (int)fit : 1;
     double sum = 0;
     for (int k = 0; k < n; k++) {
         const cn_view *v = &ds->train[(size_t)k * (size_t)ds->n_train / (size_t)n];

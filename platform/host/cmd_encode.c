@@ -141,23 +141,27 @@ int cmd_encode(int argc, char **argv)
         cn_model_materialize(&t.model);
         if (cn_write_stream(&e.src, &b, &rep, err, sizeof err))
             rc = cli_fail("encode", "%s", err);
-        else if (grid_g != 0 && cn_grid_choose(&t.model, &ds, b.n, (int)grid_g, &grid, grid_verbose ? say : NULL,
-                                            err, sizeof err))
+        if (rc == 0 && grid_g != 0)
+            say("occupancy grid: measuring the density on a 129^3 lattice and rendering "
+                "training views with and without the grid");
+        if (rc == 0 && grid_g != 0 &&
+            cn_grid_choose(&t.model, &ds, b.n, (int)grid_g, &grid, grid_verbose ? say : NULL,
+                           err, sizeof err))
             rc = cli_fail("encode", "%s", err);
-        else if (grid.g) {
+        if (rc == 0 && grid.g) {
             printf("occupancy grid: %d^3, %.1f%% of the cells occupied, %zu bytes; %.1f%% of the "
                    "evaluations left on the training rays, %+.3f dB on the training views "
                    "(threshold %.3g)\n",
                    grid.g, 100 * grid.occupied, grid.bytes, 100 * grid.eval_fraction,
-                   -grid.psnr_drop, grid.threshold);
+                   0.0 - grid.psnr_drop + 0.0, grid.threshold); /* no "-0.000" */
             e.src.grid = grid.occ;
             e.src.grid_g = (uint32_t)grid.g;
             if (cn_write_stream(&e.src, &b, &rep, err, sizeof err))
                 rc = cli_fail("encode", "%s", err);
-        } else if (grid_g > 0) {
+        } else if (rc == 0 && grid_g > 0) {
             printf("occupancy grid: none: at every threshold tried, the %ld^3 grid cost the "
                    "training views more than 0.025 dB\n", grid_g);
-        } else if (grid_g != 0) {
+        } else if (rc == 0 && grid_g != 0) {
             printf("occupancy grid: none (no resolution skips enough to pay for its bytes, or "
                    "none kept the training views within 0.025 dB)\n");
         }
