@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../decoder/cn_internal.h"
 #include "cn_export.h"
 #include "cn_occ.h"
 #include "cn_prior.h"
@@ -193,7 +194,7 @@ int cn_model_from_stream(const cnerf_decoder *dec, cn_model *m, char *err, size_
         m->grid = malloc(sizeof *m->grid);
         if (occ)
             for (size_t c = 0; c < cells; c++)
-                occ[c] = (uint8_t)((dec->grid[c >> 3] >> (c & 7u)) & 1u);
+                occ[c] = (uint8_t)cn_grid_bit(dec->grid, (uint32_t)c);
         if (!occ || !m->grid || cn_occ_init_stream(m->grid, I, (int)g, occ)) {
             free(occ);
             free(m->grid);

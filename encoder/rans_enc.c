@@ -5,6 +5,30 @@
 
 #include "cn_stream.h"
 
+/* Codes one symbol of frequency f starting at cum (of 2^prec) into state *x, emitting bytes
+ * backwards before *p. */
+static void rans_put(uint32_t *x, uint8_t **p, uint32_t f, uint32_t cum, unsigned prec)
+{
+    const uint32_t x_max = ((CNERF_RANS_L >> prec) << 8) * f;
+    while (*x >= x_max) {
+        *--*p = (uint8_t)*x;
+        *x >>= 8;
+    }
+    *x = ((*x / f) << prec) + (*x % f) + cum;
+}
+
+/* Writes the final state x (little-endian, read first by the decoder) before p; returns the
+ * payload's start. */
+static uint8_t *rans_flush(uint32_t x, uint8_t *p)
+{
+    p -= 4;
+    p[0] = (uint8_t)x;
+    p[1] = (uint8_t)(x >> 8);
+    p[2] = (uint8_t)(x >> 16);
+    p[3] = (uint8_t)(x >> 24);
+    return p;
+}
+
 int cn_rans_encode(const uint32_t *syms, size_t count, const uint32_t *freq, uint32_t n,
                    unsigned prec, cn_buf *out)
 {
@@ -36,19 +60,9 @@ int cn_rans_encode(const uint32_t *syms, size_t count, const uint32_t *freq, uin
             free(buf);
             return -1;
         }
-        uint32_t f = freq[s];
-        uint32_t x_max = ((CNERF_RANS_L >> prec) << 8) * f;
-        while (x >= x_max) {
-            *--p = (uint8_t)x;
-            x >>= 8;
-        }
-        x = ((x / f) << prec) + (x % f) + cum[s];
+        rans_put(&x, &p, freq[s], cum[s], prec);
     }
-    p -= 4;
-    p[0] = (uint8_t)x;
-    p[1] = (uint8_t)(x >> 8);
-    p[2] = (uint8_t)(x >> 16);
-    p[3] = (uint8_t)(x >> 24);
+    p = rans_flush(x, p);
     cn_buf_put(out, p, (size_t)(buf + cap - p));
     free(cum);
     free(buf);
@@ -93,19 +107,9 @@ int cn_grid_encode(const uint8_t *occ, uint32_t g, unsigned prec, cn_buf *out)
     uint32_t x = CNERF_RANS_L;
     for (size_t i = cells; i-- > 0;) {
         const uint32_t one = f1[grid_ctx(occ, g, i)];
-        const uint32_t f = occ[i] ? one : total - one, cum = occ[i] ? total - one : 0;
-        const uint32_t x_max = ((CNERF_RANS_L >> prec) << 8) * f;
-        while (x >= x_max) {
-            *--p = (uint8_t)x;
-            x >>= 8;
-        }
-        x = ((x / f) << prec) + (x % f) + cum;
+        rans_put(&x, &p, occ[i] ? one : total - one, occ[i] ? total - one : 0, prec);
     }
-    p -= 4;
-    p[0] = (uint8_t)x;
-    p[1] = (uint8_t)(x >> 8);
-    p[2] = (uint8_t)(x >> 16);
-    p[3] = (uint8_t)(x >> 24);
+    p = rans_flush(x, p);
     cn_buf_u8(out, g);
     cn_buf_u8(out, prec);
     for (unsigned c = 0; c < CNERF_GRID_CONTEXTS; c++)

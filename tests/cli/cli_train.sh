@@ -107,6 +107,10 @@ set +e
 msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --grid 12 2>&1); rc=$?
 [ $rc = 1 ] && grep -q "\-\-grid takes 16, 32, 64 or 128" <<<"$msg" || fail "--grid 12: $rc $msg"
 [ ! -e "$work/z.cnrf" ] || fail "--grid 12 wrote a file"
+msg=$("$cnerf" synth -o "$work/z.cnrf" --grid 16 --grid-shape cube 2>&1); rc=$?
+[ $rc = 1 ] && grep -q "\-\-grid-shape takes ball, full or empty, not 'cube'" <<<"$msg" \
+  || fail "synth --grid-shape cube: $rc $msg"
+[ ! -e "$work/z.cnrf" ] || fail "synth --grid-shape cube wrote a file"
 set -e
 set +e
 msg=$("$cnerf" render "$work/s.cnrf" --dataset "$data/lego" --downscale 16 --every 100 \
