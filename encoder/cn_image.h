@@ -27,9 +27,12 @@ int cn_png_write_rgb8(const char *path, const uint8_t *rgb, int w, int h, size_t
                       char *err, size_t errlen);
 
 /* Area-averaging downscale by an integer factor f >= 1: each output pixel is the mean of
- * an f x f block of input pixels, every channel averaged independently. RGBA images are
- * averaged with straight (not premultiplied) alpha and stay RGBA; compositing over the
- * background happens afterwards, as in NeRF's loaders (resize the RGBA, then composite).
+ * an f x f block of input pixels. Images with alpha (grey+alpha, RGBA) stay straight-alpha:
+ * alpha is the block's mean and the colour the coverage-weighted mean (mean premultiplied
+ * colour / mean alpha; the plain mean where the block has no coverage), so that a block
+ * composited over any background equals the mean of its pixels composited. NeRF's loaders
+ * average straight colours instead, which darkens a silhouette against the transparent
+ * black that Blender writes for empty space. Compositing happens afterwards.
  * Fails with a message if w or h is not divisible by f. *out is a new image. */
 int cn_image_downscale(const cn_image *in, int f, cn_image *out, char *err, size_t errlen);
 

@@ -379,7 +379,9 @@ static void test_downscale(void **state)
 {
     (void)state;
     char err[256];
-    /* 4x2 RGBA: the two 2x2 blocks average every channel, alpha included. */
+    /* 4x2 RGBA: each 2x2 block averages alpha, and its colour weighted by alpha (straight
+     * colour = mean of premultiplied colour / mean alpha), so that the block composites
+     * over any background as its four pixels do on average. */
     float px[4 * 2 * 4];
     for (int i = 0; i < 32; i++)
         px[i] = (float)i / 32.0f;
@@ -388,13 +390,35 @@ static void test_downscale(void **state)
     assert_int_equal(out.w, 2);
     assert_int_equal(out.h, 1);
     assert_int_equal(out.c, 4);
-    for (int x = 0; x < 2; x++)
-        for (int k = 0; k < 4; k++) {
-            float m = (px[(2 * x) * 4 + k] + px[(2 * x + 1) * 4 + k] + px[(4 + 2 * x) * 4 + k] +
-                       px[(4 + 2 * x + 1) * 4 + k]) /
-                      4;
-            assert_true(fabsf(out.px[x * 4 + k] - m) < 1e-6f);
+    const int blk[2][4] = {{0, 1, 4, 5}, {2, 3, 6, 7}};
+    for (int x = 0; x < 2; x++) {
+        float a = 0, pm[3] = {0, 0, 0};
+        for (int j = 0; j < 4; j++) {
+            const float *p = px + 4 * blk[x][j];
+            a += p[3] / 4;
+            for (int k = 0; k < 3; k++)
+                pm[k] += p[3] * p[k] / 4;
         }
+        assert_true(fabsf(out.px[x * 4 + 3] - a) < 1e-6f);
+        for (int k = 0; k < 3; k++)
+            assert_true(fabsf(out.px[x * 4 + k] - pm[k] / a) < 1e-6f);
+    }
+    cn_image_free(&out);
+    /* An opaque red pixel beside a transparent black one (how Blender writes empty space)
+     * is half-covered red, not half-covered dark red: over white it is (1, 0.5, 0.5). A
+     * block with no coverage at all keeps the plain mean of its colours. */
+    float edge[2][2 * 2 * 4] = {
+        {1, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0},
+        {0.2f, 0.4f, 0.6f, 0, 0.4f, 0.6f, 0.8f, 0, 0.2f, 0.4f, 0.6f, 0, 0.4f, 0.6f, 0.8f, 0}};
+    assert_int_equal(cn_image_downscale(&(cn_image){2, 2, 4, edge[0]}, 2, &out, err, sizeof err),
+                     0);
+    assert_true(fabsf(out.px[0] - 1) < 1e-6f && fabsf(out.px[1]) < 1e-6f);
+    assert_true(fabsf(out.px[2]) < 1e-6f && fabsf(out.px[3] - 0.5f) < 1e-6f);
+    cn_image_free(&out);
+    assert_int_equal(cn_image_downscale(&(cn_image){2, 2, 4, edge[1]}, 2, &out, err, sizeof err),
+                     0);
+    assert_true(fabsf(out.px[0] - 0.3f) < 1e-6f && fabsf(out.px[1] - 0.5f) < 1e-6f);
+    assert_true(fabsf(out.px[2] - 0.7f) < 1e-6f && out.px[3] == 0);
     cn_image_free(&out);
     /* Factor 1 copies. */
     assert_int_equal(cn_image_downscale(&in, 1, &out, err, sizeof err), 0);
