@@ -41,6 +41,8 @@ typedef struct cn_view {
                               looks down -z */
     double fx, fy, cx, cy; /* intrinsics in pixels of THIS (downscaled) image */
     float *rgb;            /* w*h*3 floats in [0,1], already composited over the background */
+    float *alpha;          /* w*h opacities in [0,1] of an image with an alpha channel that is
+                              not opaque everywhere; NULL otherwise (every pixel opaque) */
 } cn_view;
 
 typedef struct cn_dataset {

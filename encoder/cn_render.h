@@ -81,6 +81,9 @@ typedef struct cn_batch {
      * coarse transmittance falls below sat_eps are treated as empty (t_sat: cap floats). */
     float sat_eps;
     float *t_sat;
+    /* Per-ray background colours (cap x 3, set by the caller), or NULL for the stream's
+     * background. Training draws them at random on views with transparency. */
+    const float *bg;
 } cn_batch;
 
 int cn_batch_init(cn_batch *b, const cnerf_info *topo, size_t cap);

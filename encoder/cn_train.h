@@ -45,6 +45,13 @@ typedef struct cn_train_opts {
      * at 50x50, preset tiny, lambda 1e-3, 300 iterations, test PSNR 17.40 dB against 9.59 dB
      * in latent units, at 30,963 and 30,289 bytes). */
     int latent_lr_weight_units;
+    /* Training views with transparency (an alpha channel, e.g. Blender's): each ray's
+     * background is drawn uniformly at random and its ground truth recomposited over it,
+     * so that only an empty ray (transmittance 1) matches every background. This removes
+     * the haze that a constant background lets the model put in empty space, which the
+     * stream's occupancy grid then cannot skip. 1 on, 0 off, -1 (the default) on when
+     * some training view has transparency. Rendering keeps the stream's background. */
+    int random_bg;
 } cn_train_opts;
 
 /* NeRF's defaults: 1024 rays, 5e-4 decaying tenfold over 500k steps, preset "small",
@@ -65,6 +72,7 @@ typedef struct cn_trainer {
     float *dcolor[2]; /* batch x 3 */
     cn_occ occ[2];
     double occ_frac[2]; /* occupied fraction after the last update */
+    float *bg;          /* batch x 3 per-ray backgrounds when random_bg is on, else NULL */
 } cn_trainer;
 
 int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o, char *err,

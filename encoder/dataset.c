@@ -166,6 +166,7 @@ static void cn_frames_free(cn_frames *L)
     for (int i = 0; i < L->n; i++) {
         free(L->f[i].path);
         free(L->f[i].v.rgb);
+        free(L->f[i].v.alpha);
     }
     free(L->f);
     L->f = NULL;
@@ -205,20 +206,35 @@ static int cn_frames_add(cn_frames *L, const char *path, int split, const double
 
 /* ---- images ---- */
 
-/* RGB of an RGB or RGBA image, RGBA composited over bg with straight alpha. */
-static float *cn_composite(const cn_image *im, const float bg[3])
+/* RGB of an RGB or RGBA image, RGBA composited over bg with straight alpha, into v->rgb;
+ * v->alpha keeps the opacities when some pixel is not opaque (else NULL). Returns 0, or -1
+ * out of memory. */
+static int cn_composite(const cn_image *im, const float bg[3], cn_view *v)
 {
     size_t n = (size_t)im->w * (size_t)im->h;
-    float *rgb = malloc(sizeof(float) * 3 * n);
-    if (!rgb)
-        return NULL;
+    v->rgb = malloc(sizeof(float) * 3 * n);
+    v->alpha = NULL;
+    if (!v->rgb)
+        return -1;
+    int clear = 0;
     for (size_t i = 0; i < n; i++) {
         const float *p = im->px + i * (size_t)im->c;
-        float a = im->c == 4 ? p[3] : 1.0f;
+        float a = im->c == 4 ? fminf(1.0f, fmaxf(0.0f, p[3])) : 1.0f;
+        clear |= a < 1.0f;
         for (int k = 0; k < 3; k++)
-            rgb[3 * i + k] = fminf(1.0f, fmaxf(0.0f, a * p[k] + (1.0f - a) * bg[k]));
+            v->rgb[3 * i + k] = fminf(1.0f, fmaxf(0.0f, a * p[k] + (1.0f - a) * bg[k]));
     }
-    return rgb;
+    if (!clear)
+        return 0;
+    v->alpha = malloc(sizeof(float) * n);
+    if (!v->alpha) {
+        free(v->rgb);
+        v->rgb = NULL;
+        return -1;
+    }
+    for (size_t i = 0; i < n; i++)
+        v->alpha[i] = fminf(1.0f, fmaxf(0.0f, im->px[i * 4 + 3]));
+    return 0;
 }
 
 /* Reads one frame's image, downscales it by `factor` and composites it. */
@@ -243,10 +259,10 @@ static int cn_frame_load(cn_frame *fr, int factor, const float bg[3], char *err,
     }
     fr->v.w = im->w;
     fr->v.h = im->h;
-    fr->v.rgb = cn_composite(im, bg);
+    const int oom = cn_composite(im, bg, &fr->v);
     cn_image_free(&full);
     cn_image_free(&small);
-    if (!fr->v.rgb)
+    if (oom)
         return cn_fail(err, errlen, "%s: out of memory", fr->path);
     return 0;
 }
@@ -1122,6 +1138,7 @@ static int cn_dataset_take(cn_dataset *ds, cn_frames *L, char *err, size_t errle
         cn_frame *fr = &L->f[i];
         (*dst[fr->split])[(*cnt[fr->split])++] = fr->v;
         fr->v.rgb = NULL;
+        fr->v.alpha = NULL;
     }
     return 0;
 }
@@ -1177,8 +1194,10 @@ int cn_dataset_load(const char *dir, const cn_dataset_opts *o, cn_dataset *ds, c
 
 static void cn_views_free(cn_view *v, int n)
 {
-    for (int i = 0; v && i < n; i++)
+    for (int i = 0; v && i < n; i++) {
         free(v[i].rgb);
+        free(v[i].alpha);
+    }
     free(v);
 }
 

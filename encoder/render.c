@@ -328,7 +328,8 @@ void cn_render_forward(const cn_model *m, cn_batch *b, size_t R, const uint64_t 
 #pragma omp parallel for schedule(static)
     for (size_t r = 0; r < R; r++)
         cn_volume_forward(b->raw[0] + r * nc * 4, 4, b->t_c + r * nc, b->inside[0] + r * nc, nc,
-                          far, norm3(b->d + r * 3), bg, b->color[0] + r * 3, b->w_c + r * nc);
+                          far, norm3(b->d + r * 3), b->bg ? b->bg + 3 * r : bg,
+                          b->color[0] + r * 3, b->w_c + r * nc);
     if (T->n_nets < 2)
         return;
     if (b->sat_eps > 0)
@@ -347,7 +348,8 @@ void cn_render_forward(const cn_model *m, cn_batch *b, size_t R, const uint64_t 
 #pragma omp parallel for schedule(static)
     for (size_t r = 0; r < R; r++)
         cn_volume_forward(b->raw[1] + r * ns * 4, 4, b->t_f + r * ns, b->inside[1] + r * ns, ns,
-                          far, norm3(b->d + r * 3), bg, b->color[1] + r * 3, NULL);
+                          far, norm3(b->d + r * 3), b->bg ? b->bg + 3 * r : bg,
+                          b->color[1] + r * 3, NULL);
 }
 
 void cn_render_backward(cn_model *m, cn_batch *b, size_t R, float *const dcolor[2])
@@ -365,8 +367,8 @@ void cn_render_backward(cn_model *m, cn_batch *b, size_t R, float *const dcolor[
 #pragma omp parallel for schedule(static)
         for (size_t r = 0; r < R; r++)
             cn_volume_backward(b->draw[net] + r * n * 4, 4, b->raw[net] + r * n * 4, t + r * n,
-                               b->inside[net] + r * n, n, far, norm3(b->d + r * 3), bg,
-                               dcolor[net] + r * 3);
+                               b->inside[net] + r * n, n, far, norm3(b->d + r * 3),
+                               b->bg ? b->bg + 3 * r : bg, dcolor[net] + r * 3);
         const uint32_t *rows = b->rows[net];
 #pragma omp parallel for schedule(static)
         for (size_t j = 0; j < b->n_rows[net]; j++)

@@ -33,6 +33,7 @@ void cn_train_defaults(cn_train_opts *o)
      * their rate estimate was 28% above the coded payload (docs/results.md). */
     o->lr_prior = 5e-3;
     o->lr_affine = 5e-4;
+    o->random_bg = -1;
 }
 
 static int32_t q16(double v) { return (int32_t)lround(v * 65536.0); }
@@ -125,6 +126,19 @@ int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o,
         snprintf(err, errlen, "out of memory for a batch of %zu rays", R);
         return -1;
     }
+    int clear = 0;
+    for (int i = 0; i < ds->n_train; i++)
+        clear |= ds->train[i].alpha != NULL;
+    t->opts.random_bg = o->random_bg < 0 ? clear : o->random_bg != 0;
+    if (t->opts.random_bg) {
+        t->bg = malloc(sizeof(float) * R * 3);
+        if (!t->bg) {
+            cn_trainer_free(t);
+            snprintf(err, errlen, "out of memory for a batch of %zu rays", R);
+            return -1;
+        }
+        t->batch.bg = t->bg;
+    }
     for (unsigned n = 0; n < t->model.topo.n_nets && o->occ_grid > 0; n++)
         if (cn_occ_init(&t->occ[n], &t->model.topo, o->occ_grid)) {
             cn_trainer_free(t);
@@ -143,7 +157,8 @@ void cn_trainer_free(cn_trainer *t)
     free(t->gt);
     free(t->dcolor[0]);
     free(t->dcolor[1]);
-    t->gt = t->dcolor[0] = t->dcolor[1] = NULL;
+    free(t->bg);
+    t->gt = t->dcolor[0] = t->dcolor[1] = t->bg = NULL;
     for (int n = 0; n < 2; n++)
         if (t->occ[n].g)
             cn_occ_free(&t->occ[n]);
@@ -170,6 +185,7 @@ static void draw_rays(cn_trainer *t, size_t R)
 {
     const cn_dataset *ds = t->ds;
     cn_rng rng = cn_rng_seed(t->opts.seed * 0x2545F4914F6CDD1Dull + (uint64_t)t->step);
+    cn_rng bgr = cn_rng_seed(t->opts.seed * 0x9E3779B97F4A7C15ull + 0xB6ull + (uint64_t)t->step);
     const int crop = t->step < t->opts.precrop_iters && !ds->ndc;
     for (size_t r = 0; r < R; r++) {
         const cn_view *v = &ds->train[cn_rng_below(&rng, (uint32_t)ds->n_train)];
@@ -188,7 +204,19 @@ static void draw_rays(cn_trainer *t, size_t R)
         cn_view_camera(v, &cam);
         cn_camera_ray(&cam, ds->ndc, x, y, t->batch.o + 3 * r, t->batch.d + 3 * r,
                       t->batch.vd + 3 * r);
-        memcpy(t->gt + 3 * r, v->rgb + ((size_t)y * v->w + x) * 3, sizeof(float) * 3);
+        const size_t px = (size_t)y * v->w + x;
+        memcpy(t->gt + 3 * r, v->rgb + px * 3, sizeof(float) * 3);
+        if (t->bg) {
+            /* Recomposite over a random background: the stored pixel is a c + (1 - a) bg0,
+             * so a c + (1 - a) bg = pixel + (1 - a)(bg - bg0). Opaque views keep bg0. Its
+             * own stream, so that the rays drawn do not depend on the option. */
+            float *bg = t->bg + 3 * r;
+            const float a = v->alpha ? v->alpha[px] : 1.0f;
+            for (int c = 0; c < 3; c++) {
+                bg[c] = v->alpha ? (float)cn_rng_uniform(&bgr) : ds->bg[c];
+                t->gt[3 * r + c] += (1.0f - a) * (bg[c] - ds->bg[c]);
+            }
+        }
     }
 }
 

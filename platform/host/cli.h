@@ -41,6 +41,12 @@ int cli_eval_views(const struct cn_model *m, const struct cn_view *views, int n,
 /* Loads a dataset with the shared options; prints the error and returns 1 on failure. */
 int cli_load_dataset(const char *cmd, const char *dir, long downscale, int black, double near,
                      double far, struct cn_dataset *ds);
+/* --random-bg auto|on|off into cn_train_opts.random_bg (-1, 1, 0); prints the error and
+ * returns 1 for another word. */
+int cli_random_bg(const char *cmd, const char *word, int *random_bg);
+/* After cn_trainer_init: one line saying whether training draws random backgrounds, and
+ * on how many of the training views (those with transparency). */
+void cli_say_random_bg(const struct cn_trainer *t);
 /* The views of a split ("test", "val" or "train"); prints the error and returns 1 for an
  * unknown or empty split. */
 int cli_split_views(const char *cmd, const struct cn_dataset *ds, const char *dir,

@@ -20,7 +20,7 @@
     "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N] [--log-every N]\n" \
     "       [--depth D] [--width W] [--coarse N] [--fine N] [--latent-lr latent|weight]\n"  \
     "       [--eval-every N] [--prior-lr X] [--affine-lr X]\n"   \
-    "       [--skip-saturated EPS] [--grid G|0] [--grid-verbose]"
+    "       [--skip-saturated EPS] [--grid G|0] [--grid-verbose] [--random-bg auto|on|off]"
 
 static void say(const char *line)
 {
@@ -34,6 +34,7 @@ int cmd_encode(int argc, char **argv)
     cn_train_defaults(&o);
     o.compress = 1;
     const char *out = NULL, *resume = NULL, *pos[1], *latent_lr = "weight";
+    const char *random_bg = "auto";
     long iters = o.iters, downscale = 1, threads = 0, batch = o.batch, every = 1;
     long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 1000, log_every = 100;
     long eval_every = 0, grid_g = -1;
@@ -66,6 +67,7 @@ int cmd_encode(int argc, char **argv)
         {"--affine-lr", CLI_DOUBLE, &o.lr_affine, 0, 1},
         {"--grid", CLI_LONG, &grid_g, -1, CNERF_MAX_GRID},
         {"--grid-verbose", CLI_FLAG, &grid_verbose, 0, 0},
+        {"--random-bg", CLI_STR, &random_bg, 0, 0},
     };
     if (cli_parse("encode", ENCODE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
                   &n_pos))
@@ -80,6 +82,8 @@ int cmd_encode(int argc, char **argv)
         return cli_fail("encode", "--latent-lr takes 'latent' (Adam's step in latent units, "
                         "the paper's) or 'weight' (in weight units), not '%s'", latent_lr);
     o.latent_lr_weight_units = !strcmp(latent_lr, "weight");
+    if (cli_random_bg("encode", random_bg, &o.random_bg))
+        return 1;
     cli_set_threads(threads);
     o.iters = iters;
     o.seed = seed;
@@ -103,6 +107,7 @@ int cmd_encode(int argc, char **argv)
         cn_dataset_free(&ds);
         return cli_fail("encode", "%s", err);
     }
+    cli_say_random_bg(&t);
     int rc = 0, stopped = 0;
     if (resume) {
         if (access(resume, F_OK) != 0)

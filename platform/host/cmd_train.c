@@ -18,7 +18,7 @@
     "       [--width W] [--coarse N] [--fine N] [--lr X] [--precrop-iters N] [--black]\n"     \
     "       [--near X] [--far X] [--ckpt-every N] [--log-every N] [--occupancy G]\n"     \
     "       [--eval-every N] [--every K]\n"                                              \
-    "       [--occupancy-start N] [--skip-saturated EPS]"
+    "       [--occupancy-start N] [--skip-saturated EPS] [--random-bg auto|on|off]"
 
 /* Ctrl-C during training: the loop stops after the current iteration and saves.
  *
@@ -88,6 +88,30 @@ int cli_load_dataset(const char *cmd, const char *dir, long downscale, int black
     if (cn_dataset_load(dir, &o, ds, err, sizeof err))
         return cli_fail(cmd, "%s", err);
     return 0;
+}
+
+int cli_random_bg(const char *cmd, const char *word, int *random_bg)
+{
+    static const char *const words[] = {"off", "on", "auto"};
+    for (int i = 0; i < 3; i++)
+        if (!strcmp(word, words[i])) {
+            *random_bg = i == 2 ? -1 : i;
+            return 0;
+        }
+    return cli_fail(cmd, "--random-bg takes auto, on or off, not '%s'", word);
+}
+
+void cli_say_random_bg(const cn_trainer *t)
+{
+    int clear = 0;
+    for (int i = 0; i < t->ds->n_train; i++)
+        clear += t->ds->train[i].alpha != NULL;
+    if (t->opts.random_bg)
+        printf("random backgrounds: %d of %d training views have transparency\n", clear,
+               t->ds->n_train);
+    else if (clear)
+        printf("constant background: %d of %d training views have transparency\n", clear,
+               t->ds->n_train);
 }
 
 /* The test PSNR of the model being trained; returns the seconds it took, or -1. */
@@ -178,7 +202,7 @@ int cmd_train(int argc, char **argv)
 {
     cn_train_opts o;
     cn_train_defaults(&o);
-    const char *out = NULL, *pos[1];
+    const char *out = NULL, *pos[1], *random_bg = "auto";
     long iters = o.iters, downscale = 1, threads = 0, batch = o.batch, depth = -1, width = -1;
     long coarse = -1, fine = -1, precrop = -1, ckpt_every = 1000, log_every = 100;
     long eval_every = 0, every = 1;
@@ -211,12 +235,15 @@ int cmd_train(int argc, char **argv)
         {"--occupancy", CLI_LONG, &occ, 0, 256},
         {"--occupancy-start", CLI_LONG, &occ_start, 0, 1e9},
         {"--skip-saturated", CLI_DOUBLE, &o.sat_eps, 0, 1},
+        {"--random-bg", CLI_STR, &random_bg, 0, 0},
     };
     if (cli_parse("train", TRAIN_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
                   &n_pos))
         return 1;
     if (n_pos != 1 || !out)
         return cli_fail("train", "need a dataset directory and -o FILE\n%s", TRAIN_USAGE);
+    if (cli_random_bg("train", random_bg, &o.random_bg))
+        return 1;
     cli_set_threads(threads);
     o.iters = iters;
     o.seed = seed;
@@ -242,6 +269,7 @@ int cmd_train(int argc, char **argv)
         cn_dataset_free(&ds);
         return cli_fail("train", "%s", err);
     }
+    cli_say_random_bg(&t);
     int rc = 0;
     if (resume && access(out, F_OK) == 0)
         rc = cli_resume("train", &t, out);
