@@ -71,24 +71,38 @@ cnerf_status cnerf_expand_topology(cnerf_info *info)
             return CNERF_E_LIMIT;
         if (N->skip != CNERF_NO_SKIP && (uint32_t)N->skip + 1u >= N->depth)
             return CNERF_E_HEADER; /* the skip must feed a later trunk layer */
-        const uint32_t W = N->width;
+        const uint32_t W = N->width, V = N->view_width;
+        /* Units per layer (UNIT chunk): 0 reads as the full width, never more. */
+        for (uint32_t i = 0; i < CNERF_MAX_DEPTH; i++) {
+            if (i >= N->depth) {
+                N->units[i] = 0;
+                continue;
+            }
+            if (N->units[i] > W)
+                return CNERF_E_HEADER;
+            if (N->units[i] == 0u)
+                N->units[i] = (uint16_t)W;
+        }
+        if (N->view_units > V)
+            return CNERF_E_HEADER;
+        if (N->view_units == 0u)
+            N->view_units = (uint16_t)V;
+        const uint32_t U = N->units[N->depth - 1u], VU = N->view_units;
         N->first_layer = (uint8_t)l;
         for (uint32_t i = 0; i < N->depth; i++) {
-            uint32_t n_in = W;
-            if (i == 0u)
-                n_in = in_pos;
-            else if (N->skip != CNERF_NO_SKIP && i == (uint32_t)N->skip + 1u)
-                n_in = in_pos + W;
-            set_layer(info, &l, n, i, CNERF_ROLE_TRUNK, n_in, W);
+            uint32_t n_in = i ? N->units[i - 1u] : in_pos;
+            if (N->skip != CNERF_NO_SKIP && i == (uint32_t)N->skip + 1u)
+                n_in += in_pos;
+            set_layer(info, &l, n, i, CNERF_ROLE_TRUNK, n_in, N->units[i]);
         }
         uint32_t i = N->depth;
-        if (N->view_width) {
-            set_layer(info, &l, n, i++, CNERF_ROLE_SIGMA, W, 1u);
-            set_layer(info, &l, n, i++, CNERF_ROLE_FEATURE, W, W);
-            set_layer(info, &l, n, i++, CNERF_ROLE_VIEW, W + in_dir, N->view_width);
-            set_layer(info, &l, n, i++, CNERF_ROLE_RGB, N->view_width, 3u);
+        if (V) {
+            set_layer(info, &l, n, i++, CNERF_ROLE_SIGMA, U, 1u);
+            set_layer(info, &l, n, i++, CNERF_ROLE_FEATURE, U, W);
+            set_layer(info, &l, n, i++, CNERF_ROLE_VIEW, W + in_dir, VU);
+            set_layer(info, &l, n, i++, CNERF_ROLE_RGB, VU, 3u);
         } else {
-            set_layer(info, &l, n, i++, CNERF_ROLE_OUTPUT, W, 4u);
+            set_layer(info, &l, n, i++, CNERF_ROLE_OUTPUT, U, 4u);
         }
         N->n_layers = (uint8_t)(l - N->first_layer);
     }
@@ -257,6 +271,32 @@ static cnerf_status parse_grid(const uint8_t *buf, uint32_t off, uint32_t clen, 
     return info->grid_payload_bytes < 4u ? CNERF_E_PAYLOAD : CNERF_OK;
 }
 
+/* Parses a UNIT payload: per network, the units of each trunk layer, then of the view
+ * layer when there is one (u16 each, 1..width); re-expands the topology with them. */
+static cnerf_status parse_units(const uint8_t *p, uint32_t clen, cnerf_info *info)
+{
+    cn_reader r;
+    cn_rd_init(&r, p, clen);
+    uint32_t need = 0;
+    for (uint32_t n = 0; n < info->n_nets; n++)
+        need += 2u * ((uint32_t)info->net[n].depth + (info->net[n].view_width ? 1u : 0u));
+    if (clen != need)
+        return CNERF_E_CHUNK;
+    for (uint32_t n = 0; n < info->n_nets; n++) {
+        cnerf_net_info *N = &info->net[n];
+        for (uint32_t i = 0; i < N->depth; i++)
+            N->units[i] = (uint16_t)cn_rd_u16(&r);
+        if (N->view_width)
+            N->view_units = (uint16_t)cn_rd_u16(&r);
+        for (uint32_t i = 0; i < N->depth; i++)
+            if (N->units[i] == 0u)
+                return CNERF_E_HEADER; /* a layer keeps at least one unit */
+        if (N->view_width && N->view_units == 0u)
+            return CNERF_E_HEADER;
+    }
+    return cnerf_expand_topology(info); /* checks units <= width */
+}
+
 static int tag_ok(uint32_t tag)
 {
     for (int i = 0; i < 4; i++) {
@@ -333,6 +373,14 @@ cnerf_status cn_parse(const uint8_t *buf, size_t len, cnerf_info *info)
             L->chunk_offset = off;
             L->chunk_bytes = cbytes;
             next_layer++;
+        } else if (tag == CNERF_TAG_UNIT && info->version_minor >= 2u) {
+            /* At most one, before the grid and the first layer. (Before 1.2 UNIT is an
+             * unknown critical chunk, as it is to an older decoder.) */
+            if (info->unit_bytes || info->grid_g || next_layer > 0u)
+                return CNERF_E_CHUNK_ORDER;
+            if ((st = parse_units(buf + poff, clen, info)) != CNERF_OK)
+                return st;
+            info->unit_bytes = cbytes;
         } else if (tag == CNERF_TAG_GRID && info->version_minor >= 1u) {
             /* At most one, before the first layer. (A 1.0 stream cannot have one: there
              * GRID is an unknown critical chunk, as it is to a 1.0 decoder.) */

@@ -122,6 +122,9 @@ typedef struct cn_write_report {
 /* Appends a HEAD payload (render parameters and topology of hdr) to h. */
 void cn_put_head(cn_buf *h, const cnerf_info *hdr);
 
+/* 1 when a layer of the (expanded) topology has fewer units than its network's width:
+ * the stream then carries a UNIT chunk and is version 1.2. */
+int cn_topology_pruned(const cnerf_info *I);
 /* Writes the whole stream into `out` (which is reset first), then reads it back with
  * the decoder's parser. On failure returns -1 and puts a message in err. */
 int cn_write_stream(const cn_stream_src *src, cn_buf *out, cn_write_report *rep, char *err,

@@ -465,30 +465,31 @@ void cn_net_forward(const cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
     const cnerf_info *T = &m->topo;
     const cnerf_net_info *N = &T->net[net];
     const unsigned l0 = N->first_layer, D = N->depth;
-    const size_t W = N->width;
+    /* Shapes from the layer table: a pruned trunk layer has fewer units than the width. */
     for (unsigned i = 0; i < D; i++) {
         const cnerf_layer_info *L = &T->layer[l0 + i];
         size_t ldx;
         const float *x = trunk_input(T, N, nb, i, &ldx);
         cn_linear_forward(nb->h[i], nb->ld_h[i], x, ldx, cn_model_kernel(m, l0 + i),
-                          m->params + m->layer[l0 + i].b, P, L->n_in, W, 1);
+                          m->params + m->layer[l0 + i].b, P, L->n_in, L->n_out, 1);
     }
     const float *h = nb->h[D - 1];
-    const size_t ldh = nb->ld_h[D - 1];
+    const size_t ldh = nb->ld_h[D - 1], U = N->units[D - 1];
     const unsigned l = l0 + D;
     if (N->view_width) {
-        const size_t lv = W + T->in_dir, V = N->view_width;
+        const size_t F = T->layer[l + 1].n_out, lv = T->layer[l + 2].n_in, V = N->view_units;
+        const size_t ldv = N->view_width;
         cn_linear_forward(nb->out + 3, 4, h, ldh, cn_model_kernel(m, l),
-                          m->params + m->layer[l].b, P, W, 1, 0);
-        cn_linear_forward(nb->view_in, lv, h, ldh, cn_model_kernel(m, l + 1),
-                          m->params + m->layer[l + 1].b, P, W, W, 0);
-        cn_linear_forward(nb->view_h, V, nb->view_in, lv, cn_model_kernel(m, l + 2),
-                          m->params + m->layer[l + 2].b, P, lv, V, 1);
-        cn_linear_forward(nb->out, 4, nb->view_h, V, cn_model_kernel(m, l + 3),
+                          m->params + m->layer[l].b, P, U, 1, 0);
+        cn_linear_forward(nb->view_in, N->width + T->in_dir, h, ldh, cn_model_kernel(m, l + 1),
+                          m->params + m->layer[l + 1].b, P, U, F, 0);
+        cn_linear_forward(nb->view_h, ldv, nb->view_in, N->width + T->in_dir,
+                          cn_model_kernel(m, l + 2), m->params + m->layer[l + 2].b, P, lv, V, 1);
+        cn_linear_forward(nb->out, 4, nb->view_h, ldv, cn_model_kernel(m, l + 3),
                           m->params + m->layer[l + 3].b, P, V, 3, 0);
     } else {
         cn_linear_forward(nb->out, 4, h, ldh, cn_model_kernel(m, l), m->params + m->layer[l].b,
-                          P, W, 4, 0);
+                          P, U, 4, 0);
     }
 }
 
@@ -497,41 +498,42 @@ void cn_net_backward(cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
     const cnerf_info *T = &m->topo;
     const cnerf_net_info *N = &T->net[net];
     const unsigned l0 = N->first_layer, D = N->depth;
-    const size_t W = N->width;
     const float *h = nb->h[D - 1];
     float *dh = nb->d_h[D - 1];
-    const size_t ldh = nb->ld_h[D - 1];
+    const size_t ldh = nb->ld_h[D - 1], U = N->units[D - 1];
     const unsigned l = l0 + D;
 #define LAYER_ARGS(k) cn_model_kernel_grad(m, k), m->grads + m->layer[k].b
     if (N->view_width) {
-        const size_t lv = W + T->in_dir, V = N->view_width;
-        cn_linear_backward(nb->d_view_h, V, 0, V, 0, LAYER_ARGS(l + 3), nb->d_out, 4, nb->view_h,
-                           V, cn_model_kernel(m, l + 3), P, V, 3);
-        cn_linear_relu_backward(nb->d_view_in, lv, 0, W, 0, LAYER_ARGS(l + 2), nb->d_view_h, V,
-                                nb->view_h, V, nb->view_in, lv, cn_model_kernel(m, l + 2), P,
-                                lv, V);
-        cn_linear_backward(dh, ldh, 0, W, 0, LAYER_ARGS(l + 1), nb->d_view_in, lv, h, ldh,
-                           cn_model_kernel(m, l + 1), P, W, W);
-        cn_linear_backward(dh, ldh, 0, W, 1, LAYER_ARGS(l), nb->d_out + 3, 4, h, ldh,
-                           cn_model_kernel(m, l), P, W, 1);
+        const size_t F = T->layer[l + 1].n_out, lv = T->layer[l + 2].n_in, V = N->view_units;
+        const size_t ldv = N->view_width, ldi = N->width + T->in_dir;
+        cn_linear_backward(nb->d_view_h, ldv, 0, V, 0, LAYER_ARGS(l + 3), nb->d_out, 4,
+                           nb->view_h, ldv, cn_model_kernel(m, l + 3), P, V, 3);
+        cn_linear_relu_backward(nb->d_view_in, ldi, 0, F, 0, LAYER_ARGS(l + 2), nb->d_view_h,
+                                ldv, nb->view_h, ldv, nb->view_in, ldi,
+                                cn_model_kernel(m, l + 2), P, lv, V);
+        cn_linear_backward(dh, ldh, 0, U, 0, LAYER_ARGS(l + 1), nb->d_view_in, ldi, h, ldh,
+                           cn_model_kernel(m, l + 1), P, U, F);
+        cn_linear_backward(dh, ldh, 0, U, 1, LAYER_ARGS(l), nb->d_out + 3, 4, h, ldh,
+                           cn_model_kernel(m, l), P, U, 1);
     } else {
-        cn_linear_backward(dh, ldh, 0, W, 0, LAYER_ARGS(l), nb->d_out, 4, h, ldh,
-                           cn_model_kernel(m, l), P, W, 4);
+        cn_linear_backward(dh, ldh, 0, U, 0, LAYER_ARGS(l), nb->d_out, 4, h, ldh,
+                           cn_model_kernel(m, l), P, U, 4);
     }
     for (unsigned i = D; i-- > 0;) {
         const cnerf_layer_info *L = &T->layer[l0 + i];
         size_t ldx;
         const float *x = trunk_input(T, N, nb, i, &ldx);
         float *dx = NULL;
-        size_t lddx = 0, x0 = 0;
+        size_t lddx = 0, x0 = 0, nx = 0;
         if (i > 0) {
             dx = nb->d_h[i - 1];
             lddx = nb->ld_h[i - 1];
-            x0 = L->n_in - W; /* after the skip, only the h part of [PE(x), h] */
+            nx = N->units[i - 1];
+            x0 = L->n_in - nx; /* after the skip, only the h part of [PE(x), h] */
         }
-        cn_linear_relu_backward(dx, lddx, x0, dx ? W : 0, 0, LAYER_ARGS(l0 + i), nb->d_h[i],
+        cn_linear_relu_backward(dx, lddx, x0, nx, 0, LAYER_ARGS(l0 + i), nb->d_h[i],
                                 nb->ld_h[i], nb->h[i], nb->ld_h[i], x, ldx,
-                                cn_model_kernel(m, l0 + i), P, L->n_in, W);
+                                cn_model_kernel(m, l0 + i), P, L->n_in, L->n_out);
     }
 #undef LAYER_ARGS
 }

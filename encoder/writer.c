@@ -51,6 +51,31 @@ void cn_put_head(cn_buf *h, const cnerf_info *I)
     }
 }
 
+int cn_topology_pruned(const cnerf_info *I)
+{
+    for (unsigned n = 0; n < I->n_nets; n++) {
+        const cnerf_net_info *N = &I->net[n];
+        for (unsigned i = 0; i < N->depth; i++)
+            if (N->units[i] && N->units[i] != N->width)
+                return 1;
+        if (N->view_units && N->view_units != N->view_width)
+            return 1;
+    }
+    return 0;
+}
+
+/* UNIT payload: per network the units of each trunk layer, then of the view layer. */
+static void put_units(cn_buf *c, const cnerf_info *I)
+{
+    for (unsigned n = 0; n < I->n_nets; n++) {
+        const cnerf_net_info *N = &I->net[n];
+        for (unsigned i = 0; i < N->depth; i++)
+            cn_buf_u16(c, N->units[i]);
+        if (N->view_width)
+            cn_buf_u16(c, N->view_units);
+    }
+}
+
 /* Chooses the table (source and precision) with the smallest estimated total size. */
 typedef struct table_choice {
     uint32_t *freq;
@@ -217,12 +242,19 @@ int cn_write_stream(const cn_stream_src *src, cn_buf *out, cn_write_report *rep,
     out->oom = 0;
     const uint8_t sig[4] = {CNERF_MAGIC_0, CNERF_MAGIC_1, CNERF_MAGIC_2, CNERF_MAGIC_3};
     cn_buf_put(out, sig, 4);
-    /* The lowest minor revision whose chunks the stream uses: 1 for a grid. */
+    /* The lowest minor revision whose chunks the stream uses: 1 for a grid, 2 for pruned
+     * layers. */
+    const int pruned = cn_topology_pruned(info);
     cn_buf_u16(out, CNERF_VERSION_MAJOR);
-    cn_buf_u16(out, src->grid_g ? 1u : 0u);
+    cn_buf_u16(out, pruned ? 2u : src->grid_g ? 1u : 0u);
     cn_buf c = {0};
     cn_put_head(&c, info);
     put_chunk(out, CNERF_TAG_HEAD, &c);
+    if (pruned) {
+        c.n = 0;
+        put_units(&c, info);
+        put_chunk(out, CNERF_TAG_UNIT, &c);
+    }
     if (src->meta) {
         c.n = 0;
         cn_buf_put(&c, src->meta, strlen(src->meta));

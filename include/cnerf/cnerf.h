@@ -58,6 +58,11 @@ typedef struct cnerf_net_info {
     uint16_t view_width; /* view-branch width; 0 = no view branch */
     uint8_t n_layers;    /* linear layers of this network */
     uint8_t first_layer; /* index of its first layer in cnerf_info.layer[] */
+    /* Units (outputs) of each trunk layer and of the view layer: width and view_width
+     * unless the stream's UNIT chunk (minor >= 2) removed some. 0 reads as the full width;
+     * cnerf_expand_topology writes the effective values back. */
+    uint16_t units[CNERF_MAX_DEPTH];
+    uint16_t view_units;
 } cnerf_net_info;
 
 typedef struct cnerf_layer_info {
@@ -112,6 +117,8 @@ typedef struct cnerf_info {
     uint16_t grid_f1[CNERF_GRID_CONTEXTS];      /* frequency of "occupied" per context */
     uint32_t grid_bytes;                        /* GRID chunk including framing */
     uint32_t grid_payload_offset, grid_payload_bytes;
+    /* UNIT chunk (minor >= 2) including framing; 0 when every layer has its full width. */
+    uint32_t unit_bytes;
 } cnerf_info;
 
 typedef struct cnerf_decoder {

@@ -15,9 +15,10 @@
 #define CNERF_MAGIC_3 'F'
 #define CNERF_SIGNATURE_BYTES 8u
 #define CNERF_VERSION_MAJOR 1u
-/* The newest minor revision this code knows (1.1 adds the GRID chunk). A writer stamps
- * the lowest minor whose chunks the stream uses, so a stream without a grid stays 1.0. */
-#define CNERF_VERSION_MINOR 1u
+/* The newest minor revision this code knows (1.1 adds the GRID chunk, 1.2 the UNIT
+ * chunk). A writer stamps the lowest minor whose chunks the stream uses, so a stream
+ * without a grid or pruned layers stays 1.0. */
+#define CNERF_VERSION_MINOR 2u
 
 /* Chunk framing: tag[4], u32 length, payload[length], u32 CRC-32 of tag+payload. */
 #define CNERF_CHUNK_OVERHEAD 12u
@@ -31,6 +32,7 @@
 #define CNERF_TAG_DONE CNERF_TAG('D', 'O', 'N', 'E')
 #define CNERF_TAG_META CNERF_TAG('m', 'e', 't', 'a')
 #define CNERF_TAG_GRID CNERF_TAG('G', 'R', 'I', 'D') /* occupancy grid, minor >= 1 */
+#define CNERF_TAG_UNIT CNERF_TAG('U', 'N', 'I', 'T') /* units per layer, minor >= 2 */
 
 /* GRID: g^3 cells over the scene bounds, coded bit by bit with binary rANS under
  * CNERF_GRID_CONTEXTS contexts (the left, front and lower neighbours). */

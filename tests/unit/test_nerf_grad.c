@@ -177,15 +177,22 @@ static double render_loss(unsigned net)
     return dot(gb.color[net], gg[net], GR * 3);
 }
 
-static void setup_small_model(int view, int compressed)
+/* pruned: trunk layers of 5, 3, 8 and 6 units (width 8; the skip after the 3-unit layer)
+ * and a 3-unit view layer (width 5), as a UNIT chunk makes them. */
+static void setup_model(int view, int compressed, int pruned)
 {
     cnerf_info hdr;
     tu_small_header(&hdr, 4, 8, 1);
     hdr.n_coarse = 7;
     hdr.n_fine = 5;
+    static const uint16_t units[4] = {5, 3, 8, 6};
     for (int n = 0; n < 2; n++) {
         hdr.net[n].view_width = view ? 5 : 0;
         hdr.net[n].skip = 1;
+        if (pruned) {
+            memcpy(hdr.net[n].units, units, sizeof units);
+            hdr.net[n].view_units = view ? 3 : 0;
+        }
     }
     char err[256];
     if (compressed)
@@ -208,6 +215,8 @@ static void setup_small_model(int view, int compressed)
     }
     fill(&gg[0][0], sizeof gg / sizeof(float), &r, 1.0);
 }
+
+static void setup_small_model(int view, int compressed) { setup_model(view, compressed, 0); }
 
 static void check_render_grads(unsigned net)
 {
@@ -264,6 +273,27 @@ static void test_render_grads_no_view(void **state)
     check_render_grads(1);
     cn_batch_free(&gb);
     cn_model_free(&gm);
+}
+
+/* Layers narrower than the width (a pruned stream's float model), and a background per
+ * ray (training on views with transparency): the gradients still match. */
+static void test_render_grads_pruned(void **state)
+{
+    (void)state;
+    static float bg[GR * 3];
+    for (int view = 0; view < 2; view++) {
+        setup_model(view, 0, 1);
+        assert_int_equal(gm.topo.layer[1].n_in, 5);
+        assert_int_equal(gm.topo.layer[2].n_in, gm.topo.in_pos + 3);
+        assert_int_equal(gm.topo.layer[4].n_in, 6);
+        cn_rng r = cn_rng_seed(11);
+        fill(bg, GR * 3, &r, 1.0);
+        gb.bg = bg;
+        check_render_grads(0);
+        check_render_grads(1);
+        cn_batch_free(&gb);
+        cn_model_free(&gm);
+    }
 }
 
 /* Rays that never enter the scene bounds run no network rows: the colour is the background
@@ -474,6 +504,7 @@ int main(void)
         cmocka_unit_test(test_fine_sampling),
         cmocka_unit_test(test_render_grads_view),
         cmocka_unit_test(test_render_grads_no_view),
+        cmocka_unit_test(test_render_grads_pruned),
         cmocka_unit_test(test_render_all_outside),
         cmocka_unit_test(test_compressed_kernels),
     };
