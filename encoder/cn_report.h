@@ -12,7 +12,7 @@ typedef struct cn_totals {
     uint64_t affine;    /* per-layer affine decoders (a, b) */
     uint64_t biases;    /* bias blocks */
     uint64_t layer_hdr; /* layer chunk framing and layer headers */
-    uint64_t stream_hdr; /* signature, HEAD and DONE chunks */
+    uint64_t stream_hdr; /* signature, HEAD, UNIT and DONE chunks */
     uint64_t ancillary; /* ancillary chunks (metadata) */
     uint64_t grid;      /* occupancy grid chunk, framing included */
     uint64_t total;     /* sum of the above */

@@ -23,7 +23,8 @@ void cn_breakdown(const cnerf_info *info, cn_totals *t)
         t->biases += L->bias_bytes;
         t->layer_hdr += CNERF_CHUNK_OVERHEAD + L->header_bytes;
     }
-    t->stream_hdr = (uint64_t)info->signature_bytes + info->head_bytes + info->done_bytes;
+    t->stream_hdr = (uint64_t)info->signature_bytes + info->head_bytes + info->unit_bytes +
+                    info->done_bytes;
     t->ancillary = info->ancillary_bytes;
     t->grid = info->grid_bytes;
     t->total = t->payload + t->tables + t->affine + t->biases + t->layer_hdr + t->stream_hdr +
@@ -64,6 +65,18 @@ void cn_print_info(FILE *f, const char *name, const uint8_t *buf, const cnerf_in
         else
             fprintf(f, ", no view branch");
         fprintf(f, ", %u linear layers\n", N->n_layers);
+    }
+    if (I->unit_bytes) {
+        fprintf(f, "units (dead ones removed, UNIT chunk %" PRIu32 " bytes):", I->unit_bytes);
+        for (unsigned n = 0; n < I->n_nets; n++) {
+            const cnerf_net_info *N = &I->net[n];
+            fprintf(f, "%s network %u trunk", n ? ";" : "", n);
+            for (unsigned i = 0; i < N->depth; i++)
+                fprintf(f, " %u", N->units[i]);
+            if (N->view_width)
+                fprintf(f, ", view %u", N->view_units);
+        }
+        fprintf(f, "\n");
     }
     if (I->grid_g) {
         const size_t g = I->grid_g, bytes = (g * g * g + 7) / 8;

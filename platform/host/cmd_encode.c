@@ -11,6 +11,7 @@
 #include "cn_export.h"
 #include "cn_grid.h"
 #include "cn_metrics.h"
+#include "cn_prune.h"
 #include "cn_report.h"
 #include "cn_train.h"
 
@@ -20,12 +21,39 @@
     "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N] [--log-every N]\n" \
     "       [--depth D] [--width W] [--coarse N] [--fine N] [--latent-lr latent|weight]\n"  \
     "       [--eval-every N] [--prior-lr X] [--affine-lr X]\n"   \
-    "       [--skip-saturated EPS] [--grid G|0] [--grid-verbose] [--random-bg auto|on|off]"
+    "       [--skip-saturated EPS] [--grid G|0] [--grid-verbose] [--random-bg auto|on|off]\n"    \
+    "       [--prune on|off]"
 
 static void say(const char *line)
 {
     printf("%s\n", line);
     fflush(stdout);
+}
+
+/* "dead units removed: coarse 0+31+49+0+0+0+0+0 of 8 x 128, view 0 of 128; ...". */
+static void print_pruning(const cnerf_info *T, const cn_prune_report *pr)
+{
+    static const char *const names[2] = {"coarse", "fine"};
+    printf("dead units removed:");
+    unsigned constant = 0;
+    for (unsigned n = 0; n < T->n_nets; n++) {
+        const cnerf_net_info *N = &T->net[n];
+        printf("%s %s ", n ? ";" : "", names[n]);
+        for (unsigned i = 0; i < N->depth; i++)
+            printf("%s%u", i ? "+" : "", pr->before[n][i] - pr->after[n][i]);
+        printf(" of %u x %u", N->depth, N->width);
+        if (N->view_width)
+            printf(", view %u of %u", pr->before[n][N->depth] - pr->after[n][N->depth],
+                   N->view_width);
+        for (unsigned i = 0; i <= N->depth; i++)
+            constant += pr->constant[n][i];
+    }
+    const uint32_t fewer = pr->params_before - pr->params_after;
+    printf("; %u latents fewer (%.1f%%)", fewer,
+           pr->params_before ? 100.0 * fewer / pr->params_before : 0.0);
+    if (constant)
+        printf("; %u units with a constant output kept", constant);
+    printf("\n");
 }
 
 int cmd_encode(int argc, char **argv)
@@ -34,7 +62,7 @@ int cmd_encode(int argc, char **argv)
     cn_train_defaults(&o);
     o.compress = 1;
     const char *out = NULL, *resume = NULL, *pos[1], *latent_lr = "weight";
-    const char *random_bg = "auto";
+    const char *random_bg = "auto", *prune = "on";
     long iters = o.iters, downscale = 1, threads = 0, batch = o.batch, every = 1;
     long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 1000, log_every = 100;
     long eval_every = 0, grid_g = -1;
@@ -68,6 +96,7 @@ int cmd_encode(int argc, char **argv)
         {"--grid", CLI_LONG, &grid_g, -1, CNERF_MAX_GRID},
         {"--grid-verbose", CLI_FLAG, &grid_verbose, 0, 0},
         {"--random-bg", CLI_STR, &random_bg, 0, 0},
+        {"--prune", CLI_STR, &prune, 0, 0},
     };
     if (cli_parse("encode", ENCODE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
                   &n_pos))
@@ -84,6 +113,9 @@ int cmd_encode(int argc, char **argv)
     o.latent_lr_weight_units = !strcmp(latent_lr, "weight");
     if (cli_random_bg("encode", random_bg, &o.random_bg))
         return 1;
+    if (strcmp(prune, "on") && strcmp(prune, "off"))
+        return cli_fail("encode", "--prune takes on (remove dead units) or off, not '%s'",
+                        prune);
     cli_set_threads(threads);
     o.iters = iters;
     o.seed = seed;
@@ -144,7 +176,14 @@ int cmd_encode(int argc, char **argv)
         /* The grid is measured on the kernels of the exported numbers (the last step's
          * update, and a resumed run's parameters, are not materialized yet). */
         cn_model_materialize(&t.model);
-        if (cn_write_stream(&e.src, &b, &rep, err, sizeof err))
+        cn_prune_report pr;
+        if (!strcmp(prune, "on")) {
+            if (cn_export_prune(&e, &pr, err, sizeof err))
+                rc = cli_fail("encode", "%s", err);
+            else
+                print_pruning(&t.model.topo, &pr);
+        }
+        if (rc == 0 && cn_write_stream(&e.src, &b, &rep, err, sizeof err))
             rc = cli_fail("encode", "%s", err);
         if (rc == 0 && grid_g != 0)
             say("occupancy grid: measuring the density on a 129^3 lattice and rendering "

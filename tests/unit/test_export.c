@@ -5,6 +5,8 @@
 #include <string.h>
 
 #include "cn_export.h"
+#include "cn_fixcam.h"
+#include "cn_prune.h"
 #include "cn_prior.h"
 #include "cn_render.h"
 #include "cn_report.h"
@@ -99,6 +101,126 @@ static void test_closed_loop(void **state)
     cn_buf_free(&b);
     free(ws);
     free(dec);
+}
+
+/* The decoder's image of a 12x12 view of the scene's centre. */
+static void decode_view(const cnerf_decoder *dec, uint8_t rgb[12 * 12 * 3])
+{
+    cn_camera cam = {{{1, 0, 0, 0.05}, {0, 1, 0, -0.03}, {0, 0, 1, 4}}, 10, 10, 6, 6, 12, 12};
+    cnerf_camera fc;
+    char err[256];
+    assert_int_equal(cnerf_camera_from_float(&cam, &fc, err, sizeof err), 0);
+    const size_t n = cnerf_render_scratch_size(&dec->info);
+    void *scratch = aligned_alloc(8, (n + 7) & ~(size_t)7);
+    assert_non_null(scratch);
+    assert_int_equal(cnerf_render_tile(dec, &fc, NULL, 0, 0, 12, 12, rgb, 36, scratch, n),
+                     CNERF_OK);
+    free(scratch);
+}
+
+/* Dead units (a pre-activation that no input can make positive) leave the stream, with the
+ * next layer's columns for them, and neither renderer changes: the decoder's image is the
+ * same bits, the float reference's colours the same within float rounding. Units that some
+ * input can switch on stay. */
+static void test_prune_dead_units(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    tu_small_header(&hdr, 4, 8, 1); /* skip into layer 2, view branch of 4 */
+    hdr.n_coarse = 6;
+    hdr.n_fine = 4;
+    cn_model m;
+    char err[256];
+    assert_int_equal(cn_model_init_compressed(&m, &hdr, 11, 6.0, err, sizeof err), 0);
+    cn_rng r = cn_rng_seed(12);
+    for (unsigned l = 0; l < m.topo.n_layers; l++)
+        for (unsigned j = 0; j < m.topo.layer[l].n_out; j++)
+            m.params[m.layer[l].b + j] = (float)(cn_rng_uniform(&r) - 0.5);
+    /* Kill, in each network: trunk layer 0 unit 3 (inputs of both signs), layer 1 units 2
+     * and 5 (its output feeds the skip layer's h part), layer 3 unit 7 (the last: its column
+     * goes from sigma and feature) and view unit 1, by a bias that no input can outweigh. */
+    static const struct { unsigned layer, unit; } kill[] = {{0, 3}, {1, 2}, {1, 5}, {3, 7}, {6, 1}};
+    for (unsigned n = 0; n < 2; n++)
+        for (unsigned q = 0; q < sizeof kill / sizeof kill[0]; q++) {
+            const unsigned l = m.topo.net[n].first_layer + kill[q].layer;
+            assert_true(m.topo.layer[l].role == (kill[q].layer == 6 ? CNERF_ROLE_VIEW
+                                                                    : CNERF_ROLE_TRUNK));
+            m.params[m.layer[l].b + kill[q].unit] = -40.0f;
+        }
+    assert_int_equal(cn_model_snap(&m, err, sizeof err), 0);
+    cn_export e0, e1;
+    assert_int_equal(cn_export_compressed(&m, "full", &e0, err, sizeof err), 0);
+    assert_int_equal(cn_export_compressed(&m, "pruned", &e1, err, sizeof err), 0);
+    cn_prune_report pr;
+    assert_int_equal(cn_export_prune(&e1, &pr, err, sizeof err), 0);
+    for (unsigned n = 0; n < 2; n++) {
+        static const uint16_t after[5] = {7, 6, 8, 7, 3};
+        for (unsigned i = 0; i < 5; i++) {
+            assert_int_equal(pr.before[n][i], i < 4 ? 8 : 4);
+            assert_int_equal(pr.after[n][i], after[i]);
+        }
+    }
+    assert_true(pr.params_after < pr.params_before);
+    cn_buf b0, b1;
+    cnerf_decoder *d0 = malloc(sizeof *d0), *d1 = malloc(sizeof *d1);
+    void *w0, *w1;
+    write_and_open(&e0, &b0, d0, &w0, NULL);
+    write_and_open(&e1, &b1, d1, &w1, NULL);
+    assert_int_equal(d0->info.version_minor, 0);
+    assert_int_equal(d1->info.version_minor, 2);
+    assert_int_equal(d0->info.unit_bytes, 0);
+    assert_int_equal(d1->info.unit_bytes, CNERF_CHUNK_OVERHEAD + 2 * 2 * 5);
+    assert_int_equal(d1->info.n_params, pr.params_after);
+    assert_true(b1.n < b0.n);
+    const cnerf_layer_info *L = d1->info.layer;
+    assert_int_equal(L[0].n_out, 7);
+    assert_int_equal(L[1].n_in, 7);
+    assert_int_equal(L[2].n_in, d1->info.in_pos + 6);
+    assert_int_equal(L[4].n_in, 7);  /* sigma */
+    assert_int_equal(L[5].n_in, 7);  /* feature */
+    assert_int_equal(L[5].n_out, 8);
+    assert_int_equal(L[6].n_out, 3); /* view */
+    assert_int_equal(L[7].n_in, 3);  /* rgb */
+    uint8_t img0[12 * 12 * 3], img1[12 * 12 * 3];
+    decode_view(d0, img0);
+    decode_view(d1, img1);
+    assert_memory_equal(img0, img1, sizeof img0);
+    /* The same image is not an accident of a blank one. */
+    int spread = 0;
+    for (size_t i = 1; i < sizeof img0; i++)
+        spread |= img0[i] != img0[0];
+    assert_true(spread);
+    /* The float reference. */
+    cn_model ref0, ref1;
+    assert_int_equal(cn_model_from_stream(d0, &ref0, err, sizeof err), 0);
+    assert_int_equal(cn_model_from_stream(d1, &ref1, err, sizeof err), 0);
+    enum { R = 16 };
+    cn_batch x0, x1;
+    assert_int_equal(cn_batch_init(&x0, &ref0.topo, R), 0);
+    assert_int_equal(cn_batch_init(&x1, &ref1.topo, R), 0);
+    rays(&x0, R);
+    rays(&x1, R);
+    cn_render_forward(&ref0, &x0, R, NULL);
+    cn_render_forward(&ref1, &x1, R, NULL);
+    for (int i = 0; i < 3 * R; i++)
+        assert_true(fabsf(x0.color[1][i] - x1.color[1][i]) < 1e-5f);
+    cn_batch_free(&x0);
+    cn_batch_free(&x1);
+    cn_model_free(&ref0);
+    cn_model_free(&ref1);
+    /* Pruning a pruned export finds nothing more. */
+    cn_prune_report again;
+    assert_int_equal(cn_export_prune(&e1, &again, err, sizeof err), 0);
+    assert_int_equal(again.params_after, again.params_before);
+    cn_export_free(&e0);
+    cn_export_free(&e1);
+    cn_buf_free(&b0);
+    cn_buf_free(&b1);
+    free(w0);
+    free(w1);
+    free(d0);
+    free(d1);
+    cn_model_free(&m);
 }
 
 /* The naive baseline: 8-bit uniform quantization of a float model. */
@@ -229,6 +351,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_closed_loop),
+        cmocka_unit_test(test_prune_dead_units),
         cmocka_unit_test(test_quantized_baseline),
         cmocka_unit_test(test_prior_tables),
         cmocka_unit_test(test_rate_estimate_matches_payload),
