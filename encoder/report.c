@@ -67,7 +67,7 @@ void cn_print_info(FILE *f, const char *name, const uint8_t *buf, const cnerf_in
         fprintf(f, ", %u linear layers\n", N->n_layers);
     }
     if (I->unit_bytes) {
-        fprintf(f, "units (dead ones removed, UNIT chunk %" PRIu32 " bytes):", I->unit_bytes);
+        fprintf(f, "units per layer (UNIT chunk, %" PRIu32 " bytes):", I->unit_bytes);
         for (unsigned n = 0; n < I->n_nets; n++) {
             const cnerf_net_info *N = &I->net[n];
             fprintf(f, "%s network %u trunk", n ? ";" : "", n);

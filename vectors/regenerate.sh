@@ -77,11 +77,11 @@ vector() {
 CAMS="--dataset $data/lego --downscale 8 --every 100"
 vector 001-lego-encode-tiny "a real 360-degree scene from cnerf encode (Blender Lego, 50x50; format 1.0, no grid)" \
   $cnerf encode "$data/lego" -o "$tmp/s.cnrf" --lambda 1e-3 --preset tiny --downscale 8 \
-  --iters 200 --seed $seed --threads 2 --every 100 --grid 0
+  --iters 200 --seed $seed --threads 2 --every 100 --grid 0 --prune off
 CAMS="--dataset $data/fern --downscale 8 --every 2"
 vector 002-fern-encode-tiny-ndc "a real forward-facing scene in NDC from cnerf encode (LLFF Fern, 63x47; format 1.0, no grid)" \
   $cnerf encode "$data/fern" -o "$tmp/s.cnrf" --lambda 1e-3 --preset tiny --downscale 8 \
-  --iters 200 --seed $seed --threads 2 --every 100 --grid 0
+  --iters 200 --seed $seed --threads 2 --every 100 --grid 0 --prune off
 
 # Features of the format, on random models (cnerf synth).
 CAMS="--orbit 2 --size 24"
@@ -116,9 +116,9 @@ vector 012-unknown-ancillary-chunk "an unknown ancillary chunk (skipped)" \
 # Occupancy grids (format 1.1): a real scene's grid from the encoder, grids of several
 # resolutions (one that divides no power of two) on a fog that fills the box, empty and full.
 CAMS="--dataset $data/lego --downscale 8 --every 100"
-vector 013-lego-encode-grid "a real scene's occupancy grid from cnerf encode (Lego, 50x50, lambda 3, 1000 iterations, 32^3 cells by --grid 32)" \
+vector 013-lego-encode-grid "a real scene's occupancy grid from cnerf encode (Lego, 50x50, lambda 3, 1000 iterations, 32^3 cells by --grid 32; format 1.1)" \
   $cnerf encode "$data/lego" -o "$tmp/s.cnrf" --lambda 3 --preset tiny --downscale 8 \
-  --iters 1000 --seed $seed --threads 2 --every 100 --grid 32
+  --iters 1000 --seed $seed --threads 2 --every 100 --grid 32 --prune off
 CAMS="--orbit 2 --size 24"
 vector 014-grid-16-ball "a 16^3 grid: a ball of occupied cells in a fog" \
   $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --grid 16
@@ -132,6 +132,13 @@ vector 018-grid-full "a full grid: the same picture as without one" \
   $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --grid 32 --grid-shape full
 vector 019-grid-ndc "a grid in NDC space (forward-facing)" \
   $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --grid 16 --ndc
+CAMS="--dataset $data/lego --downscale 8 --every 100"
+vector 020-lego-encode-pruned "dead units removed by cnerf encode, with the automatic grid (Lego, 50x50, lambda 3, 1000 iterations; format 1.2)" \
+  $cnerf encode "$data/lego" -o "$tmp/s.cnrf" --lambda 3 --preset tiny --downscale 8 \
+  --iters 1000 --seed $seed --threads 2 --every 100
+CAMS="--orbit 2 --size 24"
+vector 021-units "layers narrower than the width: trunk 20, 7 (into the skip), 32, 64 and a view layer of 5"  \
+  $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --units 20,7,32,64:5
 
 # The table of docs/conformance.md, between its markers.
 python3 - <<'PY'

@@ -10,7 +10,54 @@
 #define SYNTH_USAGE                                                                          \
     "usage: cnerf synth -o FILE.cnrf [--preset tiny|small|paper] [--seed S] [--spread X]\n" \
     "       [--depth D] [--width W] [--view-width V] [--coarse N] [--fine N] [--lpos L]\n"  \
-    "       [--ldir L] [--ndc] [--black] [--grid G [--grid-shape ball|full|empty]]"
+    "       [--ldir L] [--ndc] [--black] [--grid G [--grid-shape ball|full|empty]]\n"     \
+    "       [--units U1,U2,...[:V]]"
+
+/* --units "U1,...,UD[:V]": units of each trunk layer (and of the view layer) of every
+ * network, as a pruned stream's UNIT chunk gives them. Returns 0 or 1 (error printed). */
+static int parse_units(const char *list, cnerf_info *hdr)
+{
+    const cnerf_net_info *N0 = &hdr->net[0];
+    uint16_t u[CNERF_MAX_DEPTH + 1] = {0};
+    unsigned n = 0, view = 0;
+    const char *p = list;
+    for (;;) {
+        char *end;
+        const long v = strtol(p, &end, 10);
+        if (end == p || v < 1 || v > CNERF_MAX_WIDTH || n > CNERF_MAX_DEPTH)
+            return cli_fail("synth", "--units '%s': expected U1,...,U%u[:V] with each U in "
+                            "1..%u", list, N0->depth, N0->width);
+        u[n++] = (uint16_t)v;
+        if (*end == ',' && !view) {
+            p = end + 1;
+        } else if (*end == ':' && !view) {
+            view = n;
+            p = end + 1;
+        } else if (*end == 0) {
+            break;
+        } else {
+            return cli_fail("synth", "--units '%s': unexpected '%c'", list, *end);
+        }
+    }
+    const unsigned trunk = view ? view : n;
+    if (trunk != N0->depth || (view && n != trunk + 1))
+        return cli_fail("synth", "--units '%s': %u trunk layers given, the networks have %u",
+                        list, trunk, N0->depth);
+    for (unsigned k = 0; k < hdr->n_nets; k++) {
+        cnerf_net_info *N = &hdr->net[k];
+        for (unsigned i = 0; i < trunk; i++) {
+            if (u[i] > N->width)
+                return cli_fail("synth", "--units: %u units in trunk layer %u, more than the "
+                                "width %u", u[i], i, N->width);
+            N->units[i] = u[i];
+        }
+        if (view && (!N->view_width || u[trunk] > N->view_width))
+            return cli_fail("synth", "--units: %u view units, the view width is %u", u[trunk],
+                            N->view_width);
+        N->view_units = view ? u[trunk] : 0;
+    }
+    return 0;
+}
 
 int cmd_synth(int argc, char **argv)
 {
@@ -19,7 +66,7 @@ int cmd_synth(int argc, char **argv)
     double spread = 2.0;
     long depth = -1, width = -1, view = -1, coarse = -1, fine = -1, lpos = -1, ldir = -1;
     long grid = 0;
-    const char *shape = "ball";
+    const char *shape = "ball", *units = NULL;
     int ndc = 0, black = 0, n_pos;
     const cli_opt opts[] = {
         {"-o", CLI_STR, &out, 0, 0},
@@ -37,6 +84,7 @@ int cmd_synth(int argc, char **argv)
         {"--black", CLI_FLAG, &black, 0, 0},
         {"--grid", CLI_LONG, &grid, 0, CNERF_MAX_GRID},
         {"--grid-shape", CLI_STR, &shape, 0, 0},
+        {"--units", CLI_STR, &units, 0, 0},
     };
     if (cli_parse("synth", SYNTH_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], NULL, 0,
                   &n_pos))
@@ -77,6 +125,8 @@ int cmd_synth(int argc, char **argv)
     }
     if (black)
         memset(hdr.background, 0, sizeof hdr.background);
+    if (units && parse_units(units, &hdr))
+        return 1;
     char err[512], meta[512];
     snprintf(meta, sizeof meta, "encoder=cnerf %s; command=synth; preset=%s; seed=%llu; spread=%g",
              CNERF_VERSION_STRING, preset, (unsigned long long)seed, spread);

@@ -303,6 +303,65 @@ static void e_grid_after_layer(chunks *c)
     c->c[2] = t; /* HEAD, LAYR 0, GRID, ... */
 }
 
+/* ---- units per layer (format 1.2) ---- */
+
+/* Inserts after HEAD a UNIT chunk that keeps every layer's full width (valid: the same
+ * topology, spelled out) and stamps the stream 1.2. */
+static chunk *add_units(chunks *c)
+{
+    uint8_t data[64];
+    uint32_t n = 0;
+    for (unsigned net = 0; net < base_info.n_nets; net++) {
+        const cnerf_net_info *N = &base_info.net[net];
+        for (unsigned i = 0; i < N->depth; i++, n += 2)
+            put16(data + n, N->width);
+        if (N->view_width)
+            put16(data + n, N->view_width), n += 2;
+    }
+    insert_chunk(c, 1, "UNIT", data, n);
+    put16(c->sig + 6, 2);
+    return &c->c[1];
+}
+static void e_units_ok(chunks *c) { add_units(c); }
+static void e_units_v11(chunks *c)
+{
+    add_units(c);
+    put16(c->sig + 6, 1);
+}
+/* Trunk layer 1 of the coarse network said to have one unit fewer than its LAYR has. */
+static void e_units_layer(chunks *c) { put16(add_units(c)->data + 2, base_info.net[0].width - 1); }
+static void e_units_zero(chunks *c) { put16(add_units(c)->data + 2, 0); }
+static void e_units_wide(chunks *c) { put16(add_units(c)->data + 2, base_info.net[0].width + 1); }
+static void e_units_view_wide(chunks *c)
+{
+    put16(add_units(c)->data + 2 * base_info.net[0].depth, base_info.net[0].view_width + 1);
+}
+static void e_units_short(chunks *c) { add_units(c)->len -= 2; }
+static void e_units_long(chunks *c)
+{
+    chunk *u = add_units(c);
+    put16(u->data + u->len, 1);
+    u->len += 2;
+}
+static void e_units_twice(chunks *c)
+{
+    add_units(c);
+    insert_chunk(c, 2, "UNIT", c->c[1].data, c->c[1].len);
+}
+static void e_units_after_grid(chunks *c)
+{
+    add_units(c);
+    add_grid(c, 4); /* HEAD, GRID, UNIT */
+    put16(c->sig + 6, 2);
+}
+static void e_units_after_layer(chunks *c)
+{
+    add_units(c);
+    chunk t = c->c[1];
+    c->c[1] = c->c[2];
+    c->c[2] = t; /* HEAD, LAYR 0, UNIT, ... */
+}
+
 /* Raw edits after joining (no CRC repair). */
 static void r_trailing(cn_buf *b) { cn_buf_u8(b, 0); }
 static void r_crc(cn_buf *b) { b->p[8 + 8 + base_info.head_bytes - 12] ^= 1; }
@@ -379,6 +438,19 @@ const neg_case neg_cases[] = {
     {"grid payload with an extra byte", e_grid_extra, NULL, CNERF_OK, CNERF_E_PAYLOAD},
     {"two grids", e_grid_twice, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER},
     {"grid after a layer", e_grid_after_layer, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER},
+    {"units in a 1.2 stream are accepted", e_units_ok, NULL, CNERF_OK, CNERF_OK},
+    {"units in a 1.1 stream", e_units_v11, NULL, CNERF_E_UNKNOWN_CHUNK, CNERF_E_UNKNOWN_CHUNK},
+    {"units disagree with the layers", e_units_layer, NULL, CNERF_E_LAYER, CNERF_E_LAYER},
+    {"a layer of 0 units", e_units_zero, NULL, CNERF_E_HEADER, CNERF_E_HEADER},
+    {"more units than the width", e_units_wide, NULL, CNERF_E_HEADER, CNERF_E_HEADER},
+    {"more view units than the view width", e_units_view_wide, NULL, CNERF_E_HEADER,
+     CNERF_E_HEADER},
+    {"UNIT chunk cut short", e_units_short, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK},
+    {"UNIT chunk too long", e_units_long, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK},
+    {"two UNIT chunks", e_units_twice, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER},
+    {"units after the grid", e_units_after_grid, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER},
+    {"units after a layer", e_units_after_layer, NULL, CNERF_E_CHUNK_ORDER,
+     CNERF_E_CHUNK_ORDER},
     {"trailing byte", NULL, r_trailing, CNERF_E_TRAILING, CNERF_E_TRAILING},
     {"HEAD CRC flipped", NULL, r_crc, CNERF_E_CRC, CNERF_E_CRC},
     {"chunk length past the end", NULL, r_length_huge, CNERF_E_TRUNCATED, CNERF_E_TRUNCATED},
