@@ -3,7 +3,7 @@
 # the host and, with Debian's cross compilers, for aarch64, armhf and s390x (big-endian),
 # runs the foreign builds under qemu-user and checks that every tile's MD5 is the same
 # everywhere. Streams: synthetic 360-degree and NDC models from `cnerf synth` (built in
-# build/ by scripts/test.sh), two of them with occupancy grids, and the demo stream
+# build/ by scripts/test.sh), two of them with occupancy grids, one with narrower layers, and the demo stream
 # out/lego.cnrf when it exists.
 #   scripts/xarch.sh [--size PX]
 set -euo pipefail
@@ -43,7 +43,10 @@ $cnerf synth -o "$work/ndc.cnrf" --preset tiny --seed 5 --ndc --black > /dev/nul
 # occupancy grids: a ball of occupied cells in the fog, and a 5^3 grid in NDC space
 $cnerf synth -o "$work/grid.cnrf" --preset tiny --seed 6 --grid 16 > /dev/null
 $cnerf synth -o "$work/gridndc.cnrf" --preset tiny --seed 7 --ndc --grid 5 > /dev/null
-streams=("$work/tiny.cnrf" "$work/small.cnrf" "$work/ndc.cnrf" "$work/grid.cnrf" "$work/gridndc.cnrf")
+# layers narrower than the width (format 1.2, a UNIT chunk), into the skip and the view branch
+$cnerf synth -o "$work/units.cnrf" --preset tiny --seed 8 --units 20,7,32,64:5 > /dev/null
+streams=("$work/tiny.cnrf" "$work/small.cnrf" "$work/ndc.cnrf" "$work/grid.cnrf" "$work/gridndc.cnrf"
+         "$work/units.cnrf")
 [ -f out/lego.cnrf ] && streams+=(out/lego.cnrf)
 half=$((size / 2))
 f=$(( size * 65536 * 3 / 2 ))  # focal length 1.5 image widths: about 37 degrees
