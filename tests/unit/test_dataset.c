@@ -489,6 +489,9 @@ static void test_lego(void **state)
         opaque += p[3] > 0.99f;
         for (int k = 0; k < 3; k++)
             maxdiff = fmax(maxdiff, fabs(ds.train[0].rgb[3 * i + k] - (p[3] * p[k] + 1 - p[3])));
+        /* The view keeps its opacities (for training with random backgrounds). */
+        assert_non_null(ds.train[0].alpha);
+        assert_true(ds.train[0].alpha[i] == p[3]);
     }
     assert_true(maxdiff < 1e-6);
     assert_true(opaque > 500); /* the object is there */
@@ -535,6 +538,7 @@ static void test_fern(void **state)
     (void)state;
     cn_dataset ds1, ds2;
     load_ok(FERN, &(cn_dataset_opts){.downscale = 1}, &ds1);
+    assert_null(ds1.train[0].alpha); /* RGB files: every pixel opaque */
     assert_int_equal(ds1.kind, CN_DS_LLFF);
     assert_int_equal(ds1.ndc, 1);
     assert_int_equal(ds1.n_train, 17);

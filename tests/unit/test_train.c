@@ -66,7 +66,7 @@ static double mean_test_psnr(const cn_model *m, int views)
 }
 
 /* The first iterations' losses with seed 7 on one thread, measured once; a change of the
- * sampling, the rendering, the initialisation or the optimizer moves them. */
+ * sampling, the rendering, the backgrounds, the initialisation or the optimizer moves them. */
 static void test_pinned_trajectory(void **state)
 {
     (void)state;
@@ -76,8 +76,11 @@ static void test_pinned_trajectory(void **state)
     cn_trainer t;
     char err[512];
     assert_int_equal(cn_trainer_init(&t, &ds, &o, err, sizeof err), 0);
-    static const double pinned[5] = {0.220606349, 0.241632657, 0.151221562, 0.146781117,
-                                    0.139772001};
+    /* Lego has transparency: random backgrounds are on by default. */
+    assert_int_equal(t.opts.random_bg, 1);
+    assert_non_null(t.batch.bg);
+    static const double pinned[5] = {0.104886329, 0.097113877, 0.071210109, 0.071024002,
+                                    0.066109057};
     int bad = 0;
     for (int i = 0; i < 5; i++) {
         double loss = cn_trainer_step(&t, NULL, NULL);
@@ -90,6 +93,48 @@ static void test_pinned_trajectory(void **state)
     cn_trainer_free(&t);
     cn_gemm_set_threads(2);
     assert_int_equal(bad, 0);
+}
+
+/* --random-bg: auto follows the training views' transparency, off keeps the stream's
+ * background for every ray, and the ground truth is then the stored pixel. */
+static void test_random_bg_option(void **state)
+{
+    (void)state;
+    cn_train_opts o;
+    small_opts(&o);
+    char err[512];
+    cn_trainer t;
+    o.random_bg = 0;
+    assert_int_equal(cn_trainer_init(&t, &ds, &o, err, sizeof err), 0);
+    assert_int_equal(t.opts.random_bg, 0);
+    assert_null(t.batch.bg);
+    cn_trainer_free(&t);
+    /* The same views made opaque: auto turns it off. */
+    cn_dataset opaque = ds;
+    opaque.train = malloc(sizeof(cn_view) * (size_t)ds.n_train);
+    assert_non_null(opaque.train);
+    for (int i = 0; i < ds.n_train; i++) {
+        opaque.train[i] = ds.train[i];
+        opaque.train[i].alpha = NULL;
+    }
+    o.random_bg = -1;
+    assert_int_equal(cn_trainer_init(&t, &opaque, &o, err, sizeof err), 0);
+    assert_int_equal(t.opts.random_bg, 0);
+    assert_null(t.batch.bg);
+    cn_trainer_free(&t);
+    /* On: every ray's background is in [0, 1] and its ground truth a valid colour. */
+    o.random_bg = 1;
+    assert_int_equal(cn_trainer_init(&t, &ds, &o, err, sizeof err), 0);
+    cn_trainer_step(&t, NULL, NULL);
+    int varied = 0;
+    for (int i = 0; i < 3 * o.batch; i++) {
+        assert_true(t.bg[i] >= 0 && t.bg[i] <= 1);
+        assert_true(t.gt[i] >= 0 && t.gt[i] <= 1);
+        varied |= t.bg[i] != t.bg[0];
+    }
+    assert_true(varied);
+    cn_trainer_free(&t);
+    free(opaque.train);
 }
 
 /* 300 iterations of a small model must raise the test PSNR by at least 6 dB over the
@@ -332,6 +377,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_pinned_trajectory),
+        cmocka_unit_test(test_random_bg_option),
         cmocka_unit_test(test_end_to_end),
         cmocka_unit_test(test_reproducible),
         cmocka_unit_test(test_resume_continues_exactly),
