@@ -64,6 +64,10 @@ grep -q "^eval: iteration 2, .* 2 views" <<<"$out" || fail "encode --eval-every:
 grep -q "^rate: prior estimate [0-9]* bytes for the integer latents, coded payload [0-9]* bytes" \
   <<<"$out" || fail "encode rate figure: $out"
 grep -q "test: 2 views, psnr" <<<"$out" || fail "encode test views: $out"
+grep -q "^random backgrounds: [0-9]* of [0-9]* training views have transparency" <<<"$out" \
+  || fail "encode on Lego: random backgrounds line: $out"
+grep -q "^dead units removed: coarse [0-9+]* of 4 x 64, view [0-9]* of 32; fine " <<<"$out" \
+  || fail "encode: dead units line: $out"
 "$cnerf" info "$work/s.cnrf" | grep -q "samples: 8 coarse + 8 fine" || fail "info of encoded file"
 # eval of a stream renders its float reference model: the same PSNR that encode printed.
 enc_psnr=$(sed -n 's/^test: 2 views, psnr \([0-9.]*\) dB.*/\1/p' <<<"$out")
@@ -83,7 +87,8 @@ md5=$(sed -n 's/^md5 of all frames: //p' <<<"$out")
 # The occupancy grid: a forced 16^3 grid is written (format 1.1), shown by info, applied by
 # eval (the PSNR encode printed) and counted by render, which --no-skip turns off.
 out=$("$cnerf" encode "$data/lego" -o "$work/gr.cnrf" --lambda 1e-3 --iters 3 --every 100 \
-  --grid 16 "${common[@]}")
+  --grid 16 --prune off "${common[@]}")
+! grep -q "^dead units removed" <<<"$out" || fail "encode --prune off pruned: $out"
 grep -q "^occupancy grid: 16^3, [0-9.]*% of the cells occupied, [0-9]* bytes" <<<"$out" \
   || fail "encode --grid 16: $out"
 info=$("$cnerf" info "$work/gr.cnrf")
@@ -111,6 +116,23 @@ msg=$("$cnerf" synth -o "$work/z.cnrf" --grid 16 --grid-shape cube 2>&1); rc=$?
 [ $rc = 1 ] && grep -q "\-\-grid-shape takes ball, full or empty, not 'cube'" <<<"$msg" \
   || fail "synth --grid-shape cube: $rc $msg"
 [ ! -e "$work/z.cnrf" ] || fail "synth --grid-shape cube wrote a file"
+msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --random-bg sometimes 2>&1); rc=$?
+[ $rc = 1 ] && grep -q "\-\-random-bg takes auto, on or off, not 'sometimes'" <<<"$msg" \
+  || fail "--random-bg sometimes: $rc $msg"
+msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --prune yes 2>&1); rc=$?
+[ $rc = 1 ] && grep -q "\-\-prune takes on (remove dead units) or off, not 'yes'" <<<"$msg" \
+  || fail "--prune yes: $rc $msg"
+msg=$("$cnerf" synth -o "$work/z.cnrf" --units 8,8 2>&1); rc=$?
+[ $rc = 1 ] && grep -q "2 trunk layers given, the networks have 4" <<<"$msg" \
+  || fail "synth --units 8,8: $rc $msg"
+msg=$("$cnerf" synth -o "$work/z.cnrf" --units 8,8,99,8 2>&1); rc=$?
+[ $rc = 1 ] && grep -q "99 units in trunk layer 2, more than the width 64" <<<"$msg" \
+  || fail "synth --units 8,8,99,8: $rc $msg"
+[ ! -e "$work/z.cnrf" ] || fail "a refused option wrote a file"
+"$cnerf" synth -o "$work/u.cnrf" --units 8,3,16,64:5 > /dev/null
+info=$("$cnerf" info "$work/u.cnrf")
+grep -q "format version 1.2" <<<"$info" && grep -q "^units per layer (UNIT chunk, 32 bytes): network 0 trunk 8 3 16 64, view 5; network 1 trunk 8 3 16 64, view 5$" <<<"$info" \
+  || fail "info of a stream with narrower layers: $info"
 set -e
 set +e
 msg=$("$cnerf" render "$work/s.cnrf" --dataset "$data/lego" --downscale 16 --every 100 \
