@@ -238,34 +238,26 @@ static int downscale_rect(const cn_image *in, int x0, int y0, int ow, int oh, in
     const double inv = 1.0 / ((double)f * f);
     for (int y = 0; y < oh; y++) {
         for (int x = 0; x < ow; x++) {
-            double acc[4] = {0, 0, 0, 0};
+            /* One pass: every channel's mean, and for images with alpha (grey+alpha, RGBA)
+             * the colour weighted by coverage, so that the block composites over any
+             * background as its pixels do on average (a transparent black pixel beside an
+             * opaque one must not darken it); the plain mean where nothing is covered. */
+            const int alpha = c == 2 || c == 4;
+            double acc[4] = {0, 0, 0, 0}, pm[3] = {0, 0, 0};
             for (int dy = 0; dy < f; dy++) {
                 const float *p =
                     in->px + ((size_t)(y0 + y * f + dy) * in->w + (size_t)x0 + (size_t)x * f) * c;
-                for (int i = 0; i < f * c; i++)
-                    acc[i % c] += p[i];
+                for (int i = 0; i < f; i++, p += c) {
+                    for (int k = 0; k < c; k++)
+                        acc[k] += p[k];
+                    for (int k = 0; alpha && k < c - 1; k++)
+                        pm[k] += (double)p[c - 1] * p[k];
+                }
             }
             float *q = px + ((size_t)y * ow + x) * c;
+            const int weighted = alpha && acc[c - 1] > 0;
             for (int k = 0; k < c; k++)
-                q[k] = (float)(acc[k] * inv);
-            if (c == 2 || c == 4) {
-                /* Straight alpha: the colour is weighted by coverage, so that the block
-                 * composites over any background as its pixels do on average (a
-                 * transparent black pixel beside an opaque one must not darken it). */
-                double pm[3] = {0, 0, 0}, a = 0;
-                for (int dy = 0; dy < f; dy++) {
-                    const float *p = in->px + ((size_t)(y0 + y * f + dy) * in->w + (size_t)x0 +
-                                               (size_t)x * f) * c;
-                    for (int i = 0; i < f; i++, p += c) {
-                        a += p[c - 1];
-                        for (int k = 0; k < c - 1; k++)
-                            pm[k] += (double)p[c - 1] * p[k];
-                    }
-                }
-                if (a > 0)
-                    for (int k = 0; k < c - 1; k++)
-                        q[k] = (float)(pm[k] / a);
-            }
+                q[k] = (float)(weighted && k < c - 1 ? pm[k] / acc[c - 1] : acc[k] * inv);
         }
     }
     out->w = ow;

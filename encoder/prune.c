@@ -185,6 +185,7 @@ int cn_export_prune(cn_export *e, cn_prune_report *rep, char *err, size_t errlen
     unsigned *rows = malloc(sizeof(unsigned) * CNERF_MAX_LAYER_IN);
     unsigned *cols = malloc(sizeof(unsigned) * CNERF_MAX_LAYER_IN);
     int rc = -1;
+    const char *why = "out of memory while pruning";
     if (!I || !rows || !cols)
         goto done;
     for (unsigned l = 0; l < I->n_layers; l++)
@@ -262,17 +263,14 @@ int cn_export_prune(cn_export *e, cn_prune_report *rep, char *err, size_t errlen
         }
     }
     if (cnerf_expand_topology(H) != CNERF_OK) {
-        snprintf(err, errlen, "pruning produced an invalid topology");
-        free(I);
-        I = NULL;
-        rc = -2;
+        why = "pruning produced an invalid topology";
         goto done;
     }
     rep->params_after = H->n_params;
     rc = 0;
 done:
-    if (rc == -1)
-        snprintf(err, errlen, "out of memory while pruning");
+    if (rc)
+        snprintf(err, errlen, "%s", why);
     for (unsigned l = 0; l < CNERF_MAX_LAYERS; l++) {
         free(dead[l]);
         free(cst[l]);
@@ -280,5 +278,5 @@ done:
     free(rows);
     free(cols);
     free(I);
-    return rc ? -1 : 0;
+    return rc;
 }

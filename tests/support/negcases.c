@@ -295,12 +295,17 @@ static void e_grid_twice(chunks *c)
     add_grid(c, 4);
     insert_chunk(c, 2, "GRID", c->c[1].data, c->c[1].len);
 }
+/* Moves chunk 1 (just inserted after HEAD) behind the first layer: HEAD, LAYR 0, chunk. */
+static void behind_first_layer(chunks *c)
+{
+    chunk t = c->c[1];
+    c->c[1] = c->c[2];
+    c->c[2] = t;
+}
 static void e_grid_after_layer(chunks *c)
 {
     add_grid(c, 4);
-    chunk t = c->c[1];
-    c->c[1] = c->c[2];
-    c->c[2] = t; /* HEAD, LAYR 0, GRID, ... */
+    behind_first_layer(c);
 }
 
 /* ---- units per layer (format 1.2) ---- */
@@ -357,9 +362,7 @@ static void e_units_after_grid(chunks *c)
 static void e_units_after_layer(chunks *c)
 {
     add_units(c);
-    chunk t = c->c[1];
-    c->c[1] = c->c[2];
-    c->c[2] = t; /* HEAD, LAYR 0, UNIT, ... */
+    behind_first_layer(c);
 }
 
 /* Raw edits after joining (no CRC repair). */
