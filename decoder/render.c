@@ -149,8 +149,9 @@ static int32_t finish(const cnerf_layer_info *L, int64_t acc, int64_t tb, int32_
 /* The rows with a non-zero latent, stored first (row j of the workspace is output
  * dec->rows[l][j], j < n_live), go through the dot products, four at a time; the others
  * have sum k x = 0 exactly and only take a b sum x + bias. The order of the outputs does not
- * change any value: each is its own exact sum. */
-static void linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, int32_t *y, int relu)
+ * change any value: each is its own exact sum. Returns the multiply-accumulates done. */
+static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, int32_t *y,
+                       int relu)
 {
     const cnerf_layer_info *L = &dec->info.layer[l];
     const uint32_t n_in = L->n_in, n_out = L->n_out, live = dec->n_live[l];
@@ -180,6 +181,7 @@ static void linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, int32
     }
     for (; j < n_out; j++)
         y[rows[j]] = finish(L, 0, tb, bias[rows[j]], relu);
+    return live * n_in; /* the multiply-accumulates done: live <= 2^11, n_in <= 2^11 */
 }
 
 /* ---- scratch layout ---- */
@@ -248,27 +250,39 @@ void cnerf_render_defaults(const cnerf_info *info, cnerf_render_opts *opts)
 
 /* ---- one network at one point: raw (r, g, b, sigma) in Q16 ---- */
 
-static void net_eval(const cnerf_decoder *dec, unsigned net, const scratch *s, int32_t raw[4])
+/* The trunk and the density: raw[3], and with no view branch raw[0..2] as well (one layer
+ * gives all four). Adds the multiply-accumulates to *macs. */
+static void net_sigma(const cnerf_decoder *dec, unsigned net, const scratch *s, int32_t raw[4],
+                      uint64_t *macs)
 {
     const cnerf_info *I = &dec->info;
     const cnerf_net_info *N = &I->net[net];
     const uint32_t P = I->in_pos;
+    uint32_t m = 0; /* < 2^3 2^22 */
     /* buf[0] and buf[1] both start with PE(x) (the caller wrote it into both). */
     for (unsigned i = 0; i < N->depth; i++) {
         const int32_t *in = s->buf[i & 1u];
         const int skip_in = i == 0 || (N->skip != CNERF_NO_SKIP && i == N->skip + 1u);
-        linear(dec, N->first_layer + i, skip_in ? in : in + P, s->buf[(i + 1u) & 1u] + P, 1);
+        m += linear(dec, N->first_layer + i, skip_in ? in : in + P, s->buf[(i + 1u) & 1u] + P, 1);
     }
     const int32_t *h = s->buf[N->depth & 1u] + P;
     const unsigned l = N->first_layer + N->depth;
-    if (N->view_width) {
-        linear(dec, l, h, raw + 3, 0);
-        linear(dec, l + 1, h, s->view_in, 0);
-        linear(dec, l + 2, s->view_in, s->view_h, 1);
-        linear(dec, l + 3, s->view_h, raw, 0);
-    } else {
-        linear(dec, l, h, raw, 0);
-    }
+    m += linear(dec, l, h, N->view_width ? raw + 3 : raw, 0);
+    *macs += m;
+}
+
+/* The colour raw[0..2] of a network with a view branch, after net_sigma at the same point
+ * (whose trunk output it reads). The caller wrote the ray's PE(d) after the feature. */
+static void net_color(const cnerf_decoder *dec, unsigned net, const scratch *s, int32_t raw[4],
+                      uint64_t *macs)
+{
+    const cnerf_net_info *N = &dec->info.net[net];
+    const int32_t *h = s->buf[N->depth & 1u] + dec->info.in_pos;
+    const unsigned l = N->first_layer + N->depth;
+    uint32_t m = linear(dec, l + 1, h, s->view_in, 0);
+    m += linear(dec, l + 2, s->view_in, s->view_h, 1);
+    m += linear(dec, l + 3, s->view_h, raw, 0);
+    *macs += m;
 }
 
 /* ---- rays ---- */
@@ -410,11 +424,16 @@ static int inside(const cnerf_info *I, const int64_t p[3])
     return 1;
 }
 
+/* Marches one network along the ray. The colour branch runs only for samples that add to the
+ * image: with color 0 (the coarse pass before a fine one, whose colour is not shown) never,
+ * else only where the weight is positive; either way the image is the same bits. */
 static void march_ray(const cnerf_decoder *dec, unsigned net, const scratch *s, const ray *r,
                       const gridmap *gm, const int64_t *t, unsigned n, int64_t far,
-                      uint32_t t_stop, uint32_t *w, march *m, cnerf_render_stats *stats)
+                      uint32_t t_stop, int color, uint32_t *w, march *m,
+                      cnerf_render_stats *stats)
 {
     const cnerf_info *I = &dec->info;
+    const int view = I->net[net].view_width != 0;
     int64_t depth = 0; /* optical depth before sample i, Q16, at most MAX_DEPTH_Q16 */
     uint32_t T = 1u << 30;
     m->rgb[0] = m->rgb[1] = m->rgb[2] = 0;
@@ -436,11 +455,8 @@ static void march_ray(const cnerf_decoder *dec, unsigned net, const scratch *s, 
         posenc(s->buf[0], p, I->l_pos, I->pe_flags & CNERF_PE_INCLUDE_INPUT);
         for (uint32_t k = 0; k < I->in_pos; k++)
             s->buf[1][k] = s->buf[0][k];
-        if (I->net[net].view_width)
-            for (uint32_t k = 0; k < I->in_dir; k++)
-                s->view_in[I->net[net].width + k] = s->vpe[k];
         int32_t raw[4];
-        net_eval(dec, net, s, raw);
+        net_sigma(dec, net, s, raw, &stats->macs);
         if (raw[3] <= 0)
             continue;
         const int64_t delta = (i + 1 < n ? t[i + 1] : far) - t[i];        /* Q32, >= 0 */
@@ -452,6 +468,13 @@ static void march_ray(const cnerf_decoder *dec, unsigned net, const scratch *s, 
         T = T1;
         if (w)
             w[i] = wi;
+        if (!color || wi == 0)
+            continue; /* adds nothing to the pixel */
+        if (view) {
+            for (uint32_t k = 0; k < I->in_dir; k++)
+                s->view_in[I->net[net].width + k] = s->vpe[k];
+            net_color(dec, net, s, raw, &stats->macs);
+        }
         for (unsigned c = 0; c < 3; c++)
             m->rgb[c] += (int64_t)wi * sigmoid_q16(raw[c]);
     }
@@ -531,7 +554,8 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
     carve(I, (uint8_t *)scratch_mem, &s);
     gridmap gm;
     gridmap_init(dec, !(o.flags & CNERF_RENDER_NO_SKIP), &gm);
-    cnerf_render_stats stats = {0, 0, 0};
+    cnerf_render_stats stats; /* field by field: an initializer may become a memset call */
+    stats.rays = stats.evals = stats.in_bounds = stats.macs = 0;
     const unsigned nc = o.n_coarse, nf = I->n_nets > 1 ? o.n_fine : 0;
     const unsigned net = nf ? 1u : 0u;
     const int64_t near = (int64_t)I->near_q16 * 65536, far = (int64_t)I->far_q16 * 65536;
@@ -558,7 +582,8 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
             m.rgb[0] = m.rgb[1] = m.rgb[2] = 0;
             if (make_ray(I, cam, sx, sy, x0 + xx, y0 + yy, &r)) {
                 posenc(s.vpe, r.vd, I->l_dir, I->pe_flags & CNERF_PE_INCLUDE_INPUT);
-                march_ray(dec, 0, &s, &r, &gm, s.t_c, nc, far, o.t_stop, s.w_c, &m, &stats);
+                march_ray(dec, 0, &s, &r, &gm, s.t_c, nc, far, o.t_stop, net == 0, s.w_c, &m,
+                          &stats);
                 if (net == 1) {
                     sample_fine(s.t_f, nf, s.w_c, nc, near, step);
                     unsigned i = 0, j = 0, k = 0;
@@ -568,7 +593,7 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
                         s.t_all[k++] = s.t_c[i++];
                     while (j < nf)
                         s.t_all[k++] = s.t_f[j++];
-                    march_ray(dec, 1, &s, &r, &gm, s.t_all, nc + nf, far, o.t_stop,
+                    march_ray(dec, 1, &s, &r, &gm, s.t_all, nc + nf, far, o.t_stop, 1,
                               (uint32_t *)0, &m, &stats);
                 }
             }
@@ -580,6 +605,7 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
         stats_out->rays += (uint64_t)w * h;
         stats_out->evals += stats.evals;
         stats_out->in_bounds += stats.in_bounds;
+        stats_out->macs += stats.macs;
     }
     return CNERF_OK;
 }

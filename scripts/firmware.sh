@@ -243,6 +243,10 @@ if ok_cal and ok_cross:
     use = "ignored (CNERF_RENDER_NO_SKIP)" if r["flags"] & 1 else "used"
     print(f"  network evaluations per ray: {r['evals'] / rays:.2f} ({r['in_bounds'] / rays:.2f} "
           f"samples inside the bounds); {grid}, {use}")
+    if r["macs"]:
+        print(f"  network multiply-accumulates per ray: {n(round(r['macs'] / rays))}; "
+              f"instructions per MAC: {ins['render'] / r['macs']:.2f} (all of "
+              f"cnerf_render_tile over the MACs done)")
 else:
     print("firmware.sh: the instruction counts are not valid (is this QEMU 7.2 with "
           "-icount shift=0?); not reported", file=sys.stderr)

@@ -198,6 +198,9 @@ typedef struct cnerf_render_stats {
     uint64_t evals;     /* network evaluations, both networks */
     uint64_t in_bounds; /* samples inside the scene bounds and before early termination:
                            the evaluations at the same sample positions without the grid */
+    uint64_t macs;      /* network multiply-accumulates done (latent times activation; rows
+                           whose latents are all zero and colour branches skipped because the
+                           sample adds nothing to the image are not counted) */
 } cnerf_render_stats;
 
 /* The stream's sample counts and t_stop = 2^30 / 4096 (an error below 1/4096 per channel). */

@@ -190,7 +190,8 @@ int main(void)
     }
 #endif
     const uint64_t t4 = ticks_now();
-    cnerf_render_stats work = {0, 0, 0};
+    cnerf_render_stats work; /* field by field: no memset in this firmware */
+    work.rays = work.evals = work.in_bounds = work.macs = 0;
     st = cnerf_render_tile_stats(&dec, &camera, &opts, CNERF_FW_TILE_X0, CNERF_FW_TILE_Y0,
                                  CNERF_FW_TILE_W, CNERF_FW_TILE_H, tile, CNERF_FW_TILE_STRIDE,
                                  scratch, sizeof scratch, &work);
@@ -229,6 +230,7 @@ int main(void)
     put_kv("flags", opts.flags);
     put_kv("evals", work.evals);
     put_kv("in_bounds", work.in_bounds);
+    put_kv("macs", work.macs);
     put_kv("grid", dec.info.grid_g);
     sh_puts("\nfw calib");
     put_kv("insns", 2u * (uint64_t)(n2 - n1));

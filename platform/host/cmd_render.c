@@ -42,7 +42,7 @@ static int render_fixed(const cnerf_decoder *dec, const cnerf_camera *cam, const
 #pragma omp parallel
     {
         void *scratch = aligned_alloc(CNERF_WS_ALIGN, (need + 7) & ~(size_t)7);
-        cnerf_render_stats mine = {0, 0, 0};
+        cnerf_render_stats mine = {0, 0, 0, 0};
 #pragma omp for schedule(dynamic, 1)
         for (int k = 0; k < tx * ty; k++) {
             const int x0 = k % tx * T, y0 = k / tx * T;
@@ -212,7 +212,7 @@ int cmd_render(int argc, char **argv)
         cfg.opts.flags |= CNERF_RENDER_NO_SKIP;
         ref.grid = NULL;
     }
-    cnerf_render_stats stats = {0, 0, 0};
+    cnerf_render_stats stats = {0, 0, 0, 0};
     int rc = 0;
     if (cfg.opts.n_coarse > I->n_coarse || cfg.opts.n_fine > I->n_fine)
         rc = cli_fail("render", "%s has %u coarse and %u fine samples: --coarse %u --fine %u "
@@ -366,6 +366,10 @@ int cmd_render(int argc, char **argv)
                    (double)stats.in_bounds / (double)stats.rays,
                    I->grid_g ? (no_skip ? "; --no-skip: the grid is ignored" : "")
                              : "; the stream has no occupancy grid");
+        if (!use_float && stats.rays)
+            printf("network multiply-accumulates per ray: %.0f (%.0f per evaluation)\n",
+                   (double)stats.macs / (double)stats.rays,
+                   stats.evals ? (double)stats.macs / (double)stats.evals : 0.0);
         if (verify && strcmp(hex, verify)) {
             rc = cli_fail("render", "verification failed: the frames' md5 is %s, expected %s",
                           hex, verify);

@@ -615,6 +615,71 @@ static uint8_t *render_counted(scene *s, const cn_camera *cam, uint32_t flags,
     return px;
 }
 
+/* The MACs of a network's layers [l0, l1): the stored rows with a latent, times their inputs. */
+static uint64_t layer_macs(const cnerf_decoder *dec, unsigned l0, unsigned l1)
+{
+    uint64_t m = 0;
+    for (unsigned l = l0; l < l1; l++)
+        m += (uint64_t)dec->n_live[l] * dec->info.layer[l].n_in;
+    return m;
+}
+
+/* The work counter counts what is done: every evaluation runs the trunk and the density, the
+ * colour branch runs only where it adds to the image (never for the coarse network of a
+ * two-network render), and skipping it does not change a bit. */
+static void test_macs_counted(void **state)
+{
+    (void)state;
+    cn_camera cam;
+    look_at(&cam, 2.5, -3.0, 2.0, 24, 20, 40);
+    for (int two = 0; two < 2; two++) {
+        cnerf_info hdr;
+        tu_small_header(&hdr, 3, 16, two);
+        density_e = -15;
+        scene sc;
+        make_scene_edit(&sc, &hdr, 3.0, 21, dense);
+        const cnerf_decoder *dec = &sc.dec;
+        cnerf_render_stats st;
+        uint8_t *px = render_counted(&sc, &cam, 0, &st);
+        free(px);
+        const cnerf_net_info *N = &dec->info.net[two];
+        const unsigned sig_end = N->first_layer + N->depth + 1u;
+        const uint64_t sig = layer_macs(dec, N->first_layer, sig_end);
+        const uint64_t col = layer_macs(dec, sig_end, sig_end + 3u);
+        uint64_t coarse_sig = 0, evals_fine = st.evals;
+        if (two) {
+            /* the coarse pass: trunk and density only */
+            const cnerf_net_info *C = &dec->info.net[0];
+            coarse_sig = layer_macs(dec, C->first_layer, C->first_layer + C->depth + 1u);
+            cnerf_render_opts o;
+            cnerf_render_defaults(&dec->info, &o);
+            o.n_fine = 0;
+            cnerf_camera fc;
+            char err[256];
+            assert_int_equal(cnerf_camera_from_float(&cam, &fc, err, sizeof err), 0);
+            cnerf_render_stats c;
+            memset(&c, 0, sizeof c);
+            uint8_t *cpx = malloc((size_t)cam.w * cam.h * 3);
+            assert_int_equal(cnerf_render_tile_stats(dec, &fc, &o, 0, 0, (uint32_t)cam.w,
+                                                     (uint32_t)cam.h, cpx, (size_t)cam.w * 3,
+                                                     sc.scratch, sc.scratch_size, &c),
+                             CNERF_OK);
+            free(cpx);
+            evals_fine = st.evals - c.evals; /* same coarse samples in both renders */
+        }
+        const uint64_t evals_coarse = st.evals - evals_fine;
+        const uint64_t lo = evals_coarse * coarse_sig + evals_fine * sig;
+        printf("%s: %llu MACs, %llu evaluations, trunk and density %llu, colour %llu each\n",
+               two ? "two networks" : "one network", (unsigned long long)st.macs,
+               (unsigned long long)st.evals, (unsigned long long)sig, (unsigned long long)col);
+        assert_true(evals_fine > 0 && sig > 0 && col > 0);
+        assert_true(st.macs >= lo + col);                    /* some colour was needed */
+        assert_true(st.macs <= lo + evals_fine * col);       /* never for the coarse pass */
+        assert_int_equal((st.macs - lo) % col, 0);           /* whole colour branches */
+        free_scene(&sc);
+    }
+}
+
 /* A grid changes what is evaluated and nothing else: a full grid renders the stream
  * without a grid bit for bit, an empty one the background with no evaluation; a partial one
  * skips work, matches the float reference, and with CNERF_RENDER_NO_SKIP is the stream
@@ -794,6 +859,7 @@ int main(void)
         cmocka_unit_test(test_knobs),
         cmocka_unit_test(test_ndc),
         cmocka_unit_test(test_grid),
+        cmocka_unit_test(test_macs_counted),
         cmocka_unit_test(test_grid_cell_mapping),
         cmocka_unit_test(test_zero_rows),
     };
