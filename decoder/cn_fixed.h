@@ -33,11 +33,24 @@ static inline int64_t cn_mul_exp(int64_t s, int32_t m, int e)
     const int neg = (s < 0) != (m < 0);
     const uint64_t us = cn_abs64(s);
     const uint32_t um = m < 0 ? 0u - (uint32_t)m : (uint32_t)m;
+    uint64_t r;
+    if ((us >> 32) == 0u) {
+        /* |s| < 2^32 (most accumulators, every bias): V = us um < 2^63 in one 64-bit word */
+        const uint64_t v = us * um;
+        if (e >= 0) {
+            r = e >= 61 || (v >> (61 - e)) != 0 ? (uint64_t)CN_SAT61 : v << e;
+        } else {
+            const unsigned sh = (unsigned)-e; /* V < 2^63 <= 2^(sh-1) rounds to zero */
+            r = sh >= 64 ? 0u : (v + ((uint64_t)1 << (sh - 1))) >> sh; /* < 2^64: no wrap */
+            if (r > (uint64_t)CN_SAT61)
+                r = (uint64_t)CN_SAT61;
+        }
+        return neg ? -(int64_t)r : (int64_t)r;
+    }
     /* V = hi 2^32 + lo with lo < 2^32: us < 2^64, um <= 2^31, so hi < 2^63. */
     uint64_t lo = (us & 0xFFFFFFFFu) * um;
     uint64_t hi = (us >> 32) * um + (lo >> 32);
     lo &= 0xFFFFFFFFu;
-    uint64_t r;
     if (e >= 0) {
         if (e >= 61)
             r = (uint64_t)CN_SAT61;

@@ -57,6 +57,21 @@ static void test_mul_exp(void **state)
             fail_msg("cn_mul_exp(%lld, %d, %d) = %lld, want %lld", (long long)s, m, e,
                      (long long)got, (long long)want);
     }
+    /* the edges of the one-word path (|s| < 2^32) and of the two-word one */
+    const int64_t edge_s[] = {1, 2, 0xFFFFFFFFll, 0x100000000ll, 0x7FFFFFFFll, 0x80000000ll,
+                              0x1FFFFFFFFll, INT64_MAX, INT64_MIN + 1};
+    const int32_t edge_m[] = {1, -1, INT32_MAX, INT32_MIN, 3, 0x40000000};
+    for (size_t a = 0; a < sizeof edge_s / sizeof edge_s[0]; a++)
+        for (size_t b = 0; b < sizeof edge_m / sizeof edge_m[0]; b++)
+            for (int e = -100; e <= 70; e++)
+                for (int sign = -1; sign <= 1; sign += 2) {
+                    const int64_t sv = sign * edge_s[a];
+                    const int64_t got = cn_mul_exp(sv, edge_m[b], e);
+                    const int64_t want = ref_mul_exp(sv, edge_m[b], e);
+                    if (got != want)
+                        fail_msg("cn_mul_exp(%lld, %d, %d) = %lld, want %lld", (long long)sv,
+                                 edge_m[b], e, (long long)got, (long long)want);
+                }
     assert_int_equal(cn_mul_exp(INT64_MIN, INT32_MIN, 0), CN_SAT61);
     assert_int_equal(cn_mul_exp(3, 1, -1), 2);   /* 1.5 rounds away from zero */
     assert_int_equal(cn_mul_exp(-3, 1, -1), -2);
