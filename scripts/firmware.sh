@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# The decoder as bare-metal firmware on an emulated Cortex-M4 (QEMU's mps2-an386 board):
-# builds platform/cortex-m's cnerf_fw.elf with STREAM, CAMERA, the tile and the knobs
-# embedded, runs it under qemu-system-arm with semihosting, renders the same tile on the
-# host with tests/xarch/render_tile.c, prints both MD5s and exits 0 only if they are equal.
+# The decoder as bare-metal firmware on an emulated Cortex-M4 (QEMU's mps2-an386 board) or
+# Cortex-M55 (QEMU's mps3-an547 board, FW_BOARD=an547): builds platform/cortex-m's
+# cnerf_fw.elf with STREAM, CAMERA, the tile and the knobs embedded, runs it under
+# qemu-system-arm with semihosting, renders the same tile on the host with
+# tests/xarch/render_tile.c, prints both MD5s and exits 0 only if they are equal.
 # Then reports what the firmware costs on the target: flash, RAM, worst-case stack and
 # instructions per ray.
 #
@@ -11,7 +12,10 @@
 # CAMERA is the text file tests/xarch/render_tile.c reads (18 integers); T_STOP is Q30, as
 # there; FLAGS is cnerf_render_opts.flags (1: CNERF_RENDER_NO_SKIP, ignore the stream's
 # occupancy grid). Environment:
-#   FW_BUILD_DIR   build directory (build-fw)
+#   FW_BOARD       an386 (default): MPS2 AN386, Cortex-M4, -mcpu=cortex-m4 -mfloat-abi=soft;
+#                  an547: MPS3 AN547, Cortex-M55, -mcpu=cortex-m55 -mfloat-abi=softfp (FPU
+#                  and MVE usable, the soft-float calling convention)
+#   FW_BUILD_DIR   build directory, one per board (build-fw, build-fw-an547)
 #   FW_BUILD_TYPE  MinSizeRel (default): -Os, the configuration scripts/build-m4.sh measures
 #                  and docs/decoder.md states (code size, stack), and the one a flash-bound
 #                  part would ship; Release (-O3) has 2.5x the code for ~12% fewer
@@ -20,14 +24,24 @@
 #   FW_TIMEOUT     seconds before QEMU is killed (600)
 #   FW_EXPECT_MD5  if set, the MD5 the tile must also have (a golden value)
 # Instructions are counted with QEMU's -icount shift=0 (one virtual nanosecond per
-# instruction) and the SysTick on the 25 MHz processor clock: 40 instructions per tick,
-# validated by the firmware on a loop of known length (see platform/cortex-m/fw_render.c).
+# instruction) and the SysTick on the processor clock (25 MHz on the AN386, 32 MHz on the
+# AN547): 40 or 31.25 instructions per tick, validated by the firmware on a loop of known
+# length (see platform/cortex-m/fw_render.c).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 if [ $# -ne 3 ] && [ $# -ne 6 ] && [ $# -ne 7 ]; then
-  sed -n '2,25p' "$0" >&2
+  sed -n '2,29p' "$0" >&2
   exit 2
 fi
+board=${FW_BOARD:-an386}
+case $board in
+  # core, QEMU machine, toolchain file, default build directory, second counter
+  an386) core=Cortex-M4 machine=mps2-an386 toolchain=cmake/toolchains/arm-none-eabi.cmake
+         bdir_default=build-fw timer2="APB timer0" ;;
+  an547) core=Cortex-M55 machine=mps3-an547 toolchain=cmake/toolchains/arm-none-eabi-m55.cmake
+         bdir_default=build-fw-an547 timer2="SSE-300 system counter" ;;
+  *) echo "firmware.sh: FW_BOARD must be an386 or an547, not '$board'" >&2; exit 2 ;;
+esac
 stream=$1 camera=$2 tile=$3
 knobs=""
 [ $# -ge 6 ] && knobs="$4 $5 $6"
@@ -58,13 +72,13 @@ need qemu-system-arm qemu-system-arm
 need timeout coreutils
 need md5sum coreutils
 need python3 python3
-if ! qemu-system-arm -machine help | grep -q '^mps2-an386 '; then
-  echo "firmware.sh: this qemu-system-arm has no mps2-an386 machine (QEMU 6.0 or later: apt-get install qemu-system-arm)" >&2
+if ! qemu-system-arm -machine help | grep -q "^$machine "; then
+  echo "firmware.sh: this qemu-system-arm has no $machine machine (QEMU 7.2: apt-get install qemu-system-arm)" >&2
   exit 1
 fi
 
 cd "$root"
-bdir=${FW_BUILD_DIR:-build-fw}
+bdir=${FW_BUILD_DIR:-$bdir_default}
 btype=${FW_BUILD_TYPE:-MinSizeRel}
 stack=${FW_STACK:-4096}
 tmo=${FW_TIMEOUT:-600}
@@ -72,7 +86,7 @@ mkdir -p "$bdir"
 log=$bdir/firmware-build.log
 
 # ---- the firmware ----
-if ! { cmake -S . -B "$bdir" -DCMAKE_TOOLCHAIN_FILE=cmake/toolchains/arm-none-eabi.cmake \
+if ! { cmake -S . -B "$bdir" -DCMAKE_TOOLCHAIN_FILE="$toolchain" -DCNERF_FW_BOARD="$board" \
          -DCMAKE_BUILD_TYPE="$btype" -DCNERF_FW_STREAM="$stream" -DCNERF_FW_CAMERA="$camera" \
          -DCNERF_FW_TILE="$x0 $y0 $w $h" -DCNERF_FW_KNOBS="$knobs" -DCNERF_FW_STACK="$stack" &&
        cmake --build "$bdir" -j1 --target cnerf_fw; } > "$log" 2>&1; then
@@ -82,11 +96,11 @@ if ! { cmake -S . -B "$bdir" -DCMAKE_TOOLCHAIN_FILE=cmake/toolchains/arm-none-ea
 fi
 grep 'cnerf_fw_embed: warning' "$log" >&2 || true
 elf=$bdir/platform/cortex-m/cnerf_fw.elf
-echo "built $elf ($btype, $(arm-none-eabi-gcc -dumpversion))"
+echo "built $elf ($core, $board, $btype, $(arm-none-eabi-gcc -dumpversion))"
 
 out=$bdir/firmware.out
 set +e
-timeout "$tmo" qemu-system-arm -M mps2-an386 -nographic \
+timeout "$tmo" qemu-system-arm -M "$machine" -nographic \
   -semihosting-config enable=on,target=native -icount shift=0 -kernel "$elf" \
   < /dev/null > "$out" 2>&1
 rc=$?
@@ -127,10 +141,10 @@ if [ -n "${FW_EXPECT_MD5:-}" ]; then
 fi
 
 # ---- the cost on the target ----
-python3 - "$root" "$bdir" "$elf" "$out" "$btype" <<'PY'
+python3 - "$root" "$bdir" "$elf" "$out" "$btype" "$core" "$timer2" <<'PY'
 import glob, os, re, shutil, subprocess, sys, tempfile
 
-root, bdir, elf, out, btype = sys.argv[1:]
+root, bdir, elf, out, btype, core, timer2 = sys.argv[1:]
 sys.path.insert(0, os.path.join(root, "scripts"))
 import stack_usage as su  # noqa: E402
 
@@ -163,7 +177,7 @@ flash = code + sec.get(".rodata", 0) + data
 bss = sec.get(".bss", 0)
 stack_size = sec.get(".stack", 0)
 named = {k: sym.get(k, 0) for k in ("ws", "scratch", "dec", "tile")}
-print(f"== cost on the target: Cortex-M4, {btype}, decoder + firmware, {os.path.basename(elf)} ==")
+print(f"== cost on the target: {core}, {btype}, decoder + firmware, {os.path.basename(elf)} ==")
 print(f"flash {n(flash)} bytes: code {n(code)} (vector table {sec.get('.vectors', 0)}), "
       f"constants {n(consts)} (decoder sin/exp2/sigmoid tables {n(tables)}), "
       f"embedded stream {n(stream)}, .data image {n(data)}")
@@ -189,7 +203,10 @@ for k, v in e2.items():
 problems += p2
 # Fault_Handler is naked assembly that branches to fw_fault_report: an edge GCC cannot see.
 edges.setdefault("Fault_Handler", set()).add("fw_fault_report")
-EXC = 32 + 4  # basic exception frame (no FP context: soft float, FPU off) + alignment
+# An exception frame + alignment: the basic frame on the M4 (soft float, FPU off); on the M55
+# CP10/CP11 are on, and once FP or MVE code has run the frame is the extended one (+ S0-S15,
+# FPSCR, VPR).
+EXC = (26 * 4 if core == "Cortex-M55" else 32) + 4
 try:
     memo = {}
     thread, path = su.deepest("Reset_Handler", frames, edges, [], memo)
@@ -218,21 +235,23 @@ if hw > thread + EXC + tick:
           f"incomplete", file=sys.stderr)
     status = 1
 
-# Instructions: 40 per SysTick tick under -icount shift=0 (1 ns per instruction, 25 MHz
-# SysTick clock), valid only if the firmware's calibration loop says so (+-1 tick) and the
-# SysTick's wrap counting agrees with the APB timer's 32-bit count over the whole run.
-IPT = 40
+# Instructions: 10^9 / (SysTick clock) per SysTick tick under -icount shift=0 (1 ns per
+# instruction; 40 at 25 MHz, 31.25 at 32 MHz), valid only if the firmware's calibration loop
+# says so (+-1 tick) and the SysTick's wrap counting agrees with the second counter's 32-bit
+# count on the same clock over the whole run.
+IPT = 1e9 / fw["clock"]["cpu_hz"]
 cal, ticks, cross = fw["calib"], fw["ticks"], fw["crosscheck"]
+cross2 = next(v for k, v in cross.items() if k != "systick")
 ok_cal = abs(cal["ticks"] * IPT - cal["insns"]) <= 2 * IPT
-ok_cross = abs(cross["systick"] - cross["timer0"]) <= 2
+ok_cross = abs(cross["systick"] - cross2) <= 2
 r = fw["render"]
 rays = r["w"] * r["h"]
-print(f"instructions (QEMU -icount shift=0, SysTick ticks x {IPT}; each figure +-1 tick): "
+print(f"instructions (QEMU -icount shift=0, SysTick ticks x {IPT:g}; each figure +-1 tick): "
       f"calibration loop {n(cal['insns'])} = {n(cal['ticks'])} ticks "
-      f"({'ok' if ok_cal else 'FAILED'}), SysTick vs APB timer0 over the run "
-      f"{n(cross['systick'])} / {n(cross['timer0'])} ticks ({'ok' if ok_cross else 'FAILED'})")
+      f"({'ok' if ok_cal else 'FAILED'}), SysTick vs {timer2} over the run "
+      f"{n(cross['systick'])} / {n(cross2)} ticks ({'ok' if ok_cross else 'FAILED'})")
 if ok_cal and ok_cross:
-    ins = {k: v * IPT for k, v in ticks.items()}
+    ins = {k: round(v * IPT) for k, v in ticks.items()}
     print(f"  cnerf_peek {n(ins['peek'])}, cnerf_open {n(ins['open'])}, md5 of the tile "
           f"{n(ins['md5'])}")
     print(f"  cnerf_render_tile {n(ins['render'])} for {rays} rays ({r['w']}x{r['h']} at "

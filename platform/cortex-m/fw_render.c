@@ -1,8 +1,9 @@
-/* cnerf firmware for a Cortex-M4 (MPS2 AN386 under QEMU): decodes the stream embedded in the
- * flash image into a static workspace, renders the embedded tile with the embedded camera and
- * knobs, hashes the tile's pixels (RGB888, w * 3 bytes per row, row by row) with MD5 and
- * prints, over ARM semihosting,
- *   fw ... lines      sizes, SysTick readings and the stack high-water mark (the report)
+/* cnerf firmware for a Cortex-M4 (MPS2 AN386 under QEMU) or a Cortex-M55 (MPS3 AN547; the
+ * board is fw_board.h's): decodes the stream embedded in the flash image into a static
+ * workspace, renders the embedded tile with the embedded camera and knobs, hashes the tile's
+ * pixels (RGB888, w * 3 bytes per row, row by row) with MD5 and prints, over ARM semihosting,
+ *   fw ... lines      sizes, the clock, SysTick readings and the stack high-water mark (the
+ *                     report)
  *   md5 <32 hex>      the last line
  * then exits with status 0. A decoder error prints `fw: <call>: <status name>` and exits 1; a
  * static buffer smaller than the stream needs exits 2; a fault exits 3 (startup.c).
@@ -10,25 +11,27 @@
  * The stream, camera, tile and knobs come from cnerf_fw_embed.h, which fw_embed.c writes at
  * build time.
  *
- * Instructions: SysTick counts the processor clock (CLKSOURCE = 1; 25 MHz on this board in
- * QEMU) with the 24-bit counter reloading from 2^24 - 1 and an interrupt counting the wraps.
- * Under `qemu-system-arm -icount shift=0` virtual time advances exactly 1 ns per executed
- * instruction, so one SysTick tick is exactly 40 instructions. QEMU makes a device read
- * instruction-exact in icount mode (the translation block ends at the access), so each
- * reading is exact up to the tick quantum: an interval is known to +-1 tick = +-40
- * instructions, and includes the ~30 instructions of one reading and those of the wrap
- * interrupt (a few every 2^24 ticks). Checked at every run: a loop of known length (two
- * lengths, so that the call overhead cancels) must take 40 instructions per tick, and the
- * whole run's SysTick count (wraps included) must agree with the MPS2's 32-bit APB timer 0,
- * which runs on the same 25 MHz and never wraps here. The firmware prints raw ticks;
- * scripts/firmware.sh checks both and converts. Without -icount the ticks follow host time
- * and mean nothing. */
+ * Instructions: SysTick counts the processor clock (CLKSOURCE = 1; FW_CPU_HZ in QEMU: 25 MHz
+ * on the AN386, 32 MHz on the AN547) with the 24-bit counter reloading from 2^24 - 1 and an
+ * interrupt counting the wraps. Under `qemu-system-arm -icount shift=0` virtual time
+ * advances exactly 1 ns per executed instruction, so one SysTick tick is exactly
+ * 10^9 / FW_CPU_HZ instructions: 40 on the AN386, 31.25 on the AN547. QEMU makes a device
+ * read instruction-exact in icount mode (the translation block ends at the access), so each
+ * reading is exact up to the tick quantum: an interval is known to +-1 tick, and includes
+ * the ~30 instructions of one reading and those of the wrap interrupt (a few every 2^24
+ * ticks). Checked at every run: a loop of known length (two lengths, so that the call
+ * overhead cancels) must take that many instructions per tick, and the whole run's SysTick
+ * count (wraps included) must agree with a second counter on the same clock that never wraps
+ * here (fw_board.h: the MPS2's 32-bit APB timer 0 on the AN386, the SSE-300's system
+ * counter on the AN547). The firmware prints raw ticks and FW_CPU_HZ; scripts/firmware.sh
+ * checks both and converts. Without -icount the ticks follow host time and mean nothing. */
 
 #include <stddef.h>
 #include <stdint.h>
 
 #include "cnerf/cnerf.h"
 #include "cnerf_fw_embed.h"
+#include "fw_board.h"
 #include "md5.h"
 #include "semihost.h"
 
@@ -37,7 +40,7 @@
 
 uint32_t fw_stack_high_water(void); /* startup.c */
 void SysTick_Handler(void);
-extern uint32_t __stack_limit[], __stack_top[]; /* mps2-an386.ld */
+extern uint32_t __stack_limit[], __stack_top[]; /* fw-sections.ld */
 
 static cnerf_decoder dec;
 static uint64_t ws[(CNERF_FW_WS_BYTES + 7u) / 8u];
@@ -52,11 +55,6 @@ static const cnerf_camera camera = CNERF_FW_CAMERA_INIT;
 #define SYST_CVR (*(volatile uint32_t *)0xe000e018u)
 #define SCB_ICSR (*(volatile uint32_t *)0xe000ed04u)
 #define SYST_RELOAD 0x00ffffffu
-/* CMSDK APB timer 0 of the MPS2 (a 32-bit down counter on the 25 MHz peripheral clock):
- * an independent check of the SysTick wrap counting over the whole run. */
-#define TIMER0_CTRL (*(volatile uint32_t *)0x40000000u)
-#define TIMER0_VALUE (*(volatile uint32_t *)0x40000004u)
-#define TIMER0_RELOAD (*(volatile uint32_t *)0x40000008u)
 #define ICSR_PENDSTSET (1u << 26)
 
 static volatile uint32_t systick_wraps;
@@ -77,10 +75,7 @@ static void ticks_start(void)
     }
     systick_wraps = 0;
     SYST_CSR = 7u; /* ENABLE | TICKINT | CLKSOURCE */
-    TIMER0_CTRL = 0;
-    TIMER0_RELOAD = 0xffffffffu;
-    TIMER0_VALUE = 0xffffffffu;
-    TIMER0_CTRL = 1u; /* enable, no interrupt */
+    fw_timer2_start(); /* the independent check of the wrap counting over the whole run */
 }
 
 /* Ticks since an arbitrary origin, 64 bits, with interrupts masked. The counter runs
@@ -162,7 +157,7 @@ int main(void)
     const uint64_t c1 = ticks_of_spin(n1), c2 = ticks_of_spin(n2);
     const uint64_t c0 = ticks_now(), c00 = ticks_now(); /* cost of one reading */
 
-    const uint32_t timer0_start = TIMER0_VALUE;
+    const uint32_t timer2_start = fw_timer2_count();
     const uint64_t t0 = ticks_now();
     cnerf_status st = cnerf_peek(cnerf_fw_stream, len, &dec.info);
     const uint64_t t1 = ticks_now();
@@ -209,7 +204,7 @@ int main(void)
     fw_md5_final(&md5, digest);
     fw_md5_hex(digest, hex);
     const uint64_t t6 = ticks_now();
-    const uint32_t timer0_end = TIMER0_VALUE;
+    const uint32_t timer2_end = fw_timer2_count();
 
     sh_puts("fw buffers");
     put_kv("stream", len);
@@ -232,6 +227,8 @@ int main(void)
     put_kv("in_bounds", work.in_bounds);
     put_kv("macs", work.macs);
     put_kv("grid", dec.info.grid_g);
+    sh_puts("\nfw clock");
+    put_kv("cpu_hz", FW_CPU_HZ);
     sh_puts("\nfw calib");
     put_kv("insns", 2u * (uint64_t)(n2 - n1));
     put_kv("ticks", c2 - c1);
@@ -243,7 +240,7 @@ int main(void)
     put_kv("md5", t6 - t5);
     sh_puts("\nfw crosscheck");
     put_kv("systick", t6 - t0);
-    put_kv("timer0", timer0_start - timer0_end);
+    put_kv(FW_TIMER2_KEY, timer2_end - timer2_start);
     sh_puts("\nfw stack");
     put_kv("high_water", fw_stack_high_water());
     put_kv("size", (uint64_t)((uintptr_t)__stack_top - (uintptr_t)__stack_limit));

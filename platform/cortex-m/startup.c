@@ -1,17 +1,19 @@
-/* Start-up code for the cnerf firmware on a Cortex-M4 (MPS2 AN386, see mps2-an386.ld):
- * the vector table, Reset_Handler (copies .data, zeroes .bss, paints the stack, enables the
- * configurable faults, runs main and exits over semihosting with its status) and one
- * handler for every exception the firmware does not expect, which reports the exception and
- * the stacked registers over semihosting and exits with status 3.
+/* Start-up code for the cnerf firmware on a Cortex-M4 (MPS2 AN386, see mps2-an386.ld) or a
+ * Cortex-M55 (MPS3 AN547, see mps3-an547.ld; fw_board.h says which): the vector table,
+ * Reset_Handler (on the M55 first enables CP10/CP11, then copies .data, zeroes .bss, paints
+ * the stack, enables the configurable faults, runs main and exits over semihosting with its
+ * status) and one handler for every exception the firmware does not expect, which reports
+ * the exception and the stacked registers over semihosting and exits with status 3.
  * SysTick_Handler is weak here: fw_render.c defines it. */
 #include <stdint.h>
 
+#include "fw_board.h"
 #include "semihost.h"
 
 #define FW_EXIT_FAULT 3
 #define FW_STACK_PAINT 0xc5ac5ac5u
 
-/* Symbols of mps2-an386.ld. */
+/* Symbols of fw-sections.ld. */
 extern uint32_t __data_load[], __data_start[], __data_end[], __bss_start[], __bss_end[];
 extern uint32_t __stack_limit[], __stack_top[];
 
@@ -30,35 +32,52 @@ uint32_t fw_stack_high_water(void);
 #define SCB_HFSR (*(volatile uint32_t *)0xe000ed2cu)
 #define SCB_MMFAR (*(volatile uint32_t *)0xe000ed34u)
 #define SCB_BFAR (*(volatile uint32_t *)0xe000ed38u)
+#define SCB_CPACR (*(volatile uint32_t *)0xe000ed88u)
 
 typedef void (*fw_vector)(void);
 
-/* 16 system exceptions and the AN386's 32 external interrupts. Entry 0 is the initial main
- * stack pointer. */
-__attribute__((section(".vectors"), used)) static const fw_vector vectors[16 + 32] = {
+#define FW_HANDLERS_4 Fault_Handler, Fault_Handler, Fault_Handler, Fault_Handler
+#define FW_HANDLERS_32                                                                         \
+    FW_HANDLERS_4, FW_HANDLERS_4, FW_HANDLERS_4, FW_HANDLERS_4, FW_HANDLERS_4, FW_HANDLERS_4, \
+        FW_HANDLERS_4, FW_HANDLERS_4
+
+#if FW_ARMV8M
+#define FW_SECURE_FAULT Fault_Handler
+#define FW_EXC7_NAME "SecureFault"
+#else
+#define FW_SECURE_FAULT 0 /* reserved */
+#define FW_EXC7_NAME "reserved"
+#endif
+
+/* 16 system exceptions and the board's external interrupts (fw_board.h). Entry 0 is the
+ * initial main stack pointer. */
+__attribute__((section(".vectors"), used)) static const fw_vector vectors[16 + FW_IRQS] = {
     (fw_vector)(uintptr_t)__stack_top,
     Reset_Handler,
-    Fault_Handler, /* NMI */
-    Fault_Handler, /* HardFault */
-    Fault_Handler, /* MemManage */
-    Fault_Handler, /* BusFault */
-    Fault_Handler, /* UsageFault */
-    0, 0, 0, 0,    /* reserved */
-    Fault_Handler, /* SVCall */
-    Fault_Handler, /* DebugMonitor */
-    0,             /* reserved */
-    Fault_Handler, /* PendSV */
+    Fault_Handler,   /* NMI */
+    Fault_Handler,   /* HardFault */
+    Fault_Handler,   /* MemManage */
+    Fault_Handler,   /* BusFault */
+    Fault_Handler,   /* UsageFault */
+    FW_SECURE_FAULT, /* SecureFault (Armv8-M), else reserved */
+    0, 0, 0,         /* reserved */
+    Fault_Handler,   /* SVCall */
+    Fault_Handler,   /* DebugMonitor */
+    0,               /* reserved */
+    Fault_Handler,   /* PendSV */
     SysTick_Handler,
-    Fault_Handler, Fault_Handler, Fault_Handler, Fault_Handler, Fault_Handler, Fault_Handler,
-    Fault_Handler, Fault_Handler, Fault_Handler, Fault_Handler, Fault_Handler, Fault_Handler,
-    Fault_Handler, Fault_Handler, Fault_Handler, Fault_Handler, Fault_Handler, Fault_Handler,
-    Fault_Handler, Fault_Handler, Fault_Handler, Fault_Handler, Fault_Handler, Fault_Handler,
-    Fault_Handler, Fault_Handler, Fault_Handler, Fault_Handler, Fault_Handler, Fault_Handler,
-    Fault_Handler, Fault_Handler,
+    FW_IRQ_HANDLERS,
 };
 
 void Reset_Handler(void)
 {
+#if FW_ARMV8M
+    /* Full access to CP10 and CP11, the FPU and the M-profile Vector Extension (Helium), before
+     * any code that might use them: with the access off, their instructions raise a NOCP
+     * UsageFault. */
+    SCB_CPACR |= 0xfu << 20;
+    __asm__ volatile("dsb\n\tisb" ::: "memory");
+#endif
     /* volatile: keeps GCC from turning the loops into memcpy/memset calls (no libc). */
     volatile uint32_t *dst = __data_start;
     const uint32_t *src = __data_load;
@@ -74,9 +93,9 @@ void Reset_Handler(void)
     for (dst = __stack_limit; (uintptr_t)dst < sp;)
         *dst++ = FW_STACK_PAINT;
 
-    /* Separate MemManage, BusFault and UsageFault handlers (else they escalate to HardFault),
-     * and trap integer division by zero. */
-    SCB_SHCSR |= (1u << 16) | (1u << 17) | (1u << 18);
+    /* Separate MemManage, BusFault and UsageFault handlers (else they escalate to HardFault;
+     * on Armv8-M SecureFault too), and trap integer division by zero. */
+    SCB_SHCSR |= (1u << 16) | (1u << 17) | (1u << 18) | (FW_ARMV8M ? 1u << 19 : 0u);
     SCB_CCR |= 1u << 4;
     __asm__ volatile("dsb\n\tisb" ::: "memory");
 
@@ -106,7 +125,7 @@ void fw_fault_report(const uint32_t *frame, uint32_t exc_return)
 {
     static const char *const names[16] = {
         "thread",     "reset",    "NMI",      "HardFault", "MemManage", "BusFault",
-        "UsageFault", "reserved", "reserved", "reserved",  "reserved",  "SVCall",
+        "UsageFault", FW_EXC7_NAME, "reserved", "reserved", "reserved", "SVCall",
         "DebugMonitor", "reserved", "PendSV",  "SysTick"};
     const uint32_t exc = SCB_ICSR & 0x1ffu; /* VECTACTIVE */
     sh_puts("fw: unexpected exception ");

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# ctest firmware_m4: a tile of a conformance vector, rendered by the Cortex-M4 firmware under
-# qemu-system-arm, must have the MD5 that vectors/valid/NAME.md5 lists (and the host's). The
-# firmware is built in BUILD_DIR.
-#   run_vector.sh VECTORS_DIR NAME BUILD_DIR [LINE [FLAGS]]
+# ctests firmware_m4*, firmware_m55: a tile of a conformance vector, rendered by the firmware
+# under qemu-system-arm, must have the MD5 that vectors/valid/NAME.md5 lists (and the host's).
+# The firmware is built in BUILD_DIR, for the board FW_BOARD names (scripts/firmware.sh:
+# an386, the Cortex-M4, by default; an547, the Cortex-M55); BUILD_DIR must be the board's own.
+#   [FW_BOARD=an386|an547] run_vector.sh VECTORS_DIR NAME BUILD_DIR [LINE [FLAGS]]
 # LINE (1, the first tile, by default) picks the tile line of NAME.md5; FLAGS (0) is
 # cnerf_render_opts.flags: with 1 (CNERF_RENDER_NO_SKIP, the occupancy grid ignored) the
 # tile's MD5 is checked against the host's render only, as the vector lists none for it.
@@ -16,6 +17,6 @@ grep -E "[[:space:]]$cam\$" "$vectors/valid/$name.cam" > "$build.cam" ||
 mkdir -p "$build"
 expect=$md5
 [ "$flags" = 0 ] || expect=
-FW_BUILD_DIR=$build FW_EXPECT_MD5=$expect \
+FW_BOARD=${FW_BOARD:-an386} FW_BUILD_DIR=$build FW_EXPECT_MD5=$expect \
   "$root/scripts/firmware.sh" "$vectors/valid/$name.cnrf" "$build.cam" "$x0 $y0 $w $h" "$nc" "$nf" \
   "$ts" "$flags"
