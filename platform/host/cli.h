@@ -20,13 +20,19 @@ int cmd_encode(int argc, char **argv);
 int cmd_quantize(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 
-/* The training loop shared by train and encode: progress, periodic and final atomic
- * checkpoints to `ckpt`, Ctrl-C saves and sets *stopped. With eval_every > 0, every
+/* Seconds of training between two checkpoints by default: what kill -9 can lose. */
+#define CLI_CKPT_SECS 60.0
+
+/* The training loop shared by train and encode: progress, atomic checkpoints to `ckpt` every
+ * ckpt_every iterations (0: every ckpt_secs seconds) and at the end; SIGINT, SIGTERM or
+ * SIGHUP saves and sets *stopped to the signal's number. With eval_every > 0, every
  * eval_every iterations (and after the last) renders every `every`-th test view and prints
  * "eval: iteration I, training S s, test psnr P dB, ssim Q, V views", S being the training
  * time so far without the evaluations. Returns 0 or 1 (error printed). */
 int cli_run_training(const char *cmd, struct cn_trainer *t, const char *ckpt, long ckpt_every,
-                     long log_every, long eval_every, long every, int *stopped);
+                     double ckpt_secs, long log_every, long eval_every, long every, int *stopped);
+/* "SIGINT", "SIGTERM" or "SIGHUP". */
+const char *cli_signal_name(int sig);
 /* Restores a checkpoint into t (cn_checkpoint_resume) and says so, noting when the
  * occupancy grids are rebuilt from the model rather than restored (a version 1 checkpoint,
  * or another --occupancy); returns 0 or 1 (error printed). */

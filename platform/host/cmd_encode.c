@@ -18,8 +18,9 @@
 #define ENCODE_USAGE                                                                          \
     "usage: cnerf encode DATASET -o scene.cnrf --lambda L [--preset tiny|small|paper]\n"     \
     "       [--iters N] [--downscale F] [--threads T] [--seed S] [--resume CKPT]\n"          \
-    "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N] [--log-every N]\n" \
-    "       [--depth D] [--width W] [--coarse N] [--fine N] [--latent-lr latent|weight]\n"  \
+    "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N | --ckpt-secs S]\n" \
+    "       [--log-every N] [--depth D] [--width W] [--coarse N] [--fine N]\n"                \
+    "       [--latent-lr latent|weight]\n"                                                   \
     "       [--eval-every N] [--prior-lr X] [--affine-lr X]\n"   \
     "       [--skip-saturated EPS] [--grid G|0] [--grid-verbose] [--random-bg auto|on|off]\n"    \
     "       [--prune on|off]"
@@ -64,7 +65,8 @@ int cmd_encode(int argc, char **argv)
     const char *out = NULL, *resume = NULL, *pos[1], *latent_lr = "weight";
     const char *random_bg = "auto", *prune = "on";
     long iters = o.iters, downscale = 1, threads = 0, batch = o.batch, every = 1;
-    long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 1000, log_every = 100;
+    long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 0, log_every = 100;
+    double ckpt_secs = CLI_CKPT_SECS;
     long eval_every = 0, grid_g = -1;
     double lambda = -1, levels = o.levels;
     uint64_t seed = o.seed;
@@ -83,6 +85,7 @@ int cmd_encode(int argc, char **argv)
         {"--every", CLI_LONG, &every, 1, 1e6},
         {"--black", CLI_FLAG, &black, 0, 0},
         {"--ckpt-every", CLI_LONG, &ckpt_every, 1, 1e9},
+        {"--ckpt-secs", CLI_DOUBLE, &ckpt_secs, 1, 1e6},
         {"--log-every", CLI_LONG, &log_every, 1, 1e9},
         {"--eval-every", CLI_LONG, &eval_every, 0, 1e9},
         {"--depth", CLI_LONG, &depth, 1, CNERF_MAX_DEPTH},
@@ -151,12 +154,12 @@ int cmd_encode(int argc, char **argv)
         printf("encoding %s: %d train views %dx%d, lambda %g, %zu latents, checkpoint %s\n",
                pos[0], ds.n_train, ds.train[0].w, ds.train[0].h, lambda,
                (size_t)t.model.topo.n_params, ckpt);
-        rc = cli_run_training("encode", &t, ckpt, ckpt_every, log_every, eval_every, every,
-                              &stopped);
+        rc = cli_run_training("encode", &t, ckpt, ckpt_every, ckpt_secs, log_every, eval_every,
+                              every, &stopped);
     }
     if (rc == 0 && stopped) {
         printf("interrupted: resume with --resume %s\n", ckpt);
-        rc = 130;
+        rc = 128 + stopped;
     }
     cn_export e;
     cn_buf b = {0};

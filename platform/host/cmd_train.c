@@ -16,63 +16,77 @@
     "usage: cnerf train DATASET -o model.ckpt [--preset tiny|small|paper] [--iters N]\n"       \
     "       [--downscale F] [--threads T] [--seed S] [--resume] [--batch R] [--depth D]\n"     \
     "       [--width W] [--coarse N] [--fine N] [--lr X] [--precrop-iters N] [--black]\n"     \
-    "       [--near X] [--far X] [--ckpt-every N] [--log-every N] [--occupancy G]\n"     \
+    "       [--near X] [--far X] [--ckpt-every N | --ckpt-secs S] [--log-every N] [--occupancy G]\n"     \
     "       [--eval-every N] [--every K]\n"                                              \
     "       [--occupancy-start N] [--skip-saturated EPS] [--random-bg auto|on|off]"
 
-/* Ctrl-C during training: the loop stops after the current iteration and saves.
+/* Stopping a training: Ctrl-C (SIGINT), and SIGTERM and SIGHUP as schedulers, service
+ * managers and closed terminals send them. The loop stops after the current iteration, saves
+ * and the command exits with 128 + the signal's number.
  *
  * No signal handler may run on a thread that is inside a matrix product: oneDNN's x64 GEMM
  * kernels (before its 3.11.2; Debian 12 has 2.6.3) point the stack pointer into a heap
  * workspace while they run, and a handler's frame written there corrupts the heap (glibc
  * aborts at a later malloc or free: "corrupted size vs. prev_size while consolidating").
- * So SIGINT is blocked in the calling thread and in every thread of OpenMP's pool, whose
- * threads run the products (a thread created later inherits the mask), and is taken with
- * sigtimedwait between iterations. The handler stays for threads outside that pool
+ * So the three signals are blocked in the calling thread and in every thread of OpenMP's
+ * pool, whose threads run the products (a thread created later inherits the mask), and are
+ * taken with sigtimedwait between iterations. The handler stays for threads outside that pool
  * (OpenBLAS's own, in a -DCNERF_GEMM=openblas build, whose kernels keep their stack). The
- * guard lasts until the final checkpoint is written, so a second Ctrl-C does not lose it,
+ * guard lasts until the final checkpoint is written, so a second signal does not lose it,
  * and on to the exit of a stopped command. */
-static volatile sig_atomic_t interrupted;
-static void on_sigint(int sig)
+static const int stop_signals[] = {SIGINT, SIGTERM, SIGHUP};
+#define N_STOP_SIGNALS (sizeof stop_signals / sizeof stop_signals[0])
+static volatile sig_atomic_t interrupted; /* the first stop signal taken, 0 if none */
+static void on_stop_signal(int sig)
 {
-    (void)sig;
-    interrupted = 1;
+    if (!interrupted)
+        interrupted = sig;
 }
 
 typedef struct sigint_guard {
-    struct sigaction old_action;
+    struct sigaction old_action[N_STOP_SIGNALS];
     sigset_t set, old_mask;
 } sigint_guard;
 
 static void sigint_guard_begin(sigint_guard *g)
 {
     sigemptyset(&g->set);
-    sigaddset(&g->set, SIGINT);
+    for (size_t i = 0; i < N_STOP_SIGNALS; i++)
+        sigaddset(&g->set, stop_signals[i]);
     interrupted = 0;
     pthread_sigmask(SIG_BLOCK, &g->set, &g->old_mask);
 #pragma omp parallel
     pthread_sigmask(SIG_BLOCK, &g->set, NULL);
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_sigint;
-    sigaction(SIGINT, &sa, &g->old_action);
+    sa.sa_handler = on_stop_signal;
+    for (size_t i = 0; i < N_STOP_SIGNALS; i++)
+        sigaction(stop_signals[i], &sa, &g->old_action[i]);
 }
 
-/* 1 once Ctrl-C has been pressed. */
+/* The stop signal taken so far (SIGINT, SIGTERM or SIGHUP), 0 if none. */
 static int sigint_seen(const sigint_guard *g)
 {
     const struct timespec now = {0, 0};
-    while (sigtimedwait(&g->set, NULL, &now) == SIGINT)
-        interrupted = 1;
+    int sig;
+    while ((sig = sigtimedwait(&g->set, NULL, &now)) > 0)
+        if (!interrupted)
+            interrupted = sig;
     return interrupted;
 }
 
-/* Restores the caller's mask and handler. The pool's threads keep SIGINT blocked: it goes
- * to the caller's thread from then on. */
+/* Restores the caller's mask and handlers. The pool's threads keep the signals blocked: they
+ * go to the caller's thread from then on. */
 static void sigint_guard_end(sigint_guard *g)
 {
     pthread_sigmask(SIG_SETMASK, &g->old_mask, NULL);
-    sigaction(SIGINT, &g->old_action, NULL);
+    for (size_t i = 0; i < N_STOP_SIGNALS; i++)
+        sigaction(stop_signals[i], &g->old_action[i], NULL);
+}
+
+const char *cli_signal_name(int sig)
+{
+    return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : sig == SIGHUP ? "SIGHUP" : "a signal";
 }
 
 int cli_load_dataset(const char *cmd, const char *dir, long downscale, int black, double near,
@@ -144,7 +158,7 @@ int cli_resume(const char *cmd, cn_trainer *t, const char *path)
 }
 
 int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt_every,
-                     long log_every, long eval_every, long every, int *stopped)
+                     double ckpt_secs, long log_every, long eval_every, long every, int *stopped)
 {
     char err[1024];
     int rc = 0;
@@ -161,6 +175,7 @@ int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt
     const double t0 = cli_now();
     const long first = t->step;
     double eval_secs = 0; /* time spent on evaluations, left out of the training time */
+    double last_save = t0;  /* with ckpt_every 0: a checkpoint each ckpt_secs of training */
     while (rc == 0 && t->step < t->opts.iters && !sigint_seen(&guard)) {
         loss = cn_trainer_step(t, &mse, &bits);
         char extra[64] = "";
@@ -169,9 +184,13 @@ int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt
         else if (t->occ[0].valid)
             snprintf(extra, sizeof extra, "  occupied %.0f%%", 100.0 * t->occ_frac[t->model.topo.n_nets - 1]);
         cli_progress_update(&p, t->step, loss, cn_psnr_from_mse(mse), extra);
-        if (t->step % ckpt_every == 0 && t->step < t->opts.iters &&
-            cn_checkpoint_save(t, ckpt, err, sizeof err))
-            rc = cli_fail(cmd, "%s", err);
+        const int due = ckpt_every > 0 ? t->step % ckpt_every == 0
+                                       : cli_now() - last_save >= ckpt_secs;
+        if (due && t->step < t->opts.iters) {
+            if (cn_checkpoint_save(t, ckpt, err, sizeof err))
+                rc = cli_fail(cmd, "%s", err);
+            last_save = cli_now();
+        }
         if (rc == 0 && eval_every > 0 && (t->step % eval_every == 0 || t->step == t->opts.iters)) {
             cli_progress_break(&p);
             const double s = eval_now(t, every, cli_now() - t0 - eval_secs);
@@ -184,15 +203,17 @@ int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt
     cli_progress_done(&p);
     if (rc == 0 && cn_checkpoint_save(t, ckpt, err, sizeof err))
         rc = cli_fail(cmd, "%s", err);
-    *stopped = sigint_seen(&guard); /* a Ctrl-C during the save stops the command too */
+    *stopped = sigint_seen(&guard); /* a signal during the save stops the command too */
     if (rc == 0) {
         const double el = cli_now() - t0 - eval_secs;
-        printf("%s %s at iteration %ld: %.1f s, %.3f s/it, train psnr %.2f dB\n",
-               *stopped ? "interrupted: saved" : "saved", ckpt, t->step, el,
+        if (*stopped)
+            printf("interrupted by %s: ", cli_signal_name(*stopped));
+        printf("saved %s at iteration %ld: %.1f s, %.3f s/it, train psnr %.2f dB\n", ckpt,
+               t->step, el,
                t->step > first ? el / (double)(t->step - first) : 0.0, cn_psnr_from_mse(mse));
     }
-    /* A stopped command exits next, and takes any further Ctrl-C until then; a finished
-     * run gives Ctrl-C back its default meaning for the work after training. */
+    /* A stopped command exits next, and takes any further signal until then; a finished
+     * run gives the signals back their default meaning for the work after training. */
     if (!*stopped && rc == 0)
         sigint_guard_end(&guard);
     return rc;
@@ -204,7 +225,8 @@ int cmd_train(int argc, char **argv)
     cn_train_defaults(&o);
     const char *out = NULL, *pos[1], *random_bg = "auto";
     long iters = o.iters, downscale = 1, threads = 0, batch = o.batch, depth = -1, width = -1;
-    long coarse = -1, fine = -1, precrop = -1, ckpt_every = 1000, log_every = 100;
+    long coarse = -1, fine = -1, precrop = -1, ckpt_every = 0, log_every = 100;
+    double ckpt_secs = CLI_CKPT_SECS;
     long eval_every = 0, every = 1;
     long occ = o.occ_grid, occ_start = o.occ_start;
     double lr = o.lr, near = 0, far = 0;
@@ -229,6 +251,7 @@ int cmd_train(int argc, char **argv)
         {"--near", CLI_DOUBLE, &near, 1e-6, 1e4},
         {"--far", CLI_DOUBLE, &far, 1e-6, 1e4},
         {"--ckpt-every", CLI_LONG, &ckpt_every, 1, 1e9},
+        {"--ckpt-secs", CLI_DOUBLE, &ckpt_secs, 1, 1e6},
         {"--log-every", CLI_LONG, &log_every, 1, 1e9},
         {"--eval-every", CLI_LONG, &eval_every, 0, 1e9},
         {"--every", CLI_LONG, &every, 1, 1e6},
@@ -280,9 +303,9 @@ int cmd_train(int argc, char **argv)
                t.model.n_params);
     int stopped = 0;
     if (rc == 0)
-        rc = cli_run_training("train", &t, out, ckpt_every, log_every, eval_every, every,
-                              &stopped);
+        rc = cli_run_training("train", &t, out, ckpt_every, ckpt_secs, log_every, eval_every,
+                              every, &stopped);
     cn_trainer_free(&t);
     cn_dataset_free(&ds);
-    return rc ? rc : stopped ? 130 : 0;
+    return rc ? rc : stopped ? 128 + stopped : 0;
 }

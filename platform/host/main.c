@@ -2,6 +2,7 @@
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "cli.h"
 
@@ -54,6 +55,10 @@ static void usage(FILE *f)
 
 int main(int argc, char **argv)
 {
+    /* A log file or pipe gets every line as it is written: a job that is killed leaves its
+     * last progress line (stdio would hold up to a block of output). */
+    if (!isatty(fileno(stdout)))
+        setvbuf(stdout, NULL, _IOLBF, 0);
     if (argc < 2 || !strcmp(argv[1], "-h") || !strcmp(argv[1], "--help")) {
         usage(argc < 2 ? stderr : stdout);
         return argc < 2 ? 2 : 0;

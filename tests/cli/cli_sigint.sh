@@ -1,33 +1,59 @@
 #!/usr/bin/env bash
 # Ctrl-C pressed over and over during training (tests/tools/sigstorm: a SIGINT every 200 us
-# from the first progress line on): cnerf train and encode must save a checkpoint that
-# loads, say so and exit with status 130, however many signals land inside the matrix
-# products or during the save. oneDNN's x64 GEMM kernels point the stack pointer into the
-# heap while they run, so a signal handler that runs on one of their threads corrupts the
-# heap (an abort in the next malloc or free).
+# from the first progress line on), and SIGTERM and SIGHUP the same way: cnerf train and
+# encode must save a checkpoint that loads, say so and exit with status 128 + the signal,
+# however many signals land inside the matrix products or during the save. oneDNN's x64 GEMM
+# kernels point the stack pointer into the heap while they run, so a signal handler that
+# runs on one of their threads corrupts the heap (an abort in the next malloc or free).
 set -euo pipefail
 cnerf=$1 data=$2 work=$3 sigstorm=$4
 rm -rf "$work" && mkdir -p "$work"
 fail() { echo "FAIL: $*" >&2; exit 1; }
 common=(--preset small --downscale 8 --batch 2048 --iters 100000 --log-every 1 --threads 2)
 
-for round in 1 2; do
+# Rounds: Ctrl-C, then what schedulers (SIGTERM) and a closed terminal (SIGHUP) send.
+round=0
+for sig in INT TERM HUP; do
+  round=$((round + 1))
+  want=$((128 + $(kill -l "$sig")))
   for cmd in train encode; do
     out="$work/$cmd$round"
     extra=()
     [ $cmd = encode ] && extra=(--lambda 1)
     set +e
-    "$sigstorm" "iter " 200 30000 -- "$cnerf" $cmd "$data/lego" -o "$out.x" "${common[@]}" \
-      "${extra[@]}" > "$out.log" 2> "$out.err"
+    "$sigstorm" -s "$sig" "iter " 200 30000 -- "$cnerf" $cmd "$data/lego" -o "$out.x" \
+      "${common[@]}" "${extra[@]}" > "$out.log" 2> "$out.err"
     rc=$?
     set -e
-    [ $rc -eq 130 ] || fail "$cmd round $round exited $rc, want 130: $(tail -5 "$out.err")"
+    [ $rc -eq $want ] || fail "$cmd SIG$sig exited $rc, want $want: $(tail -5 "$out.err")"
     ckpt="$out.x"
     [ $cmd = encode ] && ckpt="$out.x.ckpt"
-    grep -q "^interrupted: saved $ckpt at iteration [1-9]" "$out.log" ||
-      fail "$cmd round $round: no save: $(tail -3 "$out.log")"
+    grep -q "^interrupted by SIG$sig: saved $ckpt at iteration [1-9]" "$out.log" ||
+      fail "$cmd SIG$sig: no save: $(tail -3 "$out.log")"
     "$cnerf" eval "$ckpt" "$data/lego" --downscale 8 --every 200 > "$out.eval" ||
-      fail "$cmd round $round: the checkpoint does not load"
-    echo "$cmd round $round: $(grep -o 'saved .* at iteration [0-9]*' "$out.log"), $(cat "$out.err")"
+      fail "$cmd SIG$sig: the checkpoint does not load"
+    echo "$cmd SIG$sig: $(grep -o 'saved .* at iteration [0-9]*' "$out.log"), $(cat "$out.err")"
   done
 done
+
+# kill -9, which no program can catch: the log written to a file has every line printed
+# before it (stdout is line-buffered when it is not a terminal), and the checkpoint that
+# --ckpt-secs wrote resumes.
+out="$work/kill9"
+"$cnerf" train "$data/lego" -o "$out.ckpt" "${common[@]}" --log-every 1000000 --ckpt-secs 1 \
+  > "$out.log" 2> "$out.err" &
+pid=$!
+for _ in $(seq 600); do
+  [ -s "$out.ckpt" ] && break
+  kill -0 $pid 2> /dev/null || fail "kill -9: train exited early: $(tail -3 "$out.err")"
+  sleep 0.2
+done
+[ -s "$out.ckpt" ] || fail "kill -9: no checkpoint after 120 s"
+kill -9 $pid
+wait $pid 2> /dev/null || true
+grep -q "^model: " "$out.log" || fail "kill -9: the log lost its lines: '$(cat "$out.log")'"
+"$cnerf" train "$data/lego" -o "$out.ckpt" "${common[@]}" --iters 1 --resume > "$out.resume" ||
+  fail "kill -9: resume failed"
+grep -q "^resumed $out.ckpt at iteration [1-9]" "$out.resume" ||
+  fail "kill -9: $(cat "$out.resume")"
+echo "kill -9: $(grep -o 'at iteration [0-9]*' "$out.resume" | head -1) resumed, log kept"

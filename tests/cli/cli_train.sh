@@ -35,8 +35,8 @@ sleep 1
 kill -INT $pid
 set +e; wait $pid; rc=$?; set -e
 [ $rc -eq 130 ] || fail "interrupted train exited $rc, want 130: $(cat "$work/int.log")"
-grep -q "interrupted: saved $work/int.ckpt at iteration" "$work/int.log" || fail "no save on Ctrl-C"
-done_its=$(sed -n 's/.*interrupted: saved .* at iteration \([0-9]*\).*/\1/p' "$work/int.log")
+grep -q "interrupted by SIGINT: saved $work/int.ckpt at iteration" "$work/int.log" || fail "no save on Ctrl-C"
+done_its=$(sed -n 's/.*interrupted by SIGINT: saved .* at iteration \([0-9]*\).*/\1/p' "$work/int.log")
 out=$("$cnerf" train "$data/lego" -o "$work/int.ckpt" --iters $((done_its + 2)) --resume "${common[@]}")
 grep -q "resumed $work/int.ckpt at iteration $done_its" <<<"$out" || fail "resume: $out"
 grep -q "at iteration $((done_its + 2))" <<<"$out" || fail "resume did not continue: $out"

@@ -1,8 +1,9 @@
 /*
- * sigstorm MARKER INTERVAL_US MAX_MS -- CMD [ARG...]
+ * sigstorm [-s INT|TERM|HUP] MARKER INTERVAL_US MAX_MS -- CMD [ARG...]
  *
  * Runs CMD with its standard output through a pipe and copies that output to ours. From the
- * first chunk of output that contains MARKER on, it sends CMD a SIGINT every INTERVAL_US
+ * first chunk of output that contains MARKER on, it sends CMD a SIGINT (or the signal that -s
+ * names: what a scheduler or a closed terminal sends) every INTERVAL_US
  * microseconds, until CMD exits or MAX_MS milliseconds have passed. It prints the number of
  * signals sent to standard error and exits with CMD's exit status, or with 128 + the number
  * of the signal that ended CMD.
@@ -52,8 +53,14 @@ static int pump(int fd, const char *marker, int *seen, char *tail, size_t *tail_
 
 int main(int argc, char **argv)
 {
-    if (argc < 6 || strcmp(argv[4], "--") != 0 || !argv[1][0] || strlen(argv[1]) > 200) {
-        fprintf(stderr, "usage: sigstorm MARKER INTERVAL_US MAX_MS -- CMD [ARG...]\n");
+    int sig = SIGINT;
+    if (argc > 2 && !strcmp(argv[1], "-s")) {
+        sig = !strcmp(argv[2], "INT") ? SIGINT : !strcmp(argv[2], "TERM") ? SIGTERM
+            : !strcmp(argv[2], "HUP") ? SIGHUP : 0;
+        argc -= 2, argv += 2;
+    }
+    if (!sig || argc < 6 || strcmp(argv[4], "--") != 0 || !argv[1][0] || strlen(argv[1]) > 200) {
+        fprintf(stderr, "usage: sigstorm [-s INT|TERM|HUP] MARKER INTERVAL_US MAX_MS -- CMD [ARG...]\n");
         return 2;
     }
     const char *marker = argv[1];
@@ -100,7 +107,7 @@ int main(int argc, char **argv)
                 waitpid(child, &status, 0);
                 break;
             }
-            kill(child, SIGINT);
+            kill(child, sig);
             sent++;
         }
         if (open_out) {
