@@ -67,6 +67,7 @@ static int render_fixed(const cnerf_decoder *dec, const cnerf_camera *cam, const
             stats->rays += mine.rays;
             stats->evals += mine.evals;
             stats->in_bounds += mine.in_bounds;
+            stats->macs += mine.macs;
         }
     }
     if (bad)

@@ -102,6 +102,8 @@ grep -q "mean over 2 test views (stream): psnr $enc_psnr dB" <<<"$out" \
 out=$("$cnerf" render "$work/gr.cnrf" --dataset "$data/lego" --downscale 16 --every 100)
 grep -q "^network evaluations per ray: [0-9.]* ([0-9.]* without skipping)$" <<<"$out" \
   || fail "render: evaluations per ray: $out"
+grep -q "^network multiply-accumulates per ray: [1-9][0-9]* ([1-9][0-9]* per evaluation)$" <<<"$out" \
+  || fail "render: multiply-accumulates per ray: $out"
 out=$("$cnerf" render "$work/gr.cnrf" --dataset "$data/lego" --downscale 16 --every 100 --no-skip)
 grep -q "^network evaluations per ray: \([0-9.]*\) (\1 without skipping; --no-skip" <<<"$out" \
   || fail "render --no-skip: $out"
