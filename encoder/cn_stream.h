@@ -130,7 +130,12 @@ int cn_topology_pruned(const cnerf_info *I);
 int cn_write_stream(const cn_stream_src *src, cn_buf *out, cn_write_report *rep, char *err,
                     size_t errlen);
 
-/* Reads a whole file; returns 0 or -1 with a message in err. *data is malloc'ed. */
+/* The largest file read whole: a stream's limit (its sizes are 32-bit). */
+#define CN_READ_MAX 4294967295u
+
+/* Reads a whole file; returns 0 or -1 with a message in err. *data is malloc'ed. Refuses a
+ * directory, a device and anything larger than CN_READ_MAX (a pipe is read up to it), and
+ * stops at the first failed allocation. */
 int cn_read_file(const char *path, uint8_t **data, size_t *len, char *err, size_t errlen);
 /* Writes a whole file atomically (temporary file, fsync, rename). */
 int cn_write_file_atomic(const char *path, const void *data, size_t len, char *err,

@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "cn_stream.h"
@@ -18,15 +19,35 @@ int cn_read_file(const char *path, uint8_t **data, size_t *len, char *err, size_
         snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
         return -1;
     }
+    struct stat st;
+    const char *what = NULL;
+    if (fstat(fileno(f), &st) != 0)
+        what = "cannot stat";
+    else if (S_ISDIR(st.st_mode))
+        what = "is a directory, not a file";
+    else if (S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode))
+        what = "is a device, not a regular file";
+    else if (S_ISREG(st.st_mode) && (uint64_t)st.st_size > CN_READ_MAX)
+        what = "is larger than the 4294967295 bytes that cnerf reads";
+    if (what) {
+        snprintf(err, errlen, "%s: %s", path, what);
+        fclose(f);
+        return -1;
+    }
+    /* A pipe or FIFO has no size: read up to the limit, and stop at the first failed
+     * allocation. */
     cn_buf b = {0};
     uint8_t chunk[65536];
     size_t got;
-    while ((got = fread(chunk, 1, sizeof chunk, f)) > 0)
+    while (!b.oom && b.n <= CN_READ_MAX && (got = fread(chunk, 1, sizeof chunk, f)) > 0)
         cn_buf_put(&b, chunk, got);
-    int bad = ferror(f);
+    const int bad = ferror(f), big = b.n > CN_READ_MAX;
     fclose(f);
-    if (bad || b.oom) {
-        snprintf(err, errlen, "%s: %s", path, bad ? "read error" : "out of memory");
+    if (bad || b.oom || big) {
+        snprintf(err, errlen, "%s: %s", path,
+                 bad ? "read error"
+                 : big ? "is larger than the 4294967295 bytes that cnerf reads"
+                       : "out of memory");
         cn_buf_free(&b);
         return -1;
     }

@@ -20,6 +20,15 @@ int cmd_encode(int argc, char **argv);
 int cmd_quantize(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 
+/* Before any work: `path` can be created as a regular file (its directory exists and is
+ * writable; an existing output must be a regular file, not a link, device or directory), is
+ * not one of inputs[0..n) (NULL entries skipped) and does not lie inside `dataset` (NULL: no
+ * dataset). Returns 0, or 1 with the message printed. */
+int cli_check_output(const char *cmd, const char *path, const char *const *inputs,
+                     size_t n_inputs, const char *dataset);
+/* The same for an output directory (existing or to be made): not inside `dataset`. */
+int cli_check_output_dir(const char *cmd, const char *dir, const char *dataset);
+
 /* Seconds of training between two checkpoints by default: what kill -9 can lose. */
 #define CLI_CKPT_SECS 60.0
 

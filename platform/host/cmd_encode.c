@@ -133,6 +133,10 @@ int cmd_encode(int argc, char **argv)
     snprintf(ckpt, sizeof ckpt, "%s", resume ? resume : out);
     if (!resume)
         strncat(ckpt, ".ckpt", sizeof ckpt - strlen(ckpt) - 1);
+    const char *inputs[1] = {resume};
+    if (cli_check_output("encode", out, inputs, 1, pos[0]) ||
+        cli_check_output("encode", ckpt, NULL, 0, pos[0]))
+        return 1;
     cn_dataset ds;
     if (cli_load_dataset("encode", pos[0], downscale, black, 0, 0, &ds))
         return 1;

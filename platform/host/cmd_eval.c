@@ -155,6 +155,8 @@ int cmd_eval(int argc, char **argv)
     const cn_view *views = NULL;
     int n = 0;
     int rc = cli_split_views("eval", &ds, pos[1], split, &views, &n);
+    if (rc == 0 && outdir && cli_check_output_dir("eval", outdir, pos[1]))
+        rc = 1;
     if (rc == 0 && outdir)
         rc = cli_make_dir("eval", outdir);
     if (rc == 0) {

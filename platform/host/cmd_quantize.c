@@ -26,6 +26,8 @@ int cmd_quantize(int argc, char **argv)
         return 1;
     if (n_pos != 1 || !out)
         return cli_fail("quantize", "need a checkpoint and -o FILE\n%s", QUANTIZE_USAGE);
+    if (cli_check_output("quantize", out, pos, 1, NULL))
+        return 1;
     char err[1024];
     cn_model m;
     long step = 0;

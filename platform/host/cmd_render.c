@@ -240,8 +240,12 @@ int cmd_render(int argc, char **argv)
                           ds.ndc ? "forward-facing (NDC)" : "a 360-degree scene", pos[0],
                           I->coord == CNERF_COORD_NDC ? "in NDC" : "in world coordinates");
     }
+    if (rc == 0 && outdir && cli_check_output_dir("render", outdir, dataset))
+        rc = 1;
     if (rc == 0 && outdir)
         rc = cli_make_dir("render", outdir);
+    if (rc == 0 && cam_path && cli_check_output("render", cam_path, pos, 1, dataset))
+        rc = 1;
     FILE *cams = NULL;
     char cam_tmp[4096];
     if (rc == 0 && cam_path) {

@@ -280,6 +280,8 @@ int cmd_train(int argc, char **argv)
         o.precrop_iters = precrop;
     o.occ_grid = (int)occ;
     o.occ_start = occ_start;
+    if (cli_check_output("train", out, NULL, 0, pos[0]))
+        return 1;
     cn_dataset ds;
     if (cli_load_dataset("train", pos[0], downscale, black, near, far, &ds))
         return 1;

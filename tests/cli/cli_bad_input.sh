@@ -1,0 +1,81 @@
+#!/usr/bin/env bash
+# The command's refusals as a table: each row is an exit status, a fragment of the message
+# (stderr) and a command line. Every row must fail with that status and say that fragment,
+# within a few seconds (nothing reads without bound, nothing trains before it has checked
+# its outputs), and leave every input as it was.
+#   cli_bad_input.sh CNERF DATA WORK
+set -euo pipefail
+cnerf=$1 data=$2 work=$3
+rm -rf "$work" && mkdir -p "$work"
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+# Fixtures: a float checkpoint, a stream, a dataset copy made of hard links (a file written
+# over by rename would replace the link, never the shared data), a symbolic link, a FIFO.
+"$cnerf" train "$data/lego" -o "$work/t.ckpt" --preset tiny --downscale 16 --iters 2 \
+  > "$work/fixture.log" || fail "fixture: train"
+"$cnerf" synth -o "$work/s.cnrf" --preset tiny > /dev/null || fail "fixture: synth"
+cp -al "$data/lego" "$work/ds"
+ln -s "$work/s.cnrf" "$work/link.cnrf"
+mkfifo "$work/fifo"
+sums() { md5sum "$work/t.ckpt" "$work/s.cnrf" "$work/ds/transforms_train.json" \
+         "$work/ds/test/r_0.png"; }
+before=$(sums)
+
+D=$work/ds
+T=(--preset tiny --downscale 16 --iters 100000)
+rows=(
+  # status|message fragment|arguments (split on spaces)
+  "1|is a device, not a regular file|info /dev/zero"
+  "1|is a device, not a regular file|render /dev/zero --orbit 1 --size 8"
+  "1|is a directory, not a file|info $work"
+  "1|not a directory|train $work/missing -o $work/x.ckpt ${T[*]}"
+  "1|cannot write $work/nodir/x.cnrf|encode $D -o $work/nodir/x.cnrf --lambda 1 ${T[*]}"
+  "1|cannot write $work/nodir/x.ckpt|train $D -o $work/nodir/x.ckpt ${T[*]}"
+  "1|cannot write /proc/x.ckpt|train $D -o /proc/x.ckpt ${T[*]}"
+  "1|is also the input $work/t.ckpt|quantize $work/t.ckpt -o $work/t.ckpt"
+  "1|is also the input $work/s.cnrf|render $work/s.cnrf --orbit 1 --size 8 --save-cameras $work/s.cnrf"
+  "1|lies inside the dataset|train $D -o $D/transforms_train.json ${T[*]}"
+  "1|lies inside the dataset|encode $D -o $D/test/x.cnrf --lambda 1 ${T[*]}"
+  "1|lies inside the dataset|eval $work/t.ckpt $D -o $D/test --downscale 16 --every 200"
+  "1|lies inside the dataset|render $work/s.cnrf --dataset $D --downscale 16 --every 200 -o $D"
+  "1|is a device; cnerf writes regular files only|quantize $work/t.ckpt -o /dev/null"
+  "1|is a symbolic link; cnerf writes regular files only|quantize $work/t.ckpt -o $work/link.cnrf"
+  "1|is a directory; cnerf writes regular files only|quantize $work/t.ckpt -o $work"
+  "1|is a FIFO; cnerf writes regular files only|quantize $work/t.ckpt -o $work/fifo"
+  "1|--width: expected an integer in [1, 1024]|train $D -o $work/x.ckpt --width 100000"
+  "1|--downscale: expected an integer in [1, 64]|train $D -o $work/x.ckpt --downscale 0"
+  "1|--lambda: expected a number in [0, 1000]|encode $D -o $work/x.cnrf --lambda -1"
+  "1|--lambda: expected a number in [0, 1000]|encode $D -o $work/x.cnrf --lambda nan"
+  "1|--lambda: expected a number in [0, 1000]|encode $D -o $work/x.cnrf --lambda inf"
+)
+n=0
+for row in "${rows[@]}"; do
+  IFS='|' read -r want frag args <<< "$row"
+  read -r -a argv <<< "$args"
+  set +e
+  timeout 60 "$cnerf" "${argv[@]}" > "$work/out.txt" 2> "$work/err.txt" < /dev/null
+  rc=$?
+  set -e
+  [ $rc -ne 124 ] || fail "'$args' did not finish within 60 s"
+  [ $rc -eq "$want" ] || fail "'$args' exited $rc, want $want: $(head -3 "$work/err.txt")"
+  grep -qF -- "$frag" "$work/err.txt" ||
+    fail "'$args': no '$frag' in: $(head -3 "$work/err.txt")"
+  n=$((n + 1))
+done
+
+# A FIFO as the stream is read to its end (what a writer sends), not forever.
+( printf 'not a stream' > "$work/fifo" ) &
+set +e
+timeout 60 "$cnerf" info "$work/fifo" > /dev/null 2> "$work/err.txt"
+rc=$?
+set -e
+wait
+[ $rc -eq 1 ] && grep -q "not a valid cnerf stream" "$work/err.txt" ||
+  fail "info FIFO: exit $rc: $(cat "$work/err.txt")"
+n=$((n + 1))
+
+[ "$(sums)" = "$before" ] || fail "an input changed"
+[ -L "$work/link.cnrf" ] && [ -p "$work/fifo" ] || fail "a special file was replaced"
+leftover=$(find "$work" -name '*.tmp.*' | head -1)
+[ -z "$leftover" ] || fail "a temporary file was left: $leftover"
+echo "cli_bad_input: $n refusals, every input unchanged"
