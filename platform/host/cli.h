@@ -85,7 +85,9 @@ void cli_stream_free(cli_stream *s);
 /* One line: file bytes = latent payload + overhead (tables, affine, biases, headers). */
 void cli_print_sizes(const char *path, const cli_stream *s);
 
-/* Prints "cnerf <cmd>: <message>" to stderr and returns 1. */
+/* Prints "cnerf <cmd>: <message>" to stderr and returns 1 (a failure). */
 int cli_fail(const char *cmd, const char *fmt, ...);
+/* The same for a usage error (a bad command line): returns 2. */
+int cli_usage(const char *cmd, const char *fmt, ...);
 
 #endif

@@ -103,21 +103,21 @@ int cmd_encode(int argc, char **argv)
     };
     if (cli_parse("encode", ENCODE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
                   &n_pos))
-        return 1;
+        return 2;
     if (n_pos != 1 || !out || lambda < 0)
-        return cli_fail("encode", "need a dataset directory, -o FILE and --lambda L\n%s",
+        return cli_usage("encode", "need a dataset directory, -o FILE and --lambda L\n%s",
                         ENCODE_USAGE);
     if (grid_g > 0 && (grid_g < 16 || (grid_g & (grid_g - 1))))
-        return cli_fail("encode", "--grid takes 16, 32, 64 or 128 cells per axis, or 0 for no "
+        return cli_usage("encode", "--grid takes 16, 32, 64 or 128 cells per axis, or 0 for no "
                         "grid, not %ld", grid_g);
     if (strcmp(latent_lr, "latent") && strcmp(latent_lr, "weight"))
-        return cli_fail("encode", "--latent-lr takes 'latent' (Adam's step in latent units, "
+        return cli_usage("encode", "--latent-lr takes 'latent' (Adam's step in latent units, "
                         "the paper's) or 'weight' (in weight units), not '%s'", latent_lr);
     o.latent_lr_weight_units = !strcmp(latent_lr, "weight");
     if (cli_random_bg("encode", random_bg, &o.random_bg))
-        return 1;
+        return 2;
     if (strcmp(prune, "on") && strcmp(prune, "off"))
-        return cli_fail("encode", "--prune takes on (remove dead units) or off, not '%s'",
+        return cli_usage("encode", "--prune takes on (remove dead units) or off, not '%s'",
                         prune);
     cli_set_threads(threads);
     o.iters = iters;

@@ -131,9 +131,9 @@ int cmd_eval(int argc, char **argv)
     };
     if (cli_parse("eval", EVAL_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 2,
                   &n_pos))
-        return 1;
+        return 2;
     if (n_pos != 2)
-        return cli_fail("eval", "need a checkpoint or stream and a dataset directory\n%s",
+        return cli_usage("eval", "need a checkpoint or stream and a dataset directory\n%s",
                         EVAL_USAGE);
     cli_set_threads(threads);
     char err[1024];

@@ -1,15 +1,22 @@
 /* cnerf info FILE.cnrf */
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "cli.h"
 #include "cn_report.h"
 #include "cn_stream.h"
 
+#define INFO_USAGE "usage: cnerf info FILE.cnrf"
+
 int cmd_info(int argc, char **argv)
 {
-    if (argc != 2)
-        return cli_fail("info", "usage: cnerf info FILE.cnrf");
+    if (argc == 2 && (!strcmp(argv[1], "-h") || !strcmp(argv[1], "--help"))) {
+        printf("%s\n", INFO_USAGE);
+        return 0;
+    }
+    if (argc != 2 || (argv[1][0] == '-' && argv[1][1]))
+        return cli_usage("info", "need one stream file\n%s", INFO_USAGE);
     char err[512];
     uint8_t *buf;
     size_t len;

@@ -23,9 +23,9 @@ int cmd_quantize(int argc, char **argv)
     };
     if (cli_parse("quantize", QUANTIZE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos,
                   1, &n_pos))
-        return 1;
+        return 2;
     if (n_pos != 1 || !out)
-        return cli_fail("quantize", "need a checkpoint and -o FILE\n%s", QUANTIZE_USAGE);
+        return cli_usage("quantize", "need a checkpoint and -o FILE\n%s", QUANTIZE_USAGE);
     if (cli_check_output("quantize", out, pos, 1, NULL))
         return 1;
     char err[1024];

@@ -185,13 +185,13 @@ int cmd_render(int argc, char **argv)
     };
     if (cli_parse("render", RENDER_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
                   &n_pos))
-        return 1;
+        return 2;
     if (n_pos != 1)
-        return cli_fail("render", "need a stream file\n%s", RENDER_USAGE);
+        return cli_usage("render", "need a stream file\n%s", RENDER_USAGE);
     if (!dataset == !orbit)
         return cli_fail("render", "give either --dataset DIR or --orbit N\n%s", RENDER_USAGE);
     if (verify && (strlen(verify) != 32 || strspn(verify, "0123456789abcdef") != 32))
-        return cli_fail("render", "--verify takes 32 lower-case hex digits, not '%s'", verify);
+        return cli_usage("render", "--verify takes 32 lower-case hex digits, not '%s'", verify);
     cli_set_threads(threads);
 
     cli_stream st;

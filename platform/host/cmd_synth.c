@@ -88,11 +88,11 @@ int cmd_synth(int argc, char **argv)
     };
     if (cli_parse("synth", SYNTH_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], NULL, 0,
                   &n_pos))
-        return 1;
+        return 2;
     if (!out)
-        return cli_fail("synth", "no output file (-o)\n%s", SYNTH_USAGE);
+        return cli_usage("synth", "no output file (-o)\n%s", SYNTH_USAGE);
     if (strcmp(shape, "ball") && strcmp(shape, "full") && strcmp(shape, "empty"))
-        return cli_fail("synth", "--grid-shape takes ball, full or empty, not '%s'", shape);
+        return cli_usage("synth", "--grid-shape takes ball, full or empty, not '%s'", shape);
     cnerf_info hdr;
     if (cn_preset_header(preset, &hdr))
         return cli_fail("synth", "unknown preset '%s' (tiny, small, paper)", preset);

@@ -112,7 +112,7 @@ int cli_random_bg(const char *cmd, const char *word, int *random_bg)
             *random_bg = i == 2 ? -1 : i;
             return 0;
         }
-    return cli_fail(cmd, "--random-bg takes auto, on or off, not '%s'", word);
+    return cli_usage(cmd, "--random-bg takes auto, on or off, not '%s'", word);
 }
 
 void cli_say_random_bg(const cn_trainer *t)
@@ -262,11 +262,11 @@ int cmd_train(int argc, char **argv)
     };
     if (cli_parse("train", TRAIN_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
                   &n_pos))
-        return 1;
+        return 2;
     if (n_pos != 1 || !out)
-        return cli_fail("train", "need a dataset directory and -o FILE\n%s", TRAIN_USAGE);
+        return cli_usage("train", "need a dataset directory and -o FILE\n%s", TRAIN_USAGE);
     if (cli_random_bg("train", random_bg, &o.random_bg))
-        return 1;
+        return 2;
     cli_set_threads(threads);
     o.iters = iters;
     o.seed = seed;

@@ -6,15 +6,29 @@
 
 #include "cli.h"
 
+static void say_error(const char *cmd, const char *fmt, va_list ap)
+{
+    fprintf(stderr, "cnerf %s: ", cmd);
+    vfprintf(stderr, fmt, ap);
+    fputc('\n', stderr);
+}
+
 int cli_fail(const char *cmd, const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
-    fprintf(stderr, "cnerf %s: ", cmd);
-    vfprintf(stderr, fmt, ap);
-    fputc('\n', stderr);
+    say_error(cmd, fmt, ap);
     va_end(ap);
     return 1;
+}
+
+int cli_usage(const char *cmd, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    say_error(cmd, fmt, ap);
+    va_end(ap);
+    return 2;
 }
 
 static const struct {
@@ -48,7 +62,9 @@ static const struct {
 
 static void usage(FILE *f)
 {
-    fprintf(f, "usage: cnerf COMMAND [ARGS] | cnerf --version\n\ncommands:\n");
+    fprintf(f, "usage: cnerf COMMAND [ARGS] | cnerf help [COMMAND] | cnerf --version\n\n"
+               "COMMAND --help (or -h) prints a command's options. Exit status: 0 success, 1\n"
+               "failure, 2 a bad command line, 128 + N stopped by signal N.\n\ncommands:\n");
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
         fprintf(f, "  cnerf %s\n", commands[i].help);
 }
@@ -67,6 +83,20 @@ int main(int argc, char **argv)
         printf("cnerf %s (bitstream %u.%u)\n", CNERF_VERSION_STRING, CNERF_VERSION_MAJOR,
                CNERF_VERSION_MINOR);
         return 0;
+    }
+    if (!strcmp(argv[1], "help")) { /* cnerf help [COMMAND]: as COMMAND --help */
+        if (argc == 2) {
+            usage(stdout);
+            return 0;
+        }
+        for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+            if (!strcmp(argv[2], commands[i].name)) {
+                char *help_argv[] = {argv[2], "--help", NULL};
+                return commands[i].fn(2, help_argv);
+            }
+        fprintf(stderr, "cnerf help: unknown command '%s'\n", argv[2]);
+        usage(stderr);
+        return 2;
     }
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
         if (!strcmp(argv[1], commands[i].name))

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The command's refusals as a table: each row is an exit status, a fragment of the message
-# (stderr) and a command line. Every row must fail with that status and say that fragment,
+# The command's refusals as a table: each row is an exit status (1 a failure, 2 a bad command
+# line), a fragment of the message (stderr) and a command line. Every row must fail with that status and say that fragment,
 # within a few seconds (nothing reads without bound, nothing trains before it has checked
 # its outputs), and leave every input as it was.
 #   cli_bad_input.sh CNERF DATA WORK
@@ -42,11 +42,17 @@ rows=(
   "1|is a symbolic link; cnerf writes regular files only|quantize $work/t.ckpt -o $work/link.cnrf"
   "1|is a directory; cnerf writes regular files only|quantize $work/t.ckpt -o $work"
   "1|is a FIFO; cnerf writes regular files only|quantize $work/t.ckpt -o $work/fifo"
-  "1|--width: expected an integer in [1, 1024]|train $D -o $work/x.ckpt --width 100000"
-  "1|--downscale: expected an integer in [1, 64]|train $D -o $work/x.ckpt --downscale 0"
-  "1|--lambda: expected a number in [0, 1000]|encode $D -o $work/x.cnrf --lambda -1"
-  "1|--lambda: expected a number in [0, 1000]|encode $D -o $work/x.cnrf --lambda nan"
-  "1|--lambda: expected a number in [0, 1000]|encode $D -o $work/x.cnrf --lambda inf"
+  "2|--width: expected an integer in [1, 1024]|train $D -o $work/x.ckpt --width 100000"
+  "2|--downscale: expected an integer in [1, 64]|train $D -o $work/x.ckpt --downscale 0"
+  "2|--lambda: expected a number in [0, 1000]|encode $D -o $work/x.cnrf --lambda -1"
+  "2|--lambda: expected a number in [0, 1000]|encode $D -o $work/x.cnrf --lambda nan"
+  "2|--lambda: expected a number in [0, 1000]|encode $D -o $work/x.cnrf --lambda inf"
+  "2|unknown option '--bogus'|train $D -o $work/x.ckpt --bogus"
+  "2|need one stream file|info --bogus"
+  "2|need a checkpoint and -o FILE|quantize $work/t.ckpt"
+  "2|--grid takes 16, 32, 64 or 128|encode $D -o $work/x.cnrf --lambda 1 --grid 17"
+  "2|unknown command 'nope'|help nope"
+  "2|unknown command 'nope'|nope"
 )
 n=0
 for row in "${rows[@]}"; do
@@ -73,6 +79,13 @@ wait
 [ $rc -eq 1 ] && grep -q "not a valid cnerf stream" "$work/err.txt" ||
   fail "info FIFO: exit $rc: $(cat "$work/err.txt")"
 n=$((n + 1))
+
+# Help is not an error: on standard output, status 0.
+for args in "help encode" "encode --help" "info -h" "help"; do
+  read -r -a argv <<< "$args"
+  "$cnerf" "${argv[@]}" > "$work/out.txt" || fail "'$args' exited $?"
+  grep -q "^usage: cnerf" "$work/out.txt" || fail "'$args' printed no usage"
+done
 
 [ "$(sums)" = "$before" ] || fail "an input changed"
 [ -L "$work/link.cnrf" ] && [ -p "$work/fifo" ] || fail "a special file was replaced"

@@ -112,17 +112,17 @@ info=$("$cnerf" info "$work/s.cnrf")
   || fail "a stream without a grid is 1.0: $info"
 set +e
 msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --grid 12 2>&1); rc=$?
-[ $rc = 1 ] && grep -q "\-\-grid takes 16, 32, 64 or 128" <<<"$msg" || fail "--grid 12: $rc $msg"
+[ $rc = 2 ] && grep -q "\-\-grid takes 16, 32, 64 or 128" <<<"$msg" || fail "--grid 12: $rc $msg"
 [ ! -e "$work/z.cnrf" ] || fail "--grid 12 wrote a file"
 msg=$("$cnerf" synth -o "$work/z.cnrf" --grid 16 --grid-shape cube 2>&1); rc=$?
-[ $rc = 1 ] && grep -q "\-\-grid-shape takes ball, full or empty, not 'cube'" <<<"$msg" \
+[ $rc = 2 ] && grep -q "\-\-grid-shape takes ball, full or empty, not 'cube'" <<<"$msg" \
   || fail "synth --grid-shape cube: $rc $msg"
 [ ! -e "$work/z.cnrf" ] || fail "synth --grid-shape cube wrote a file"
 msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --random-bg sometimes 2>&1); rc=$?
-[ $rc = 1 ] && grep -q "\-\-random-bg takes auto, on or off, not 'sometimes'" <<<"$msg" \
+[ $rc = 2 ] && grep -q "\-\-random-bg takes auto, on or off, not 'sometimes'" <<<"$msg" \
   || fail "--random-bg sometimes: $rc $msg"
 msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --prune yes 2>&1); rc=$?
-[ $rc = 1 ] && grep -q "\-\-prune takes on (remove dead units) or off, not 'yes'" <<<"$msg" \
+[ $rc = 2 ] && grep -q "\-\-prune takes on (remove dead units) or off, not 'yes'" <<<"$msg" \
   || fail "--prune yes: $rc $msg"
 msg=$("$cnerf" synth -o "$work/z.cnrf" --units 8,8 2>&1); rc=$?
 [ $rc = 1 ] && grep -q "2 trunk layers given, the networks have 4" <<<"$msg" \
@@ -188,7 +188,8 @@ set -e
 [ $rc -ne 0 ] && grep -q -- "--skip-saturated" <<<"$msg" || fail "train --skip-saturated -1: $rc $msg"
 [ ! -e "$work/y.ckpt" ] || fail "a checkpoint was written for a bad option"
 set +e
-msg=$("$cnerf" train "$work" -o "$work/x.ckpt" 2>&1); rc=$?
+mkdir -p "$work/notds"
+msg=$("$cnerf" train "$work/notds" -o "$work/x.ckpt" 2>&1); rc=$?
 set -e
 [ $rc -ne 0 ] && grep -q "unknown dataset layout" <<<"$msg" || fail "bad dataset: $rc $msg"
 [ ! -e "$work/x.ckpt" ] || fail "a checkpoint was written for a bad dataset"
