@@ -119,6 +119,9 @@ int cmd_encode(int argc, char **argv)
     if (strcmp(prune, "on") && strcmp(prune, "off"))
         return cli_usage("encode", "--prune takes on (remove dead units) or off, not '%s'",
                         prune);
+    if (iters == 0 && !resume)
+        return cli_usage("encode", "--iters 0 trains nothing: give at least 1, or --resume a "
+                         "checkpoint");
     cli_set_threads(threads);
     o.iters = iters;
     o.seed = seed;

@@ -267,6 +267,9 @@ int cmd_train(int argc, char **argv)
         return cli_usage("train", "need a dataset directory and -o FILE\n%s", TRAIN_USAGE);
     if (cli_random_bg("train", random_bg, &o.random_bg))
         return 2;
+    if (iters == 0 && !resume)
+        return cli_usage("train", "--iters 0 trains nothing: give at least 1, or --resume a "
+                         "checkpoint");
     cli_set_threads(threads);
     o.iters = iters;
     o.seed = seed;
