@@ -36,7 +36,7 @@ static const struct {
     int (*fn)(int, char **);
     const char *help;
 } commands[] = {
-    {"info", cmd_info, "info FILE.cnrf            size breakdown, parameters and topology"},
+    {"info", cmd_info, "info [--check] FILE.cnrf  size breakdown, parameters and topology"},
     {"train", cmd_train,
      "train DATASET -o model.ckpt [--preset P] [--iters N] [--downscale F] [--threads T]\n"
      "                                  [--seed S] [--resume]   train the float NeRF"},
