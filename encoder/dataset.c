@@ -1,5 +1,6 @@
 /* Dataset loading: Blender, instant-ngp and LLFF layouts (see cn_dataset.h). */
 #include <ctype.h>
+#include <errno.h>
 #include <dirent.h>
 #include <math.h>
 #include <stdarg.h>
@@ -50,6 +51,15 @@ static int cn_is_file(const char *path)
 {
     struct stat st;
     return stat(path, &st) == 0 && S_ISREG(st.st_mode);
+}
+
+/* Why `path` is not a regular file: "missing", "a directory, not a file", ... */
+static const char *cn_not_file_why(const char *path)
+{
+    struct stat st;
+    if (stat(path, &st) != 0)
+        return errno == ENOENT ? "missing" : strerror(errno);
+    return S_ISDIR(st.st_mode) ? "a directory, not a file" : "not a regular file";
 }
 
 static int cn_is_dir(const char *path)
@@ -566,10 +576,11 @@ static int cn_json_add_frames(const cJSON *root, const char *file, const char *d
         if (found < 0)
             return -1;
         if (!found && !rule->skip_missing)
-            return cn_fail(err, errlen, "%s: missing (frames[%d].file_path in %s)", path, l.frame,
+            return cn_fail(err, errlen, "%s: %s (frames[%d].file_path in %s)", path,
+                           cn_not_file_why(path), l.frame,
                            file);
         if (!found) {
-            fprintf(stderr, "warning: %s: missing, frame skipped\n", path);
+            fprintf(stderr, "warning: %s: %s, frame skipped\n", path, cn_not_file_why(path));
             continue;
         }
         int split = rule->split >= 0 ? rule->split
@@ -594,7 +605,7 @@ static int cn_load_blender_split(const char *dir, int split, cn_frames *L, char 
         return -1;
     if (!cn_is_file(file)) {
         if (split == CN_TRAIN)
-            return cn_fail(err, errlen, "%s: missing", file);
+            return cn_fail(err, errlen, "%s: %s", file, cn_not_file_why(file));
         return 0; /* that split stays empty */
     }
     cJSON *root;
@@ -1111,8 +1122,12 @@ static int cn_detect(const char *dir, char *err, size_t errlen)
     } probes[] = {{"transforms_train.json", CN_DS_BLENDER},
                   {"transforms.json", CN_DS_NGP},
                   {"poses_bounds.npy", CN_DS_LLFF}};
-    if (!cn_is_dir(dir))
+    if (!cn_is_dir(dir)) {
+        struct stat st;
+        if (stat(dir, &st) != 0) /* missing, a symbolic link loop, no permission, ... */
+            return cn_fail(err, errlen, "%s: %s", dir, strerror(errno));
         return cn_fail(err, errlen, "%s: not a directory", dir);
+    }
     char path[CN_PATH_MAX];
     for (size_t i = 0; i < sizeof probes / sizeof probes[0]; i++) {
         if (cn_join(path, dir, probes[i].file, "", err, errlen) != 0)

@@ -15,7 +15,10 @@ fail() { echo "FAIL: $*" >&2; exit 1; }
   > "$work/fixture.log" || fail "fixture: train"
 "$cnerf" synth -o "$work/s.cnrf" --preset tiny > /dev/null || fail "fixture: synth"
 cp -al "$data/lego" "$work/ds"
+cp -al "$data/lego" "$work/ds_dir" # an image that is a directory
+rm "$work/ds_dir/train/r_0.png" && mkdir "$work/ds_dir/train/r_0.png"
 ln -s "$work/s.cnrf" "$work/link.cnrf"
+ln -s "$work/loop" "$work/loop"
 mkfifo "$work/fifo"
 sums() { md5sum "$work/t.ckpt" "$work/s.cnrf" "$work/ds/transforms_train.json" \
          "$work/ds/test/r_0.png"; }
@@ -28,7 +31,10 @@ rows=(
   "1|is a device, not a regular file|info /dev/zero"
   "1|is a device, not a regular file|render /dev/zero --orbit 1 --size 8"
   "1|is a directory, not a file|info $work"
-  "1|not a directory|train $work/missing -o $work/x.ckpt ${T[*]}"
+  "1|$work/missing: No such file or directory|train $work/missing -o $work/x.ckpt ${T[*]}"
+  "1|$work/loop: Too many levels of symbolic links|train $work/loop -o $work/x.ckpt ${T[*]}"
+  "1|$work/s.cnrf: not a directory|train $work/s.cnrf -o $work/x.ckpt ${T[*]}"
+  "1|r_0.png: a directory, not a file (frames[0].file_path|train $work/ds_dir -o $work/x.ckpt ${T[*]}"
   "1|cannot write $work/nodir/x.cnrf|encode $D -o $work/nodir/x.cnrf --lambda 1 ${T[*]}"
   "1|cannot write $work/nodir/x.ckpt|train $D -o $work/nodir/x.ckpt ${T[*]}"
   "1|cannot write /proc/x.ckpt|train $D -o /proc/x.ckpt ${T[*]}"
