@@ -14,6 +14,10 @@ typedef struct cn_image {
     float *px;
 } cn_image;
 
+/* The most pixels an image may have (2^28, 268 megapixels): a larger header is refused
+ * before anything is allocated. */
+#define CN_IMAGE_MAX_PIXELS ((uint64_t)1 << 28)
+
 /* Reads a PNG of any bit depth (1 to 16) and colour type: grey and grey+alpha become RGB
  * and RGBA, palette images RGB (RGBA with a tRNS chunk), 16-bit samples keep their full
  * precision. Returns 0, or -1 with a message naming the file and the problem (missing,

@@ -92,6 +92,12 @@ static void cn_png_decode_body(cn_png_rd *r, cn_image *img)
     size_t rowbytes = png_get_rowbytes(png, r->info);
     if ((c != 3 && c != 4) || (depth != 8 && depth != 16))
         png_error(png, "unsupported pixel format after expansion");
+    if ((uint64_t)w * h > CN_IMAGE_MAX_PIXELS) {
+        char msg[160]; /* copied by the error handler before it jumps */
+        snprintf(msg, sizeof msg, "%lu x %lu pixels, more than the %llu that cnerf loads",
+                 (unsigned long)w, (unsigned long)h, (unsigned long long)CN_IMAGE_MAX_PIXELS);
+        png_error(png, msg);
+    }
     if (w == 0 || h == 0 || w > INT_MAX || h > INT_MAX || rowbytes == 0 ||
         h > SIZE_MAX / rowbytes || (size_t)w * h > SIZE_MAX / sizeof(float) / (size_t)c)
         png_error(png, "image too large");

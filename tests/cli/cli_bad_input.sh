@@ -17,6 +17,16 @@ fail() { echo "FAIL: $*" >&2; exit 1; }
 cp -al "$data/lego" "$work/ds"
 cp -al "$data/lego" "$work/ds_dir" # an image that is a directory
 rm "$work/ds_dir/train/r_0.png" && mkdir "$work/ds_dir/train/r_0.png"
+cp -al "$data/lego" "$work/ds_big" # an image whose header claims 100000 x 100000 pixels
+rm "$work/ds_big/train/r_0.png"
+python3 - "$work/ds_big/train/r_0.png" <<'PY'
+import struct, sys, zlib
+def chunk(t, d):
+    return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))
+ihdr = struct.pack(">IIBBBBB", 100000, 100000, 8, 2, 0, 0, 0)
+png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(b"\0")) + chunk(b"IEND", b"")
+open(sys.argv[1], "wb").write(png)
+PY
 ln -s "$work/s.cnrf" "$work/link.cnrf"
 ln -s "$work/loop" "$work/loop"
 mkfifo "$work/fifo"
@@ -35,6 +45,7 @@ rows=(
   "1|$work/loop: Too many levels of symbolic links|train $work/loop -o $work/x.ckpt ${T[*]}"
   "1|$work/s.cnrf: not a directory|train $work/s.cnrf -o $work/x.ckpt ${T[*]}"
   "1|r_0.png: a directory, not a file (frames[0].file_path|train $work/ds_dir -o $work/x.ckpt ${T[*]}"
+  "1|r_0.png: 100000 x 100000 pixels, more than the 268435456 that cnerf loads|train $work/ds_big -o $work/x.ckpt ${T[*]}"
   "1|cannot write $work/nodir/x.cnrf|encode $D -o $work/nodir/x.cnrf --lambda 1 ${T[*]}"
   "1|cannot write $work/nodir/x.ckpt|train $D -o $work/nodir/x.ckpt ${T[*]}"
   "1|cannot write /proc/x.ckpt|train $D -o /proc/x.ckpt ${T[*]}"
