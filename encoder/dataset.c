@@ -340,11 +340,13 @@ __attribute__((format(printf, 5, 6))) static int cn_jfail(const cn_jloc *l, cons
     return cn_fail(err, errlen, "%s: %s: %s", l->file, key, what);
 }
 
-/* 1 if JSON text ends inside a string or with brackets left open. */
-static int cn_json_incomplete(const char *text, size_t len)
+/* 1 if JSON text ends inside a string or with brackets left open; *max_depth is the
+ * deepest nesting of brackets reached. */
+static int cn_json_incomplete(const char *text, size_t len, long *max_depth)
 {
     long depth = 0;
     int in_str = 0;
+    *max_depth = 0;
     for (size_t i = 0; i < len; i++) {
         char ch = text[i];
         if (in_str) {
@@ -356,6 +358,7 @@ static int cn_json_incomplete(const char *text, size_t len)
             in_str = 1;
         } else if (ch == '{' || ch == '[') {
             depth++;
+            *max_depth = depth > *max_depth ? depth : *max_depth;
         } else if (ch == '}' || ch == ']') {
             depth--;
         }
@@ -377,7 +380,14 @@ static int cn_json_syntax_error(const char *path, const char *text, size_t len, 
     }
     size_t left = (size_t)(text + len - at);
     const char *hint = "";
-    if (left == 0 || cn_json_incomplete(text, len))
+    long depth;
+    const int incomplete = cn_json_incomplete(text, len, &depth);
+    char deep[96];
+    if (depth > CJSON_NESTING_LIMIT) {
+        snprintf(deep, sizeof deep, " (nested %ld deep; the parser stops at %d)", depth,
+                 CJSON_NESTING_LIMIT);
+        hint = deep;
+    } else if (left == 0 || incomplete)
         hint = " (unexpected end of file)";
     else if ((left >= 3 && !strncmp(at, "NaN", 3)) || (left >= 4 && !strncmp(at, "-NaN", 4)) ||
              (left >= 8 && !strncmp(at, "Infinity", 8)) ||

@@ -13,8 +13,11 @@ int cnerf_camera_from_float(const cn_camera *cam, cnerf_camera *out, char *err, 
     }
     if (!(cam->fx > 0 && cam->fy > 0 && cam->fx < 32768 && cam->fy < 32768 &&
           fabs(cam->cx) < 32768 && fabs(cam->cy) < 32768)) {
-        snprintf(err, errlen, "intrinsics fx %g fy %g cx %g cy %g out of range", cam->fx,
-                 cam->fy, cam->cx, cam->cy);
+        snprintf(err, errlen,
+                 "intrinsics fx %g fy %g cx %g cy %g out of range: the decoder's camera takes "
+                 "focal lengths in (0, 32768) and principal points within 32768 pixels (Q16); "
+                 "render a smaller image or a wider field of view",
+                 cam->fx, cam->fy, cam->cx, cam->cy);
         return -1;
     }
     for (int a = 0; a < 3; a++) {

@@ -17,6 +17,8 @@ fail() { echo "FAIL: $*" >&2; exit 1; }
 cp -al "$data/lego" "$work/ds"
 cp -al "$data/lego" "$work/ds_dir" # an image that is a directory
 rm "$work/ds_dir/train/r_0.png" && mkdir "$work/ds_dir/train/r_0.png"
+mkdir "$work/ds_deep" # JSON nested 100,000 deep
+python3 -c 'print("[" * 100000)' > "$work/ds_deep/transforms_train.json"
 cp -al "$data/lego" "$work/ds_big" # an image whose header claims 100000 x 100000 pixels
 rm "$work/ds_big/train/r_0.png"
 python3 - "$work/ds_big/train/r_0.png" <<'PY'
@@ -45,11 +47,13 @@ rows=(
   "1|$work/loop: Too many levels of symbolic links|train $work/loop -o $work/x.ckpt ${T[*]}"
   "1|$work/s.cnrf: not a directory|train $work/s.cnrf -o $work/x.ckpt ${T[*]}"
   "1|r_0.png: a directory, not a file (frames[0].file_path|train $work/ds_dir -o $work/x.ckpt ${T[*]}"
+  "1|(nested 100000 deep; the parser stops at 1000)|train $work/ds_deep -o $work/x.ckpt ${T[*]}"
   "1|r_0.png: 100000 x 100000 pixels, more than the 268435456 that cnerf loads|train $work/ds_big -o $work/x.ckpt ${T[*]}"
   "1|cannot write $work/nodir/x.cnrf|encode $D -o $work/nodir/x.cnrf --lambda 1 ${T[*]}"
   "1|cannot write $work/nodir/x.ckpt|train $D -o $work/nodir/x.ckpt ${T[*]}"
   "1|cannot write /proc/x.ckpt|train $D -o /proc/x.ckpt ${T[*]}"
   "1|is also the input $work/t.ckpt|quantize $work/t.ckpt -o $work/t.ckpt"
+  "1|focal lengths in (0, 32768)|render $work/s.cnrf --orbit 1 --size 65535"
   "1|is also the input $work/s.cnrf|render $work/s.cnrf --orbit 1 --size 8 --save-cameras $work/s.cnrf"
   "1|lies inside the dataset|train $D -o $D/transforms_train.json ${T[*]}"
   "1|lies inside the dataset|encode $D -o $D/test/x.cnrf --lambda 1 ${T[*]}"
