@@ -883,7 +883,7 @@ static void test_blender_errors(void **state)
     fresh_dir(dir, "bl/empty");
     EXPECT_FAIL(dir, o, "unknown dataset layout", "bl/empty", "transforms_train.json",
                 "transforms.json", "poses_bounds.npy");
-    EXPECT_FAIL(TMP_ROOT "/does-not-exist", o, "does-not-exist: not a directory");
+    EXPECT_FAIL(TMP_ROOT "/does-not-exist", o, "does-not-exist: No such file or directory");
     rm_tree(TMP_ROOT "/bl");
 }
 
