@@ -492,7 +492,12 @@ int cn_checkpoint_resume(cn_trainer *t, const char *path, char *err, size_t errl
     if (ckpt_read(path, &c, err, errlen))
         return -1;
     int rc = 0;
-    if (c.n_params != t->model.n_params || c.compressed != (uint32_t)t->model.compressed ||
+    if (c.seed != t->opts.seed) { /* every step's random draws derive from the seed */
+        snprintf(err, errlen, "%s was trained with --seed %llu: resume with that seed (this run "
+                 "has %llu), or start a new run", path, (unsigned long long)c.seed,
+                 (unsigned long long)t->opts.seed);
+        rc = -1;
+    } else if (c.n_params != t->model.n_params || c.compressed != (uint32_t)t->model.compressed ||
         memcmp(&c.hdr.net, &t->model.topo.net,
                                                    sizeof c.hdr.net) != 0 ||
         c.hdr.n_coarse != t->model.topo.n_coarse || c.hdr.n_fine != t->model.topo.n_fine) {

@@ -72,6 +72,7 @@ rows=(
   "2|need one stream file|info --bogus"
   "2|need a checkpoint and -o FILE|quantize $work/t.ckpt"
   "2|--grid takes 16, 32, 64 or 128|encode $D -o $work/x.cnrf --lambda 1 --grid 17"
+  "1|t.ckpt was trained with --seed 1: resume with that seed|train $D -o $work/t.ckpt --resume --seed 7 ${T[*]}"
   "2|--iters 0 trains nothing|train $D -o $work/x.ckpt --iters 0"
   "2|--iters 0 trains nothing|encode $D -o $work/x.cnrf --lambda 1 --iters 0"
   "2|unknown command 'nope'|help nope"
