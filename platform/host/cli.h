@@ -29,6 +29,12 @@ int cli_check_output(const char *cmd, const char *path, const char *const *input
 /* The same for an output directory (existing or to be made): not inside `dataset`. */
 int cli_check_output_dir(const char *cmd, const char *dir, const char *dataset);
 
+/* Takes an exclusive lock on PATH.lock for a command that writes PATH over a long run, so
+ * that two runs never write one output (the kernel drops the lock if the process dies).
+ * Returns the descriptor to give cli_unlock_output, or -1 with the message printed. */
+int cli_lock_output(const char *cmd, const char *path, char lock[], size_t locklen);
+void cli_unlock_output(int fd, const char *lock);
+
 /* Seconds of training between two checkpoints by default: what kill -9 can lose. */
 #define CLI_CKPT_SECS 60.0
 

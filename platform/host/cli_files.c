@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -80,4 +81,33 @@ int cli_check_output_dir(const char *cmd, const char *dir, const char *dataset)
         return cli_fail(cmd, "%s lies inside the dataset %s: its images would be replaced; "
                         "write them elsewhere", dir, dataset);
     return 0;
+}
+
+int cli_lock_output(const char *cmd, const char *path, char lock[], size_t locklen)
+{
+    snprintf(lock, locklen, "%s.lock", path);
+    const int fd = open(lock, O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
+    if (fd < 0) {
+        cli_fail(cmd, "cannot create %s: %s", lock, strerror(errno));
+        return -1;
+    }
+    if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+        const int e = errno;
+        close(fd);
+        if (e == EWOULDBLOCK)
+            cli_fail(cmd, "%s is being written by another cnerf (it holds %s): wait for it "
+                     "or choose another output", path, lock);
+        else
+            cli_fail(cmd, "cannot lock %s: %s", lock, strerror(e));
+        return -1;
+    }
+    return fd;
+}
+
+void cli_unlock_output(int fd, const char *lock)
+{
+    if (fd < 0)
+        return;
+    unlink(lock); /* while still held: no other run can have taken this file */
+    close(fd);
 }

@@ -140,13 +140,20 @@ int cmd_encode(int argc, char **argv)
     if (cli_check_output("encode", out, inputs, 1, pos[0]) ||
         cli_check_output("encode", ckpt, NULL, 0, pos[0]))
         return 1;
-    cn_dataset ds;
-    if (cli_load_dataset("encode", pos[0], downscale, black, 0, 0, &ds))
+    char lock[4200];
+    const int lk = cli_lock_output("encode", out, lock, sizeof lock);
+    if (lk < 0)
         return 1;
+    cn_dataset ds;
+    if (cli_load_dataset("encode", pos[0], downscale, black, 0, 0, &ds)) {
+        cli_unlock_output(lk, lock);
+        return 1;
+    }
     char err[1024];
     cn_trainer t;
     if (cn_trainer_init(&t, &ds, &o, err, sizeof err)) {
         cn_dataset_free(&ds);
+        cli_unlock_output(lk, lock);
         return cli_fail("encode", "%s", err);
     }
     cli_say_random_bg(&t);
@@ -263,5 +270,6 @@ int cmd_encode(int argc, char **argv)
     cn_buf_free(&b);
     cn_trainer_free(&t);
     cn_dataset_free(&ds);
+    cli_unlock_output(lk, lock);
     return rc;
 }

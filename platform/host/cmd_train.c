@@ -285,9 +285,15 @@ int cmd_train(int argc, char **argv)
     o.occ_start = occ_start;
     if (cli_check_output("train", out, NULL, 0, pos[0]))
         return 1;
-    cn_dataset ds;
-    if (cli_load_dataset("train", pos[0], downscale, black, near, far, &ds))
+    char lock[4200];
+    const int lk = cli_lock_output("train", out, lock, sizeof lock);
+    if (lk < 0)
         return 1;
+    cn_dataset ds;
+    if (cli_load_dataset("train", pos[0], downscale, black, near, far, &ds)) {
+        cli_unlock_output(lk, lock);
+        return 1;
+    }
     printf("dataset %s: %d train, %d val, %d test views, %dx%d, %s\n", pos[0], ds.n_train,
            ds.n_val, ds.n_test, ds.train[0].w, ds.train[0].h,
            ds.ndc ? "forward-facing (NDC)" : "360 degrees");
@@ -295,6 +301,7 @@ int cmd_train(int argc, char **argv)
     cn_trainer t;
     if (cn_trainer_init(&t, &ds, &o, err, sizeof err)) {
         cn_dataset_free(&ds);
+        cli_unlock_output(lk, lock);
         return cli_fail("train", "%s", err);
     }
     cli_say_random_bg(&t);
@@ -312,5 +319,6 @@ int cmd_train(int argc, char **argv)
                               every, &stopped);
     cn_trainer_free(&t);
     cn_dataset_free(&ds);
+    cli_unlock_output(lk, lock);
     return rc ? rc : stopped ? 128 + stopped : 0;
 }

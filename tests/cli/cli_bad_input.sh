@@ -106,6 +106,27 @@ set -e
   fail "info --check of a good stream"
 n=$((n + 1))
 
+# Two runs never write one output: the second is refused while the first holds OUT.lock.
+"$cnerf" train "$D" -o "$work/busy.ckpt" "${T[@]}" --log-every 1 > "$work/busy.log" 2>&1 &
+pid=$!
+for _ in $(seq 600); do
+  grep -q "^iter " "$work/busy.log" && break
+  kill -0 $pid 2> /dev/null || fail "lock: the first run exited: $(tail -3 "$work/busy.log")"
+  sleep 0.1
+done
+set +e
+"$cnerf" train "$D" -o "$work/busy.ckpt" "${T[@]}" > /dev/null 2> "$work/err.txt"
+rc=$?
+kill -TERM $pid
+wait $pid
+rc1=$?
+set -e
+[ $rc -eq 1 ] && grep -q "busy.ckpt is being written by another cnerf" "$work/err.txt" ||
+  fail "lock: the second run exited $rc: $(cat "$work/err.txt")"
+[ $rc1 -eq 143 ] || fail "lock: the first run exited $rc1 after SIGTERM"
+[ ! -e "$work/busy.ckpt.lock" ] || fail "lock: the lock file was left behind"
+n=$((n + 1))
+
 # A FIFO as the stream is read to its end (what a writer sends), not forever.
 ( printf 'not a stream' > "$work/fifo" ) &
 set +e
