@@ -25,7 +25,7 @@ static int parse_units(const char *list, cnerf_info *hdr)
         char *end;
         const long v = strtol(p, &end, 10);
         if (end == p || v < 1 || v > CNERF_MAX_WIDTH || n > CNERF_MAX_DEPTH)
-            return cli_fail("synth", "--units '%s': expected U1,...,U%u[:V] with each U in "
+            return cli_usage("synth", "--units '%s': expected U1,...,U%u[:V] with each U in "
                             "1..%u", list, N0->depth, N0->width);
         u[n++] = (uint16_t)v;
         if (*end == ',' && !view) {
@@ -36,23 +36,23 @@ static int parse_units(const char *list, cnerf_info *hdr)
         } else if (*end == 0) {
             break;
         } else {
-            return cli_fail("synth", "--units '%s': unexpected '%c'", list, *end);
+            return cli_usage("synth", "--units '%s': unexpected '%c'", list, *end);
         }
     }
     const unsigned trunk = view ? view : n;
     if (trunk != N0->depth || (view && n != trunk + 1))
-        return cli_fail("synth", "--units '%s': %u trunk layers given, the networks have %u",
+        return cli_usage("synth", "--units '%s': %u trunk layers given, the networks have %u",
                         list, trunk, N0->depth);
     for (unsigned k = 0; k < hdr->n_nets; k++) {
         cnerf_net_info *N = &hdr->net[k];
         for (unsigned i = 0; i < trunk; i++) {
             if (u[i] > N->width)
-                return cli_fail("synth", "--units: %u units in trunk layer %u, more than the "
+                return cli_usage("synth", "--units: %u units in trunk layer %u, more than the "
                                 "width %u", u[i], i, N->width);
             N->units[i] = u[i];
         }
         if (view && (!N->view_width || u[trunk] > N->view_width))
-            return cli_fail("synth", "--units: %u view units, the view width is %u", u[trunk],
+            return cli_usage("synth", "--units: %u view units, the view width is %u", u[trunk],
                             N->view_width);
         N->view_units = view ? u[trunk] : 0;
     }
@@ -95,7 +95,7 @@ int cmd_synth(int argc, char **argv)
         return cli_usage("synth", "--grid-shape takes ball, full or empty, not '%s'", shape);
     cnerf_info hdr;
     if (cn_preset_header(preset, &hdr))
-        return cli_fail("synth", "unknown preset '%s' (tiny, small, paper)", preset);
+        return cli_usage("synth", "unknown preset '%s' (tiny, small, paper)", preset);
     for (unsigned n = 0; n < CNERF_MAX_NETS; n++) {
         cnerf_net_info *N = &hdr.net[n];
         if (depth > 0) {
@@ -126,7 +126,7 @@ int cmd_synth(int argc, char **argv)
     if (black)
         memset(hdr.background, 0, sizeof hdr.background);
     if (units && parse_units(units, &hdr))
-        return 1;
+        return 2;
     char err[512], meta[512];
     snprintf(meta, sizeof meta, "encoder=cnerf %s; command=synth; preset=%s; seed=%llu; spread=%g",
              CNERF_VERSION_STRING, preset, (unsigned long long)seed, spread);

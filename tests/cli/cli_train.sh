@@ -125,10 +125,10 @@ msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --prune yes 2>&1
 [ $rc = 2 ] && grep -q "\-\-prune takes on (remove dead units) or off, not 'yes'" <<<"$msg" \
   || fail "--prune yes: $rc $msg"
 msg=$("$cnerf" synth -o "$work/z.cnrf" --units 8,8 2>&1); rc=$?
-[ $rc = 1 ] && grep -q "2 trunk layers given, the networks have 4" <<<"$msg" \
+[ $rc = 2 ] && grep -q "2 trunk layers given, the networks have 4" <<<"$msg" \
   || fail "synth --units 8,8: $rc $msg"
 msg=$("$cnerf" synth -o "$work/z.cnrf" --units 8,8,99,8 2>&1); rc=$?
-[ $rc = 1 ] && grep -q "99 units in trunk layer 2, more than the width 64" <<<"$msg" \
+[ $rc = 2 ] && grep -q "99 units in trunk layer 2, more than the width 64" <<<"$msg" \
   || fail "synth --units 8,8,99,8: $rc $msg"
 [ ! -e "$work/z.cnrf" ] || fail "a refused option wrote a file"
 "$cnerf" synth -o "$work/u.cnrf" --units 8,3,16,64:5 > /dev/null
