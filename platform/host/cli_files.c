@@ -16,9 +16,9 @@
 
 static const char *kind_of(mode_t m)
 {
-    return S_ISLNK(m) ? "a symbolic link" : S_ISDIR(m) ? "a directory"
-         : S_ISCHR(m) || S_ISBLK(m) ? "a device" : S_ISFIFO(m) ? "a FIFO"
-         : S_ISSOCK(m) ? "a socket" : "not a regular file";
+    return S_ISREG(m) ? "a regular file" : S_ISLNK(m) ? "a symbolic link"
+         : S_ISDIR(m) ? "a directory" : S_ISCHR(m) || S_ISBLK(m) ? "a device"
+         : S_ISFIFO(m) ? "a FIFO" : S_ISSOCK(m) ? "a socket" : "not a regular file";
 }
 
 /* 1 when `path`, or the directory it would be created in, lies inside `dir` (or is it). */
@@ -86,22 +86,32 @@ int cli_check_output_dir(const char *cmd, const char *dir, const char *dataset)
 int cli_lock_output(const char *cmd, const char *path, char lock[], size_t locklen)
 {
     snprintf(lock, locklen, "%s.lock", path);
-    const int fd = open(lock, O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
-    if (fd < 0) {
-        cli_fail(cmd, "cannot create %s: %s", lock, strerror(errno));
-        return -1;
+    /* A run that ends removes the file while it holds it; a lock taken on that removed file
+     * would guard nothing, so the lock must be on the file the name still points to. */
+    for (int tries = 0; tries < 8; tries++) {
+        const int fd = open(lock, O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
+        if (fd < 0) {
+            cli_fail(cmd, "cannot create %s: %s", lock, strerror(errno));
+            return -1;
+        }
+        if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+            const int e = errno;
+            close(fd);
+            if (e == EWOULDBLOCK)
+                cli_fail(cmd, "%s is being written by another cnerf (it holds %s): wait for "
+                         "it or choose another output", path, lock);
+            else
+                cli_fail(cmd, "cannot lock %s: %s", lock, strerror(e));
+            return -1;
+        }
+        struct stat held, named;
+        if (fstat(fd, &held) == 0 && stat(lock, &named) == 0 && held.st_dev == named.st_dev &&
+            held.st_ino == named.st_ino)
+            return fd;
+        close(fd); /* removed in between: take the new one */
     }
-    if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
-        const int e = errno;
-        close(fd);
-        if (e == EWOULDBLOCK)
-            cli_fail(cmd, "%s is being written by another cnerf (it holds %s): wait for it "
-                     "or choose another output", path, lock);
-        else
-            cli_fail(cmd, "cannot lock %s: %s", lock, strerror(e));
-        return -1;
-    }
-    return fd;
+    cli_fail(cmd, "cannot lock %s: it keeps being replaced", lock);
+    return -1;
 }
 
 void cli_unlock_output(int fd, const char *lock)

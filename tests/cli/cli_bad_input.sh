@@ -59,6 +59,7 @@ rows=(
   "1|lies inside the dataset|encode $D -o $D/test/x.cnrf --lambda 1 ${T[*]}"
   "1|lies inside the dataset|eval $work/t.ckpt $D -o $D/test --downscale 16 --every 200"
   "1|lies inside the dataset|render $work/s.cnrf --dataset $D --downscale 16 --every 200 -o $D"
+  "1|$work/t.ckpt is a regular file, not a directory|eval $work/t.ckpt $D -o $work/t.ckpt --downscale 16 --every 200"
   "1|is a device; cnerf writes regular files only|quantize $work/t.ckpt -o /dev/null"
   "1|is a symbolic link; cnerf writes regular files only|quantize $work/t.ckpt -o $work/link.cnrf"
   "1|is a directory; cnerf writes regular files only|quantize $work/t.ckpt -o $work"
