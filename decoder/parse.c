@@ -2,7 +2,9 @@
  * Container walk, header and layer parsing, workspace layout and latent decoding.
  * Every read is bounds-checked; limits are checked before any size is computed.
  */
+#include "cn_fixed.h"
 #include "cn_internal.h"
+#include "cn_kernels.h"
 
 void cn_memzero(void *p, size_t n)
 {
@@ -177,6 +179,7 @@ static cnerf_status parse_layer(const uint8_t *buf, uint32_t off, uint32_t clen,
         return CNERF_E_CHUNK_ORDER;
     if (n_in != L->n_in || n_out != L->n_out)
         return CNERF_E_LAYER;
+    const int32_t f_in = cn_rd_i8(&r);
     int32_t a_m = cn_rd_i24(&r), a_e = cn_rd_i8(&r);
     int32_t b_m = cn_rd_i24(&r), b_e = cn_rd_i8(&r);
     uint32_t bias_bits = cn_rd_u8(&r);
@@ -184,8 +187,10 @@ static cnerf_status parse_layer(const uint8_t *buf, uint32_t off, uint32_t clen,
     if (r.err)
         return CNERF_E_CHUNK;
     if (a_m < -CNERF_M24_ABS_MAX || b_m < -CNERF_M24_ABS_MAX || !exp_ok(a_e) || !exp_ok(b_e) ||
-        !exp_ok(bias_e) || bias_bits > CNERF_MAX_BIAS_BITS || (bias_bits == 0u && bias_e != 0))
+        !exp_ok(bias_e) || bias_bits > CNERF_MAX_BIAS_BITS || (bias_bits == 0u && bias_e != 0) ||
+        f_in < CNERF_F_MIN || f_in > CNERF_F_MAX)
         return CNERF_E_FORMAT;
+    L->f_in = (int8_t)f_in;
     L->a_m = a_m;
     L->a_e = (int8_t)a_e;
     L->b_m = b_m;
@@ -205,8 +210,7 @@ static cnerf_status parse_layer(const uint8_t *buf, uint32_t off, uint32_t clen,
         return CNERF_E_RANGE;
     L->kmin = kmin;
     L->kmax = kmax;
-    L->latent_bytes = (kmin >= -128 && kmax <= 127) ? 1u : 2u;
-    L->header_bytes = 6u;
+    L->header_bytes = 7u;
     L->affine_bytes = 8u;
     L->bias_bytes = 2u + bias_packed;
     L->table_bytes = 4u;
@@ -373,17 +377,15 @@ cnerf_status cn_parse(const uint8_t *buf, size_t len, cnerf_info *info)
             L->chunk_offset = off;
             L->chunk_bytes = cbytes;
             next_layer++;
-        } else if (tag == CNERF_TAG_UNIT && info->version_minor >= 2u) {
-            /* At most one, before the grid and the first layer. (Before 1.2 UNIT is an
-             * unknown critical chunk, as it is to an older decoder.) */
+        } else if (tag == CNERF_TAG_UNIT) {
+            /* At most one, before the grid and the first layer. */
             if (info->unit_bytes || info->grid_g || next_layer > 0u)
                 return CNERF_E_CHUNK_ORDER;
             if ((st = parse_units(buf + poff, clen, info)) != CNERF_OK)
                 return st;
             info->unit_bytes = cbytes;
-        } else if (tag == CNERF_TAG_GRID && info->version_minor >= 1u) {
-            /* At most one, before the first layer. (A 1.0 stream cannot have one: there
-             * GRID is an unknown critical chunk, as it is to a 1.0 decoder.) */
+        } else if (tag == CNERF_TAG_GRID) {
+            /* At most one, before the first layer. */
             if (info->grid_g || next_layer > 0u)
                 return CNERF_E_CHUNK_ORDER;
             if ((st = parse_grid(buf, poff, clen, info)) != CNERF_OK)
@@ -427,27 +429,30 @@ static uint32_t alphabet(const cnerf_layer_info *L)
 /* Bytes of the occupancy bitmap of g^3 cells (g <= CNERF_MAX_GRID: at most 2^18). */
 static size_t grid_bitmap_bytes(uint32_t g) { return ((size_t)g * g * g + 7u) >> 3; }
 
+/* Inputs of a layer padded to whole pairs (the kernels take two at a time). */
+static uint32_t in_pad(const cnerf_layer_info *L) { return ((uint32_t)L->n_in + 1u) & ~1u; }
+
 size_t cnerf_workspace_size(const cnerf_info *info)
 {
     if (!info || info->n_layers > CNERF_MAX_LAYERS)
         return 0;
     /* Every term is bounded by the limits (see CNERF_WORKSPACE_BOUND), and the total is
      * below 2^28 bytes, so size_t arithmetic cannot overflow even where it is 32 bits. */
-    size_t total = 0;
-    uint32_t max_n = 0;
+    size_t total = 0, scratch = 0;
     for (uint32_t l = 0; l < info->n_layers; l++) {
         const cnerf_layer_info *L = &info->layer[l];
-        total += align8((size_t)L->n_in * L->n_out * (L->latent_bytes ? L->latent_bytes : 2u));
-        total += align8((size_t)L->n_out * 4u);
-        total += align8((size_t)L->n_out * 2u);
-        if (alphabet(L) > max_n)
-            max_n = alphabet(L);
+        total += align8((size_t)in_pad(L) * L->n_out * 2u); /* packed int16 latents */
+        total += 2u * align8((size_t)L->n_out * 4u);          /* bias mantissas, bias_q16 */
+        total += align8((size_t)L->n_out * 2u);               /* row order */
+        /* open's scratch: the frequency table, or four rows while packing them */
+        const size_t cum = alphabet(L) ? ((size_t)alphabet(L) + 1u) * 4u : 0u;
+        const size_t rows4 = (size_t)in_pad(L) * 4u * 2u;
+        scratch = cum > scratch ? cum : scratch;
+        scratch = rows4 > scratch ? rows4 : scratch;
     }
     if (info->grid_g)
         total += align8(grid_bitmap_bytes(info->grid_g));
-    if (max_n)
-        total += align8(((size_t)max_n + 1u) * 4u);
-    return total;
+    return total + align8(scratch);
 }
 
 /* Reads layer L's bias mantissas into `out`. */
@@ -465,57 +470,111 @@ static cnerf_status read_biases(const uint8_t *buf, const cnerf_layer_info *L, i
     return b.err ? CNERF_E_CHUNK : CNERF_OK; /* cannot fail after cn_parse */
 }
 
-static cnerf_status decode_layer(const uint8_t *buf, const cnerf_layer_info *L, void *lat,
+/* Decodes the layer's latents row-major into lat, rows of in_pad(L) int16 with a zero
+ * in the pad column. */
+static cnerf_status decode_layer(const uint8_t *buf, const cnerf_layer_info *L, int16_t *lat,
                                  uint32_t *cum)
 {
-    const uint32_t count = (uint32_t)L->n_in * L->n_out;
+    const uint32_t n_in = L->n_in, n_out = L->n_out, pad = in_pad(L);
+    const uint32_t count = n_in * n_out;
     if (L->kmin == L->kmax) {
-        for (uint32_t i = 0; i < count; i++) {
-            if (L->latent_bytes == 1u)
-                ((int8_t *)lat)[i] = (int8_t)L->kmin;
-            else
-                ((int16_t *)lat)[i] = (int16_t)L->kmin;
-        }
-        return CNERF_OK;
+        for (uint32_t i = 0; i < count; i++)
+            lat[i] = (int16_t)L->kmin;
+    } else {
+        const uint32_t n = alphabet(L);
+        cn_bits b;
+        cn_bits_init(&b, buf + L->table_offset, L->payload_offset - L->table_offset);
+        cnerf_status st = cn_table_read(&b, n, L->prec, L->eg_order, cum);
+        if (st == CNERF_OK)
+            st = cn_rans_decode(buf + L->payload_offset, L->payload_bytes, cum, n, L->prec,
+                                L->kmin, lat, 2u, count);
+        if (st != CNERF_OK)
+            return st;
     }
-    const uint32_t n = alphabet(L);
-    cn_bits b;
-    cn_bits_init(&b, buf + L->table_offset, L->payload_offset - L->table_offset);
-    cnerf_status st = cn_table_read(&b, n, L->prec, L->eg_order, cum);
-    if (st != CNERF_OK)
-        return st;
-    return cn_rans_decode(buf + L->payload_offset, L->payload_bytes, cum, n, L->prec, L->kmin,
-                          lat, L->latent_bytes, count);
+    if (pad != n_in) {
+        /* spread the rows to their padded stride, last first (each moves up) */
+        for (uint32_t o = n_out; o-- > 0u;) {
+            lat[(size_t)o * pad + n_in] = 0;
+            for (uint32_t i = n_in; i-- > 0u;)
+                lat[(size_t)o * pad + i] = lat[(size_t)o * n_in + i];
+        }
+    }
+    return CNERF_OK;
 }
 
-/* Moves the layer's rows that hold a non-zero latent to the front of `lat`, in increasing
- * order, zeroes the rest, and writes the output index of each stored row into `rows` (then
- * the all-zero rows' indices); returns how many rows are live. A live row moves only down
- * (to slot live <= o), onto a row already moved or all-zero: nothing is lost. */
-static uint16_t order_rows(const cnerf_layer_info *L, void *lat, uint16_t *rows)
+/* The latents' packed layout (cnerf_decoder.latent): the index of k[j][i] of stored row j
+ * among n_live live rows of `pairs` input pairs. */
+static size_t packed_index(uint32_t j, uint32_t i, uint32_t live, uint32_t pairs)
 {
-    const uint32_t n_in = L->n_in, eb = L->latent_bytes;
-    uint8_t *b = (uint8_t *)lat;
-    uint32_t live = 0, dead = L->n_out;
-    for (uint32_t o = 0; o < L->n_out; o++) {
-        const uint8_t *row = b + (size_t)o * n_in * eb;
+    const uint32_t b = j >> 2, q = j & 3u;
+    const uint32_t rb = (b + 1u) * 4u <= live ? 4u : live & 3u; /* rows in j's block */
+    return (size_t)b * 8u * pairs + (size_t)(i >> 1) * 2u * rb + 2u * q + (i & 1u);
+}
+
+/* Orders the layer's rows (live ones first, in increasing output order; rows[] gets each
+ * stored row's output index, the all-zero rows last) and packs the live rows into blocks
+ * of four, using `tmp` (4 padded rows). A block's rows come from row slots at or after its
+ * own (a live row's output index is at least its rank), so writing block b overwrites
+ * only slots that were copied to tmp, belong to earlier blocks or hold zeros. Returns the
+ * live rows. */
+static uint16_t pack_rows(const cnerf_layer_info *L, int16_t *lat, uint16_t *rows, int16_t *tmp)
+{
+    const uint32_t pad = in_pad(L), pairs = pad / 2u, n_out = L->n_out;
+    uint32_t live = 0, dead = n_out;
+    for (uint32_t o = 0; o < n_out; o++) {
+        const int16_t *row = lat + (size_t)o * pad;
         uint32_t nz = 0;
-        for (uint32_t i = 0; i < n_in * eb && !nz; i++)
-            nz = row[i] != 0u;
-        if (!nz) {
+        for (uint32_t i = 0; i < pad && !nz; i++)
+            nz = row[i] != 0;
+        if (nz)
+            rows[live++] = (uint16_t)o;
+        else
             rows[--dead] = (uint16_t)o; /* fills from the end, in decreasing order */
-            continue;
-        }
-        if (live != o) {
-            uint8_t *to = b + (size_t)live * n_in * eb;
-            for (uint32_t i = 0; i < n_in * eb; i++)
-                to[i] = row[i];
-        }
-        rows[live++] = (uint16_t)o;
     }
-    for (size_t i = (size_t)live * n_in * eb; i < (size_t)L->n_out * n_in * eb; i++)
-        b[i] = 0;
+    for (uint32_t b = 0; 4u * b < live; b++) {
+        const uint32_t rb = live - 4u * b < 4u ? live - 4u * b : 4u;
+        for (uint32_t q = 0; q < rb; q++)
+            for (uint32_t i = 0; i < pad; i++)
+                tmp[(size_t)q * pad + i] = lat[(size_t)rows[4u * b + q] * pad + i];
+        for (uint32_t q = 0; q < rb; q++)
+            for (uint32_t i = 0; i < pad; i++)
+                lat[packed_index(4u * b + q, i, live, pairs)] = tmp[(size_t)q * pad + i];
+    }
+    for (size_t i = (size_t)live * pad; i < (size_t)n_out * pad; i++)
+        lat[i] = 0;
     return (uint16_t)live;
+}
+
+/* sat32(round(v)) of the rounding rule of the layers (half up). */
+static int32_t q16_bias(int32_t m, int e)
+{
+    return (int32_t)cn_clamp64(cn_mul_exp_r(m, 1, e + 16, 1), INT32_MIN, INT32_MAX);
+}
+
+/* The per-layer proofs of docs/fixed-point.md. |sum k x_q| of a row is at most
+ * 2^15 S, S its sum |k|; with every row's S <= 65535 it is below 2^31 (an int32 sum). The
+ * rescale round(acc a_m 2^-n) of such a sum needs no saturation when 2^15 max S |a_m| <
+ * 2^(30+n): it stays below 2^30 in magnitude. */
+static void prove_layer(cnerf_decoder *dec, uint32_t l)
+{
+    const cnerf_layer_info *L = &dec->info.layer[l];
+    const uint32_t pad = in_pad(L);
+    uint32_t maxsum = 0;
+    for (uint32_t j = 0; j < dec->n_live[l]; j++) {
+        uint32_t sum = 0; /* <= 1124 * 32767 < 2^26 */
+        for (uint32_t i = 0; i < pad; i++) {
+            const int32_t k = dec->latent[l][packed_index(j, i, dec->n_live[l], pad / 2u)];
+            sum += (uint32_t)(k < 0 ? -k : k);
+        }
+        maxsum = sum > maxsum ? sum : maxsum;
+    }
+    dec->wide[l] = maxsum > 65535u;
+    const int n = -((int)L->a_e + 16 - (int)L->f_in);
+    const uint64_t am = (uint64_t)(L->a_m < 0 ? -L->a_m : L->a_m); /* < 2^23 */
+    const uint64_t bound = ((uint64_t)maxsum << 15) * am;           /* < 2^16 2^15 2^23 */
+    dec->a_shift[l] = 0;
+    if (!dec->wide[l] && n >= 1 && n <= 62 && (bound >> 30) >> n == 0u)
+        dec->a_shift[l] = (uint8_t)n;
 }
 
 cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void *ws,
@@ -535,17 +594,20 @@ cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void
         st = CNERF_E_WS_SMALL;
     uint8_t *w = (uint8_t *)ws;
     const cnerf_info *info = &dec->info;
-    uint32_t *cum = (uint32_t *)0;
+    uint8_t *scratch = (uint8_t *)0;
     if (st == CNERF_OK) {
-        /* Layout: per layer latents, biases and row order; the grid; the table scratch last. */
+        /* Layout: per layer latents, biases and row order; the grid; open's scratch last. */
         for (uint32_t l = 0; l < info->n_layers; l++) {
             const cnerf_layer_info *L = &info->layer[l];
-            dec->latent[l] = w;
-            w += align8((size_t)L->n_in * L->n_out * L->latent_bytes);
+            dec->latent[l] = (const int16_t *)(void *)w;
+            w += align8((size_t)in_pad(L) * L->n_out * 2u);
             dec->bias[l] = (const int32_t *)(void *)w;
+            w += align8((size_t)L->n_out * 4u);
+            dec->bias_q16[l] = (const int32_t *)(void *)w;
             w += align8((size_t)L->n_out * 4u);
             dec->rows[l] = (const uint16_t *)(void *)w;
             w += align8((size_t)L->n_out * 2u);
+            dec->n_pairs[l] = (uint16_t)(in_pad(L) / 2u);
         }
         if (info->grid_g) {
             const size_t nb = grid_bitmap_bytes(info->grid_g);
@@ -555,17 +617,26 @@ cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void
             dec->grid = w;
             w += align8(nb);
         }
-        cum = (uint32_t *)(void *)w;
+        scratch = w;
     }
     for (uint32_t l = 0; st == CNERF_OK && l < info->n_layers; l++) {
         const cnerf_layer_info *L = &info->layer[l];
-        st = read_biases(buf, L, (int32_t *)(uintptr_t)dec->bias[l]);
+        int32_t *bias = (int32_t *)(uintptr_t)dec->bias[l];
+        int16_t *lat = (int16_t *)(uintptr_t)dec->latent[l];
+        uint16_t *rows = (uint16_t *)(uintptr_t)dec->rows[l];
+        st = read_biases(buf, L, bias);
         if (st == CNERF_OK)
-            st = decode_layer(buf, L, (void *)(uintptr_t)dec->latent[l], cum);
-        if (st == CNERF_OK)
-            dec->n_live[l] = order_rows(L, (void *)(uintptr_t)dec->latent[l],
-                                        (uint16_t *)(uintptr_t)dec->rows[l]);
+            st = decode_layer(buf, L, lat, (uint32_t *)(void *)scratch);
+        if (st != CNERF_OK)
+            break;
+        dec->n_live[l] = pack_rows(L, lat, rows, (int16_t *)(void *)scratch);
+        int32_t *bq = (int32_t *)(uintptr_t)dec->bias_q16[l];
+        for (uint32_t j = 0; j < L->n_out; j++)
+            bq[j] = L->bias_bits ? q16_bias(bias[rows[j]], L->bias_e) : 0;
+        prove_layer(dec, l);
     }
+    if (st == CNERF_OK)
+        dec->dot = cn_dot_select();
     if (st != CNERF_OK)
         cn_memzero(dec, sizeof *dec);
     return st;
@@ -578,15 +649,12 @@ int32_t cnerf_latent(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t 
     const cnerf_layer_info *L = &dec->info.layer[l];
     if (o >= L->n_out || i >= L->n_in || !dec->latent[l])
         return 0;
-    /* Live rows are stored first, in increasing output order (order_rows): a search, since
+    /* Live rows are stored first, in increasing output order (pack_rows): a search, since
      * this accessor is for tools and tests, not for rendering. */
     uint32_t j = 0;
     while (j < dec->n_live[l] && dec->rows[l][j] != o)
         j++;
     if (j == dec->n_live[l])
         return 0; /* an all-zero row */
-    const uint32_t idx = j * L->n_in + i;
-    if (L->latent_bytes == 1u)
-        return ((const int8_t *)dec->latent[l])[idx];
-    return ((const int16_t *)dec->latent[l])[idx];
+    return dec->latent[l][packed_index(j, i, dec->n_live[l], dec->n_pairs[l])];
 }

@@ -4,12 +4,14 @@
  *   Q32  int64  positions, ray parameters t, unit view directions
  *   Q28  int32  ray directions (|component| < 8)
  *   Q16  int32  network activations, PE values, densities, optical depths (int64 sums)
+ *   int16        a layer's inputs at its scale f_in: sat16(round(x 2^f_in)); int32 sums
  *   Q30  uint32 transmittance and weights, table values
  *   turns uint32 encoding phases: 2^32 = one period of sin / cos
  * One ray at a time, one sample at a time; all state lives in the caller's scratch.
  */
 #include "cn_fixed.h"
 #include "cn_internal.h"
+#include "cn_kernels.h"
 #include "cn_tables.h"
 
 #define Q30_ONE ((int64_t)1 << 30)
@@ -19,10 +21,6 @@
 #define MAX_UV_Q28 ((int64_t)2 << 28) /* |u|, |v| <= 2 at the image corners */
 #define MAX_POS_Q32 ((int64_t)1 << 47) /* camera centre within +-2^15 world units */
 #define MAX_DEPTH_Q16 ((int64_t)32 << 16) /* optical depth beyond which T is 0 in Q30 */
-
-/* Accumulator bounds (docs/fixed-point.md): a layer sums at most CNERF_MAX_LAYER_IN products
- * of a latent (|k| <= 2^15) and an activation (|x| <= 2^31): < 2^11 2^15 2^31 = 2^57. */
-typedef char cn_acc_bound_holds[(CNERF_MAX_LAYER_IN < 2048u && CNERF_MAX_ABS_K < 32768) ? 1 : -1];
 
 /* ---- tables ---- */
 
@@ -111,76 +109,113 @@ static void posenc(int32_t *out, const int64_t v[3], unsigned L, int inc)
 
 /* ---- one linear layer: y = a (sum k x) + b (sum x) + bias, in Q16 ---- */
 
-/* sum_i k[o][i] x[i] for four consecutive rows at once: each activation is loaded once per
- * block and the latent rows are read in order. Exact int64 sums (bounds above). */
-#define CN_DOT_BLOCK(T)                                                                     \
-    static void dot4_##T(const T *k, uint32_t n_in, const int32_t *x, int64_t acc[4])      \
-    {                                                                                       \
-        const T *k0 = k, *k1 = k + n_in, *k2 = k + 2u * n_in, *k3 = k + 3u * n_in;          \
-        int64_t a0 = 0, a1 = 0, a2 = 0, a3 = 0;                                             \
-        for (uint32_t i = 0; i < n_in; i++) {                                               \
-            const int64_t xi = x[i];                                                        \
-            a0 += xi * k0[i];                                                               \
-            a1 += xi * k1[i];                                                               \
-            a2 += xi * k2[i];                                                               \
-            a3 += xi * k3[i];                                                               \
-        }                                                                                   \
-        acc[0] = a0, acc[1] = a1, acc[2] = a2, acc[3] = a3;                                 \
-    }                                                                                       \
-    static int64_t dot1_##T(const T *k, uint32_t n_in, const int32_t *x)                   \
-    {                                                                                       \
-        int64_t a = 0;                                                                      \
-        for (uint32_t i = 0; i < n_in; i++)                                                 \
-            a += (int64_t)x[i] * k[i];                                                      \
-        return a;                                                                           \
-    }
-CN_DOT_BLOCK(int8_t)
-CN_DOT_BLOCK(int16_t)
-
-/* y[o] from sum_i k[o][i] x[i] = acc: a acc + b sum x + bias, clamped (ReLU or int32). */
-static int32_t finish(const cnerf_layer_info *L, int64_t acc, int64_t tb, int32_t bias_m, int relu)
+/* The layer's output o from its sum acc = sum_i k[o][i] x_q[i] (docs/fixed-point.md):
+ * sat32(sat32(round(acc a 2^(16-f)) + t) + bias_q16), rounding half up, then ReLU. */
+static int32_t finish(int32_t ya, int32_t t, int32_t bq, int relu)
 {
-    int64_t v = cn_mul_exp(acc, L->a_m, L->a_e) + tb;
-    if (L->bias_bits)
-        v += cn_mul_exp(bias_m, 1, L->bias_e + 16);
-    return (int32_t)cn_clamp64(v, relu ? 0 : INT32_MIN, INT32_MAX);
+    const int32_t v = cn_qadd32(cn_qadd32(ya, t), bq);
+    return relu && v < 0 ? 0 : v;
 }
 
-/* The rows with a non-zero latent, stored first (row j of the workspace is output
- * dec->rows[l][j], j < n_live), go through the dot products, four at a time; the others
- * have sum k x = 0 exactly and only take a b sum x + bias. The order of the outputs does not
- * change any value: each is its own exact sum. Returns the multiply-accumulates done. */
+/* The layer's inputs at its scale: xq[i] = sat16(round(x[i] 2^-s)), s = 16 - f_in; returns
+ * their sum (|sum| <= 1123 2^15 < 2^26). For s <= 16, x + 2^(s-1) saturated at the int32
+ * range and shifted gives the same value: it saturates only when x > 2^31 - 1 - 2^(s-1),
+ * where the exact quotient is at least 2^(31-s) - 1/2, so at least 32767 after rounding
+ * for s <= 16, as is the saturated one. */
+static int32_t requant(const int32_t *x, int16_t *xq, uint32_t n, unsigned s)
+{
+    int32_t sum = 0;
+    if (s == 0u || s > 16u) {
+        for (uint32_t i = 0; i < n; i++) {
+            const int16_t q = cn_requant16(x[i], s);
+            xq[i] = q;
+            sum += q;
+        }
+        return sum;
+    }
+    const int32_t h = (int32_t)1 << (s - 1u);
+    for (uint32_t i = 0; i < n; i++) {
+        const int32_t v = cn_sat16(cn_asr32(cn_qadd32(x[i], h), s));
+        xq[i] = (int16_t)v;
+        sum += v;
+    }
+    return sum;
+}
+
+/* Outputs of the live rows from their int32 sums, for layers whose rescale the parser
+ * proved to need no saturation (cn_rescale_fast, written out: u = acc a_m + 2^(n-1), the
+ * result is u >> n). One loop per case keeps the loop's values in registers. */
+#define CN_FINISH_LOOP(RESCALE, RELU)                                                     \
+    for (uint32_t j = 0; j < live; j++) {                                                 \
+        const uint64_t u = (uint64_t)((int64_t)acc[j] * am) + half;                       \
+        const int32_t v = cn_qadd32(cn_qadd32(RESCALE, t), bq[j]);                        \
+        y[rows[j]] = RELU && v < 0 ? 0 : v;                                                \
+    }
+#define CN_LOW_WORD cn_s32(((uint32_t)u >> n) | ((uint32_t)(u >> 32) << (32u - n)))
+#define CN_HIGH_WORD cn_asr32(cn_s32((uint32_t)(u >> 32)), n - 32u)
+
+static void finish_fast(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
+                        const int32_t *bq, const uint16_t *rows, int32_t *y, int relu)
+{
+    const uint64_t half = (uint64_t)1 << (n - 1u);
+    if (n < 32u && relu)
+        CN_FINISH_LOOP(CN_LOW_WORD, 1)
+    else if (n < 32u)
+        CN_FINISH_LOOP(CN_LOW_WORD, 0)
+    else if (relu)
+        CN_FINISH_LOOP(CN_HIGH_WORD, 1)
+    else
+        CN_FINISH_LOOP(CN_HIGH_WORD, 0)
+}
+
+/* y = layer l of x (Q16, n_in values), through the layer's inputs at its scale and the
+ * chosen kernel: the rows with a non-zero latent (stored first, row j is output
+ * dec->rows[l][j]) take their sums from the kernel, the others have sum k x = 0 exactly.
+ * The order of the outputs changes no value: each is its own exact sum. Returns the
+ * multiply-accumulates done. */
 static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, int32_t *y,
-                       int relu)
+                       int relu, int16_t *xq, int32_t *acc)
 {
     const cnerf_layer_info *L = &dec->info.layer[l];
     const uint32_t n_in = L->n_in, n_out = L->n_out, live = dec->n_live[l];
+    const uint32_t pairs = dec->n_pairs[l];
+    const int e = 16 - L->f_in; /* 0..31 */
+    const int32_t sx = requant(x, xq, n_in, (unsigned)e);
+    if (n_in & 1u)
+        xq[n_in] = 0; /* the pad input of an odd layer */
+    const int32_t t = cn_sat32(cn_mul_exp_r(sx, L->b_m, L->b_e + e, 1));
     const uint16_t *rows = dec->rows[l];
-    int64_t sx = 0;
-    for (uint32_t i = 0; i < n_in; i++)
-        sx += x[i];
-    const int64_t tb = cn_mul_exp(sx, L->b_m, L->b_e);
-    const int32_t *bias = dec->bias[l];
+    const int32_t *bq = dec->bias_q16[l];
+    const int16_t *k = dec->latent[l];
     uint32_t j = 0;
-    for (; j + 4u <= live; j += 4u) {
-        int64_t acc[4];
-        const size_t r = (size_t)j * n_in; /* live rows are stored first, in order */
-        if (L->latent_bytes == 1u)
-            dot4_int8_t((const int8_t *)dec->latent[l] + r, n_in, x, acc);
-        else
-            dot4_int16_t((const int16_t *)dec->latent[l] + r, n_in, x, acc);
-        for (uint32_t q = 0; q < 4u; q++)
-            y[rows[j + q]] = finish(L, acc[q], tb, bias[rows[j + q]], relu);
+    if (dec->wide[l]) {
+        /* sums that may leave int32: four rows at a time in int64 (the same values) */
+        for (; j < live; j += 4u) {
+            int64_t a64[4];
+            const uint32_t rb = live - j < 4u ? live - j : 4u;
+            cn_dot64_c(k + (size_t)j * 2u * pairs, xq, pairs, rb, a64);
+            for (uint32_t q = 0; q < rb; q++) {
+                const int32_t ya = cn_sat32(cn_mul_exp_r(a64[q], L->a_m, L->a_e + e, 1));
+                y[rows[j + q]] = finish(ya, t, bq[j + q], relu);
+            }
+        }
+    } else if (live) {
+#ifdef CN_DOT_DIRECT
+        CN_DOT_DIRECT(k, xq, pairs, live, acc);
+#else
+        dec->dot(k, xq, pairs, live, acc);
+#endif
+        if (dec->a_shift[l]) {
+            finish_fast(acc, live, L->a_m, dec->a_shift[l], t, bq, rows, y, relu);
+        } else {
+            for (; j < live; j++) {
+                const int32_t ya = cn_sat32(cn_mul_exp_r(acc[j], L->a_m, L->a_e + e, 1));
+                y[rows[j]] = finish(ya, t, bq[j], relu);
+            }
+        }
     }
-    for (; j < live; j++) {
-        const size_t r = (size_t)j * n_in;
-        const int64_t acc = L->latent_bytes == 1u
-                                ? dot1_int8_t((const int8_t *)dec->latent[l] + r, n_in, x)
-                                : dot1_int16_t((const int16_t *)dec->latent[l] + r, n_in, x);
-        y[rows[j]] = finish(L, acc, tb, bias[rows[j]], relu);
-    }
-    for (; j < n_out; j++)
-        y[rows[j]] = finish(L, 0, tb, bias[rows[j]], relu);
+    for (j = live; j < n_out; j++)
+        y[rows[j]] = finish(0, t, bq[j], relu);
     return live * n_in; /* the multiply-accumulates done: live <= 2^11, n_in <= 2^11 */
 }
 
@@ -192,6 +227,8 @@ typedef struct scratch {
     int32_t *buf[2];            /* [PE(x) | h] for the trunk, alternating */
     int32_t *view_in, *view_h;  /* [feature | PE(d)], view hidden */
     int32_t *vpe;               /* the ray's encoded view direction */
+    int16_t *xq;                /* a layer's inputs at its scale, padded to pairs */
+    int32_t *acc;               /* a layer's sums, one per live row */
 } scratch;
 
 static uint32_t max_width(const cnerf_info *I, int view)
@@ -206,16 +243,30 @@ static uint32_t max_width(const cnerf_info *I, int view)
 
 static size_t round8(size_t n) { return (n + 7u) & ~(size_t)7u; }
 
+/* The widest layer input (padded to a pair) and output over the stream's layers. */
+static void layer_extent(const cnerf_info *I, size_t *in, size_t *out)
+{
+    *in = 2;
+    *out = 4;
+    for (uint32_t l = 0; l < I->n_layers && l < CNERF_MAX_LAYERS; l++) {
+        const size_t n = ((size_t)I->layer[l].n_in + 1u) & ~(size_t)1u;
+        *in = n > *in ? n : *in;
+        *out = I->layer[l].n_out > *out ? I->layer[l].n_out : *out;
+    }
+}
+
 /* Carves the scratch; returns the bytes used (NULL base: only counts). */
 static size_t carve(const cnerf_info *I, uint8_t *base, scratch *s)
 {
     const size_t nc = I->n_coarse, nf = I->n_fine, W = max_width(I, 0), V = max_width(I, 1);
-    const size_t sizes[8] = {8 * nc, 8 * (nf ? nf : 1), 8 * (nc + nf), 4 * nc,
-                             4 * (I->in_pos + W), 4 * (I->in_pos + W), 4 * (W + I->in_dir),
-                             4 * V + 4 * (size_t)I->in_dir};
-    void *p[8];
+    size_t xin, yout;
+    layer_extent(I, &xin, &yout);
+    const size_t sizes[10] = {8 * nc, 8 * (nf ? nf : 1), 8 * (nc + nf), 4 * nc,
+                              4 * (I->in_pos + W), 4 * (I->in_pos + W), 4 * (W + I->in_dir),
+                              4 * V + 4 * (size_t)I->in_dir, 2 * xin, 4 * yout};
+    void *p[10];
     size_t off = 0;
-    for (unsigned i = 0; i < 8; i++) {
+    for (unsigned i = 0; i < 10; i++) {
         p[i] = base ? base + off : (void *)0;
         off += round8(sizes[i]);
     }
@@ -229,6 +280,8 @@ static size_t carve(const cnerf_info *I, uint8_t *base, scratch *s)
         s->view_in = (int32_t *)p[6];
         s->view_h = (int32_t *)p[7];
         s->vpe = s->view_h + V;
+        s->xq = (int16_t *)p[8];
+        s->acc = (int32_t *)p[9];
     }
     return off;
 }
@@ -263,11 +316,12 @@ static void net_sigma(const cnerf_decoder *dec, unsigned net, const scratch *s, 
     for (unsigned i = 0; i < N->depth; i++) {
         const int32_t *in = s->buf[i & 1u];
         const int skip_in = i == 0 || (N->skip != CNERF_NO_SKIP && i == N->skip + 1u);
-        m += linear(dec, N->first_layer + i, skip_in ? in : in + P, s->buf[(i + 1u) & 1u] + P, 1);
+        m += linear(dec, N->first_layer + i, skip_in ? in : in + P, s->buf[(i + 1u) & 1u] + P, 1,
+                    s->xq, s->acc);
     }
     const int32_t *h = s->buf[N->depth & 1u] + P;
     const unsigned l = N->first_layer + N->depth;
-    m += linear(dec, l, h, N->view_width ? raw + 3 : raw, 0);
+    m += linear(dec, l, h, N->view_width ? raw + 3 : raw, 0, s->xq, s->acc);
     *macs += m;
 }
 
@@ -279,9 +333,9 @@ static void net_color(const cnerf_decoder *dec, unsigned net, const scratch *s, 
     const cnerf_net_info *N = &dec->info.net[net];
     const int32_t *h = s->buf[N->depth & 1u] + dec->info.in_pos;
     const unsigned l = N->first_layer + N->depth;
-    uint32_t m = linear(dec, l + 1, h, s->view_in, 0);
-    m += linear(dec, l + 2, s->view_in, s->view_h, 1);
-    m += linear(dec, l + 3, s->view_h, raw, 0);
+    uint32_t m = linear(dec, l + 1, h, s->view_in, 0, s->xq, s->acc);
+    m += linear(dec, l + 2, s->view_in, s->view_h, 1, s->xq, s->acc);
+    m += linear(dec, l + 3, s->view_h, raw, 0, s->xq, s->acc);
     *macs += m;
 }
 
@@ -528,7 +582,7 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
     if (!dec || !cam || !rgb || !scratch_mem)
         return CNERF_E_NULL;
     const cnerf_info *I = &dec->info;
-    if (I->n_layers == 0 || !dec->latent[0])
+    if (I->n_layers == 0 || !dec->latent[0] || !dec->dot)
         return CNERF_E_ARG; /* not opened */
     if (((uintptr_t)scratch_mem & (CNERF_WS_ALIGN - 1u)) != 0)
         return CNERF_E_WS_ALIGN;

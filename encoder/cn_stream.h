@@ -89,6 +89,7 @@ enum cn_table_source { CN_TABLE_NONE = 0, CN_TABLE_COUNTS = 1, CN_TABLE_PRIOR = 
 
 typedef struct cn_layer_src {
     const int32_t *k; /* n_out * n_in latents, row-major [out][in] */
+    int8_t f_in;      /* input scale (CNERF_F_MIN..CNERF_F_MAX; cn_choose_scales) */
     int32_t a_m, b_m;
     int8_t a_e, b_e;
     const int32_t *bias_m; /* n_out mantissas, NULL for all-zero */
@@ -109,7 +110,7 @@ typedef struct cn_stream_src {
     cn_layer_src layer[CNERF_MAX_LAYERS];
     const char *meta; /* optional provenance text for the 'meta' chunk */
     /* Optional occupancy grid: grid_g^3 flags (non-zero: occupied), x fastest; grid_g = 0
-     * writes none. A stream with a grid is version 1.1, one without stays 1.0. */
+     * writes none. */
     const uint8_t *grid;
     uint32_t grid_g;
 } cn_stream_src;
@@ -123,7 +124,7 @@ typedef struct cn_write_report {
 void cn_put_head(cn_buf *h, const cnerf_info *hdr);
 
 /* 1 when a layer of the (expanded) topology has fewer units than its network's width:
- * the stream then carries a UNIT chunk and is version 1.2. */
+ * the stream then carries a UNIT chunk. */
 int cn_topology_pruned(const cnerf_info *I);
 /* Writes the whole stream into `out` (which is reset first), then reads it back with
  * the decoder's parser. On failure returns -1 and puts a message in err. */

@@ -13,24 +13,30 @@ static double bias_of(const cn_layer_src *S, unsigned o)
     return S->bias_m && S->bias_bits ? ldexp(S->bias_m[o], S->bias_e) : 0.0;
 }
 
-/* Output bounds of layer L from its inputs' bounds [lo, hi]. The decoder computes
- * a (sum k x) + b (sum x) + bias with exact sums and three roundings of at most one Q16
- * step each; the float reference computes the same sum in float32 (relative error below
- * (n_in + 2) 2^-24 of the magnitudes). The margin covers both, and the double sums here. */
+/* Output bounds of layer L from its inputs' bounds [lo, hi]. The decoder feeds each input
+ * x to its sums as x_q 2^-f = sat16(round(x 2^f)) 2^-f, which lies within half a step
+ * 2^(-f-1) of x clamped to the int16 range, then computes a (sum k x_q) + b (sum x_q) +
+ * bias with exact sums and three roundings of at most one Q16 step each; the float
+ * reference computes the sum of the unquantized inputs in float32 (relative error below
+ * (n_in + 2) 2^-24 of the magnitudes). The input intervals are widened to hold both
+ * renderers' inputs, and the margin covers the roundings and the double sums here. */
 static void layer_bounds(const cnerf_layer_info *L, const cn_layer_src *S, const double *lo,
                          const double *hi, int relu, double *olo, double *ohi, uint8_t *dead,
                          uint8_t *constant)
 {
     const double a = cn_from_m24e8(S->a_m, S->a_e), b = cn_from_m24e8(S->b_m, S->b_e);
+    const double step = ldexp(1.0, -S->f_in), qmin = -32768 * step, qmax = 32767 * step;
     for (unsigned o = 0; o < L->n_out; o++) {
         const int32_t *k = S->k + (size_t)o * L->n_in;
         double slo = 0, shi = 0, mag = 0, spread = 0;
         for (unsigned i = 0; i < L->n_in; i++) {
-            const double c = a * k[i] + b, p = c * lo[i], q = c * hi[i];
+            const double xl = fmin(lo[i], fmin(fmax(lo[i], qmin), qmax) - step / 2);
+            const double xh = fmax(hi[i], fmin(fmax(hi[i], qmin), qmax) + step / 2);
+            const double c = a * k[i] + b, p = c * xl, q = c * xh;
             slo += fmin(p, q);
             shi += fmax(p, q);
             mag += fmax(fabs(p), fabs(q));
-            spread += fabs(c) * (hi[i] - lo[i]);
+            spread += fabs(c) * (hi[i] - lo[i]); /* constant inputs give constant x_q */
         }
         const double bias = bias_of(S, o);
         const double margin = 4 * ULP + (L->n_in + 4.0) * 0x1p-22 * (mag + fabs(bias));

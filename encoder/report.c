@@ -98,9 +98,9 @@ void cn_print_info(FILE *f, const char *name, const uint8_t *buf, const cnerf_in
     }
     if (I->meta_len)
         fprintf(f, "meta: %.*s\n", (int)I->meta_len, (const char *)buf + I->meta_offset);
-    fprintf(f, "\n%-5s %-3s %-7s %11s %8s %13s %4s %6s %8s %6s %5s %7s\n", "layer", "net", "role",
+    fprintf(f, "\n%-5s %-3s %-7s %11s %8s %13s %4s %6s %8s %6s %5s %7s %4s\n", "layer", "net", "role",
             "in->out", "params", "k range", "prec", "table", "payload", "affine", "bias",
-            "bits/p");
+            "bits/p", "f_in");
     for (uint32_t l = 0; l < I->n_layers; l++) {
         const cnerf_layer_info *L = &I->layer[l];
         char shape[32], range[32];
@@ -108,9 +108,9 @@ void cn_print_info(FILE *f, const char *name, const uint8_t *buf, const cnerf_in
         snprintf(range, sizeof range, "[%d,%d]", (int)L->kmin, (int)L->kmax);
         uint32_t params = (uint32_t)L->n_in * L->n_out;
         double bpp = 8.0 * (double)(L->chunk_bytes) / (double)params;
-        fprintf(f, "%-5u %-3u %-7s %11s %8u %13s %4u %6u %8u %6u %5u %7.3f\n", l, L->net,
+        fprintf(f, "%-5u %-3u %-7s %11s %8u %13s %4u %6u %8u %6u %5u %7.3f %4d\n", l, L->net,
                 cn_role_name(L->role), shape, params, range, L->prec, L->table_bytes,
-                L->payload_bytes, L->affine_bytes, L->bias_bytes, bpp);
+                L->payload_bytes, L->affine_bytes, L->bias_bytes, bpp, L->f_in);
     }
     cn_totals t;
     cn_breakdown(I, &t);

@@ -136,10 +136,14 @@ static int put_layer(cn_buf *c, const cnerf_layer_info *L, const cn_layer_src *S
         S->b_e > CNERF_EXP_MAX || S->bias_e < CNERF_EXP_MIN || S->bias_e > CNERF_EXP_MAX ||
         S->bias_bits > CNERF_MAX_BIAS_BITS)
         return fail(err, errlen, "layer %u: affine decoder or bias format out of range", l);
+    if (S->f_in < CNERF_F_MIN || S->f_in > CNERF_F_MAX)
+        return fail(err, errlen, "layer %u: input scale %d outside %d..%d", l, S->f_in,
+                    CNERF_F_MIN, CNERF_F_MAX);
     cn_buf_u8(c, L->net);
     cn_buf_u8(c, L->index);
     cn_buf_u16(c, L->n_in);
     cn_buf_u16(c, L->n_out);
+    cn_buf_u8(c, (uint32_t)(uint8_t)S->f_in);
     cn_buf_u24(c, (uint32_t)S->a_m & 0xFFFFFFu);
     cn_buf_u8(c, (uint32_t)(uint8_t)S->a_e);
     cn_buf_u24(c, (uint32_t)S->b_m & 0xFFFFFFu);
@@ -242,11 +246,9 @@ int cn_write_stream(const cn_stream_src *src, cn_buf *out, cn_write_report *rep,
     out->oom = 0;
     const uint8_t sig[4] = {CNERF_MAGIC_0, CNERF_MAGIC_1, CNERF_MAGIC_2, CNERF_MAGIC_3};
     cn_buf_put(out, sig, 4);
-    /* The lowest minor revision whose chunks the stream uses: 1 for a grid, 2 for pruned
-     * layers. */
     const int pruned = cn_topology_pruned(info);
     cn_buf_u16(out, CNERF_VERSION_MAJOR);
-    cn_buf_u16(out, pruned ? 2u : src->grid_g ? 1u : 0u);
+    cn_buf_u16(out, CNERF_VERSION_MINOR);
     cn_buf c = {0};
     cn_put_head(&c, info);
     put_chunk(out, CNERF_TAG_HEAD, &c);

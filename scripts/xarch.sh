@@ -33,7 +33,19 @@ for t in "${targets[@]}"; do
   read -r name cc run <<< "$t"
   static=$([ "$run" = "-" ] && echo "" || echo "-static")
   $cc "${flags[@]}" $static "${src[@]}" -o "$work/render_tile.$name"
+  $cc "${flags[@]}" $static decoder/*.c tests/xarch/check_kernels.c -o "$work/check_kernels.$name"
   echo "built for $name with $cc"
+done
+# Each architecture's kernels against its portable C (tests/xarch/check_kernels.c).
+for t in "${targets[@]}"; do
+  read -r name cc run <<< "$t"
+  if [ "$run" = "-" ]; then
+    out=$("$work/check_kernels.$name" 1)
+  else
+    out=$("$run" "$work/check_kernels.$name" 1)
+  fi
+  echo "$name: $(head -n 1 <<< "$out"); $(tail -n 1 <<< "$out")"
+  tail -n 1 <<< "$out" | grep -q " 0 failed$" || { echo "$out" >&2; exit 1; }
 done
 
 # Streams and cameras.

@@ -69,7 +69,7 @@ typedef struct cnerf_layer_info {
     uint8_t net;   /* 0 = coarse, 1 = fine */
     uint8_t index; /* layer index within the network */
     uint8_t role;  /* enum cnerf_role */
-    uint8_t latent_bytes; /* 1 (int8) or 2 (int16) per latent in the workspace */
+    int8_t f_in;   /* input scale: inputs enter the sums as sat16(round(x 2^f_in)) */
     uint16_t n_in, n_out;
     int32_t a_m, b_m; /* affine decoder W = a*k + b, a = a_m * 2^a_e, b = b_m * 2^b_e */
     int8_t a_e, b_e;
@@ -123,14 +123,28 @@ typedef struct cnerf_info {
 
 typedef struct cnerf_decoder {
     cnerf_info info;
-    /* int8_t or int16_t rows of n_in latents: the n_live[l] rows with a non-zero latent,
-     * in increasing output order, then zeros (cnerf_latent reads by output index) */
-    const void *latent[CNERF_MAX_LAYERS];
-    const int32_t *bias[CNERF_MAX_LAYERS]; /* n_out bias mantissas */
+    /* Latents widened to int16 and packed for the dot-product kernels (docs/decoder.md):
+     * the n_live[l] rows with a non-zero latent, in increasing output order, in blocks of
+     * four rows (the last block holds the rest), each block input pair by input pair:
+     * k[r][2p], k[r][2p+1] for each row r of the block; inputs padded to n_pairs[l] pairs
+     * with zero. cnerf_latent reads one latent by output and input index. */
+    const int16_t *latent[CNERF_MAX_LAYERS];
+    const int32_t *bias[CNERF_MAX_LAYERS];     /* n_out bias mantissas, by output */
+    const int32_t *bias_q16[CNERF_MAX_LAYERS]; /* sat32(round(bias 2^16)), by stored row */
     /* Per layer the output index of each stored row: the n_live[l] rows with a non-zero
      * latent first, then the all-zero rows, whose sum k x is 0 and is not computed. */
     const uint16_t *rows[CNERF_MAX_LAYERS];
     uint16_t n_live[CNERF_MAX_LAYERS];
+    uint16_t n_pairs[CNERF_MAX_LAYERS]; /* (n_in + 1) / 2 */
+    /* How cnerf_open proved each layer's sums: wide = 1 when a sum of k x_q may leave the
+     * int32 range (then it is formed in int64); a_shift in 1..62 when the rescale of an
+     * int32 sum is one product and one shift with no saturation, else 0. Either way the
+     * values are the same; only the speed differs. */
+    uint8_t wide[CNERF_MAX_LAYERS];
+    uint8_t a_shift[CNERF_MAX_LAYERS];
+    /* The dot-product kernel cnerf_open chose for this CPU (docs/decoder.md, Kernels). */
+    void (*dot)(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                int32_t *acc);
     const uint8_t *grid;   /* occupancy bitmap, bit (z g + y) g + x, LSB first; NULL: none */
     uint32_t grid_occupied; /* occupied cells */
 } cnerf_decoder;
@@ -148,7 +162,7 @@ size_t cnerf_workspace_size(const cnerf_info *info);
  * occupancy grid of at most `grid` cells per axis (0: streams without a grid);
  * for static arrays (a compile-time constant when the arguments are). */
 #define CNERF_WORKSPACE_BOUND(params, outputs, layers, grid)                             \
-    ((size_t)(params) * 2u + (size_t)(outputs) * 6u + (size_t)(layers) * 24u +             \
+    ((size_t)(params) * 2u + (size_t)(outputs) * 12u + (size_t)(layers) * 32u +            \
      ((size_t)65536u + 1u) * 4u + 16u +                                                    \
      ((size_t)(grid) * (size_t)(grid) * (size_t)(grid) + 7u) / 8u + 8u)
 

@@ -1,5 +1,5 @@
 /*
- * cnerf bitstream v1: constants shared by the encoder and the decoder.
+ * cnerf bitstream v2: constants shared by the encoder and the decoder.
  * docs/bitstream.md is normative; this header mirrors it.
  * Freestanding-safe: includes only <stdint.h>.
  */
@@ -14,11 +14,11 @@
 #define CNERF_MAGIC_2 'N'
 #define CNERF_MAGIC_3 'F'
 #define CNERF_SIGNATURE_BYTES 8u
-#define CNERF_VERSION_MAJOR 1u
-/* The newest minor revision this code knows (1.1 adds the GRID chunk, 1.2 the UNIT
- * chunk). A writer stamps the lowest minor whose chunks the stream uses, so a stream
- * without a grid or pruned layers stays 1.0. */
-#define CNERF_VERSION_MINOR 2u
+#define CNERF_VERSION_MAJOR 2u
+/* The newest minor revision this code knows. Version 2.0 changed the layers' arithmetic
+ * (int16 inputs at a per-layer scale, LAYR's f_in) and holds the GRID and UNIT chunks that
+ * 1.1 and 1.2 added; 1.x streams are refused (CNERF_E_VERSION). */
+#define CNERF_VERSION_MINOR 0u
 
 /* Chunk framing: tag[4], u32 length, payload[length], u32 CRC-32 of tag+payload. */
 #define CNERF_CHUNK_OVERHEAD 12u
@@ -31,8 +31,8 @@
 #define CNERF_TAG_LAYR CNERF_TAG('L', 'A', 'Y', 'R')
 #define CNERF_TAG_DONE CNERF_TAG('D', 'O', 'N', 'E')
 #define CNERF_TAG_META CNERF_TAG('m', 'e', 't', 'a')
-#define CNERF_TAG_GRID CNERF_TAG('G', 'R', 'I', 'D') /* occupancy grid, minor >= 1 */
-#define CNERF_TAG_UNIT CNERF_TAG('U', 'N', 'I', 'T') /* units per layer, minor >= 2 */
+#define CNERF_TAG_GRID CNERF_TAG('G', 'R', 'I', 'D') /* occupancy grid */
+#define CNERF_TAG_UNIT CNERF_TAG('U', 'N', 'I', 'T') /* units per layer */
 
 /* GRID: g^3 cells over the scene bounds, coded bit by bit with binary rANS under
  * CNERF_GRID_CONTEXTS contexts (the left, front and lower neighbours). */
@@ -81,6 +81,10 @@
 #define CNERF_M24_ABS_MAX 8388607
 #define CNERF_EXP_MIN (-64)
 #define CNERF_EXP_MAX 63
+/* A layer's input scale: its inputs enter the sums as int16 x_q = sat16(round(x 2^f_in)),
+ * CNERF_F_MIN <= f_in <= CNERF_F_MAX (docs/fixed-point.md). */
+#define CNERF_F_MIN (-15)
+#define CNERF_F_MAX 16
 /* Bias blocks: nbits-bit two's-complement mantissas with one shared exponent. */
 #define CNERF_MAX_BIAS_BITS 24u
 

@@ -12,6 +12,7 @@
 #include "cn_grid.h"
 #include "cn_metrics.h"
 #include "cn_prune.h"
+#include "cn_scales.h"
 #include "cn_report.h"
 #include "cn_train.h"
 
@@ -194,7 +195,11 @@ int cmd_encode(int argc, char **argv)
          * update, and a resumed run's parameters, are not materialized yet). */
         cn_model_materialize(&t.model);
         cn_prune_report pr;
-        if (!strcmp(prune, "on")) {
+        /* The layers' input scales first: the pruning proof accounts for the decoder's
+         * inputs at those scales (removing dead units changes no other activation). */
+        if (cn_choose_scales(&e.src, seed, NULL, err, sizeof err))
+            rc = cli_fail("encode", "%s", err);
+        if (rc == 0 && !strcmp(prune, "on")) {
             if (cn_export_prune(&e, &pr, err, sizeof err))
                 rc = cli_fail("encode", "%s", err);
             else

@@ -7,6 +7,7 @@
 #include "cli.h"
 #include "cli_args.h"
 #include "cn_export.h"
+#include "cn_scales.h"
 #include "cn_stream.h"
 #include "cn_train.h"
 
@@ -47,7 +48,8 @@ int cmd_quantize(int argc, char **argv)
     if (rc == 0 && cn_export_quantized(&m, (unsigned)bits, meta, &e, err, sizeof err))
         rc = cli_fail("quantize", "%s", err);
     else if (rc == 0) {
-        if (cn_write_stream(&e.src, &b, &rep, err, sizeof err) ||
+        if (cn_choose_scales(&e.src, 1, NULL, err, sizeof err) ||
+            cn_write_stream(&e.src, &b, &rep, err, sizeof err) ||
             cn_write_file_atomic(out, b.p, b.n, err, sizeof err))
             rc = cli_fail("quantize", "%s", err);
         cn_export_free(&e);

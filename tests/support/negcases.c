@@ -104,7 +104,7 @@ int neg_base_make(cn_buf *out, cnerf_info *info)
     const int rc = cn_write_stream(&s.src, &base, NULL, err, sizeof err);
     cn_synth_free(&s);
     if (rc || cnerf_peek(base.p, base.n, &base_info) != CNERF_OK ||
-        base_info.layer[L_INT16].latent_bytes != 2 || base_info.layer[L_CONST].payload_bytes != 0)
+        base_info.layer[L_INT16].kmax < 300 || base_info.layer[L_CONST].payload_bytes != 0)
         return -1;
     if (out) {
         memset(out, 0, sizeof *out);
@@ -133,10 +133,11 @@ void neg_base_free(void) { cn_buf_free(&base); }
 #define H_NET0 44
 #define Y_INDEX 1
 #define Y_NIN 2
-#define Y_A_E 9
-#define Y_A_M 6
-#define Y_BIAS_BITS 14
-#define Y_BIAS_E 15
+#define Y_F_IN 6
+#define Y_A_M 7
+#define Y_A_E 10
+#define Y_BIAS_BITS 15
+#define Y_BIAS_E 16
 
 static uint32_t lay_rel(unsigned l, uint32_t abs_off)
 {
@@ -147,7 +148,8 @@ static uint32_t y_kmin(unsigned l) { return lay_rel(l, base_info.layer[l].bias_o
                                             ((base_info.layer[l].n_out * base_info.layer[l].bias_bits + 7u) >> 3); }
 
 /* ---- the cases ---- */
-static void e_major(chunks *c) { put16(c->sig + 4, 2); }
+static void e_major1(chunks *c) { put16(c->sig + 4, 1); }
+static void e_major3(chunks *c) { put16(c->sig + 4, 3); }
 static void e_minor(chunks *c) { put16(c->sig + 6, 7); }
 static void e_magic(chunks *c) { c->sig[1] = 'X'; }
 static void e_width(chunks *c) { put16(c->c[HEAD].data + H_NET0 + 1, CNERF_MAX_WIDTH + 1); }
@@ -187,6 +189,8 @@ static void e_a_mant(chunks *c)
     p[1] = 0;
     p[2] = 0x80; /* -2^23 */
 }
+static void e_f_low(chunks *c) { c->c[LAYR(0)].data[Y_F_IN] = (uint8_t)(CNERF_F_MIN - 1); }
+static void e_f_high(chunks *c) { c->c[LAYR(0)].data[Y_F_IN] = CNERF_F_MAX + 1; }
 static void e_bias_bits(chunks *c) { c->c[LAYR(0)].data[Y_BIAS_BITS] = 25; }
 static void e_bias_exp0(chunks *c)
 {
@@ -238,7 +242,7 @@ static void e_missing_done(chunks *c) { remove_chunk(c, DONE); }
 static void e_done_payload(chunks *c) { c->c[DONE].len = 1; }
 static void e_no_chunks(chunks *c) { c->n = 0; }
 
-/* ---- occupancy grids (format 1.1) ---- */
+/* ---- occupancy grids ---- */
 
 /* A valid GRID payload of g^3 cells (a ball in the middle) into chunk-sized data. */
 static uint32_t grid_payload(uint32_t g, uint8_t *data)
@@ -260,21 +264,15 @@ static uint32_t grid_payload(uint32_t g, uint8_t *data)
     return n;
 }
 
-/* Inserts a grid of g cells after HEAD (chunk 1) and stamps the stream 1.1. */
+/* Inserts a grid of g cells after HEAD (chunk 1). */
 static chunk *add_grid(chunks *c, uint32_t g)
 {
     uint8_t data[256];
     const uint32_t n = grid_payload(g, data);
     insert_chunk(c, 1, "GRID", data, n);
-    put16(c->sig + 6, 1);
     return &c->c[1];
 }
 static void e_grid_ok(chunks *c) { add_grid(c, 4); }
-static void e_grid_v10(chunks *c)
-{
-    add_grid(c, 4);
-    put16(c->sig + 6, 0);
-}
 static void e_grid_g0(chunks *c) { add_grid(c, 4)->data[0] = 0; }
 static void e_grid_g129(chunks *c) { add_grid(c, 4)->data[0] = CNERF_MAX_GRID + 1; }
 static void e_grid_size(chunks *c) { add_grid(c, 4)->data[0] = 5; }
@@ -308,10 +306,10 @@ static void e_grid_after_layer(chunks *c)
     behind_first_layer(c);
 }
 
-/* ---- units per layer (format 1.2) ---- */
+/* ---- units per layer ---- */
 
 /* Inserts after HEAD a UNIT chunk that keeps every layer's full width (valid: the same
- * topology, spelled out) and stamps the stream 1.2. */
+ * topology, spelled out). */
 static chunk *add_units(chunks *c)
 {
     uint8_t data[64];
@@ -324,15 +322,9 @@ static chunk *add_units(chunks *c)
             put16(data + n, N->view_width), n += 2;
     }
     insert_chunk(c, 1, "UNIT", data, n);
-    put16(c->sig + 6, 2);
     return &c->c[1];
 }
 static void e_units_ok(chunks *c) { add_units(c); }
-static void e_units_v11(chunks *c)
-{
-    add_units(c);
-    put16(c->sig + 6, 1);
-}
 /* Trunk layer 1 of the coarse network said to have one unit fewer than its LAYR has. */
 static void e_units_layer(chunks *c) { put16(add_units(c)->data + 2, base_info.net[0].width - 1); }
 static void e_units_zero(chunks *c) { put16(add_units(c)->data + 2, 0); }
@@ -357,7 +349,6 @@ static void e_units_after_grid(chunks *c)
 {
     add_units(c);
     add_grid(c, 4); /* HEAD, GRID, UNIT */
-    put16(c->sig + 6, 2);
 }
 static void e_units_after_layer(chunks *c)
 {
@@ -374,7 +365,8 @@ static void r_magic_prefix(cn_buf *b) { b->n = 3; }
 
 const neg_case neg_cases[] = {
     {"wrong magic", e_magic, NULL, CNERF_E_MAGIC, CNERF_E_MAGIC},
-    {"major version 2", e_major, NULL, CNERF_E_VERSION, CNERF_E_VERSION},
+    {"major version 1 (format 1.x)", e_major1, NULL, CNERF_E_VERSION, CNERF_E_VERSION},
+    {"major version 3", e_major3, NULL, CNERF_E_VERSION, CNERF_E_VERSION},
     {"minor version 7 is accepted", e_minor, NULL, CNERF_OK, CNERF_OK},
     {"width over the limit", e_width, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT},
     {"depth over the limit", e_depth17, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT},
@@ -399,6 +391,8 @@ const neg_case neg_cases[] = {
     {"kmin -32768", e_kmin_limit, NULL, CNERF_E_RANGE, CNERF_E_RANGE},
     {"affine exponent 64", e_a_exp, NULL, CNERF_E_FORMAT, CNERF_E_FORMAT},
     {"affine mantissa -2^23", e_a_mant, NULL, CNERF_E_FORMAT, CNERF_E_FORMAT},
+    {"input scale below the range", e_f_low, NULL, CNERF_E_FORMAT, CNERF_E_FORMAT},
+    {"input scale above the range", e_f_high, NULL, CNERF_E_FORMAT, CNERF_E_FORMAT},
     {"bias bits 25", e_bias_bits, NULL, CNERF_E_FORMAT, CNERF_E_FORMAT},
     {"zero-bit biases with an exponent", e_bias_exp0, NULL, CNERF_E_FORMAT, CNERF_E_FORMAT},
     {"table precision 0", e_prec0, NULL, CNERF_E_TABLE, CNERF_E_TABLE},
@@ -426,8 +420,7 @@ const neg_case neg_cases[] = {
     {"missing DONE", e_missing_done, NULL, CNERF_E_TRUNCATED, CNERF_E_TRUNCATED},
     {"DONE with a payload", e_done_payload, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK},
     {"signature only", e_no_chunks, NULL, CNERF_E_TRUNCATED, CNERF_E_TRUNCATED},
-    {"grid in a 1.1 stream is accepted", e_grid_ok, NULL, CNERF_OK, CNERF_OK},
-    {"grid in a 1.0 stream", e_grid_v10, NULL, CNERF_E_UNKNOWN_CHUNK, CNERF_E_UNKNOWN_CHUNK},
+    {"grid is accepted", e_grid_ok, NULL, CNERF_OK, CNERF_OK},
     {"grid of 0 cells", e_grid_g0, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT},
     {"grid over the limit", e_grid_g129, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT},
     {"grid size disagrees with its payload", e_grid_size, NULL, CNERF_OK, CNERF_E_PAYLOAD},
@@ -441,8 +434,7 @@ const neg_case neg_cases[] = {
     {"grid payload with an extra byte", e_grid_extra, NULL, CNERF_OK, CNERF_E_PAYLOAD},
     {"two grids", e_grid_twice, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER},
     {"grid after a layer", e_grid_after_layer, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER},
-    {"units in a 1.2 stream are accepted", e_units_ok, NULL, CNERF_OK, CNERF_OK},
-    {"units in a 1.1 stream", e_units_v11, NULL, CNERF_E_UNKNOWN_CHUNK, CNERF_E_UNKNOWN_CHUNK},
+    {"units are accepted", e_units_ok, NULL, CNERF_OK, CNERF_OK},
     {"units disagree with the layers", e_units_layer, NULL, CNERF_E_LAYER, CNERF_E_LAYER},
     {"a layer of 0 units", e_units_zero, NULL, CNERF_E_HEADER, CNERF_E_HEADER},
     {"more units than the width", e_units_wide, NULL, CNERF_E_HEADER, CNERF_E_HEADER},

@@ -49,7 +49,7 @@ static void check_roundtrip(const cn_synth *s)
         }
         assert_int_equal(L->kmin, kmin);
         assert_int_equal(L->kmax, kmax);
-        assert_int_equal(L->latent_bytes, (kmin >= -128 && kmax <= 127) ? 1 : 2);
+        assert_int_equal(L->f_in, S->f_in);
     }
     free(ws);
     free(dec);
@@ -153,7 +153,7 @@ static void test_full_latent_range(void **state)
     assert_int_equal(cnerf_peek(b.p, b.n, &info), CNERF_OK);
     assert_int_equal(info.layer[0].kmax - info.layer[0].kmin + 1, 65535);
     assert_int_equal(info.layer[0].prec, 16);
-    assert_int_equal(info.layer[0].latent_bytes, 2);
+    assert_true(info.layer[0].f_in >= CNERF_F_MIN && info.layer[0].f_in <= CNERF_F_MAX);
     cn_buf_free(&b);
     /* Outside the range: the writer refuses with a message. */
     s.k[0][0] = -CNERF_MAX_ABS_K - 1;
@@ -258,17 +258,18 @@ static void test_pinned_workspace(void **state)
         const char *preset;
         size_t bytes;
     } pins[] = {
-        /* tiny per network: int8 latents 27520 + int32 biases 1432 + row orders 720; x2;
-         * + table scratch 176 */
-        {"tiny", 59520},
-        /* small per network: 91904 + 2840 + 1424; x2; + 176 */
-        {"small", 192512},
+        /* tiny per network: int16 latents of 27680 (inputs padded to pairs) 55360 + bias
+         * mantissas and Q16 biases 2 x 1432 + row orders 720; x2; + open's scratch: four
+         * padded rows of the widest layer input, 4 x 128 x 2 = 1024 */
+        {"tiny", 118912},
+        /* small per network: 2 x 92224 + 2 x 2840 + 1424; x2; + 4 x 192 x 2 */
+        {"small", 384640},
     };
     for (int i = 0; i < 2; i++) {
         cnerf_info hdr;
         assert_int_equal(cn_preset_header(pins[i].preset, &hdr), 0);
         cn_buf b;
-        tu_synth_stream(&hdr, 1, 2.0, &b, NULL); /* spread 2: every layer fits int8 */
+        tu_synth_stream(&hdr, 1, 2.0, &b, NULL);
         cnerf_info info;
         assert_int_equal(cnerf_peek(b.p, b.n, &info), CNERF_OK);
         size_t ws = cnerf_workspace_size(&info);

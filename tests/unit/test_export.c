@@ -166,8 +166,8 @@ static void test_prune_dead_units(void **state)
     void *w0, *w1;
     write_and_open(&e0, &b0, d0, &w0, NULL);
     write_and_open(&e1, &b1, d1, &w1, NULL);
-    assert_int_equal(d0->info.version_minor, 0);
-    assert_int_equal(d1->info.version_minor, 2);
+    assert_int_equal(d0->info.version_major, CNERF_VERSION_MAJOR);
+    assert_int_equal(d1->info.version_major, CNERF_VERSION_MAJOR);
     assert_int_equal(d0->info.unit_bytes, 0);
     assert_int_equal(d1->info.unit_bytes, CNERF_CHUNK_OVERHEAD + 2 * 2 * 5);
     assert_int_equal(d1->info.n_params, pr.params_after);
