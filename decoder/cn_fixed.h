@@ -172,12 +172,16 @@ static inline uint64_t cn_udiv_frac(uint64_t n, uint64_t d, unsigned f)
     uint64_t q = 0, r = 0;
     if (d == 0 || d >= top)
         return top - 1; /* callers keep d < 2^63 */
-    for (int b = 63; b >= 0; b--) {
-        r = (r << 1) | ((n >> b) & 1u); /* r < d < 2^63: no wrap */
-        q <<= 1;
-        if (r >= d) {
-            r -= d;
-            q |= 1;
+    if (n < d) {
+        r = n; /* the integer bits of the quotient are all 0: the loop below leaves r = n */
+    } else {
+        for (int b = 63; b >= 0; b--) {
+            r = (r << 1) | ((n >> b) & 1u); /* r < d < 2^63: no wrap */
+            q <<= 1;
+            if (r >= d) {
+                r -= d;
+                q |= 1;
+            }
         }
     }
     for (unsigned i = 0; i < f; i++) {

@@ -194,6 +194,10 @@ cnerf_status cn_parse_head(const uint8_t *p, uint32_t clen, cnerf_info *info);
 /* Parses the whole stream into `info`; used by cnerf_peek and cnerf_open. */
 cnerf_status cn_parse(const uint8_t *buf, size_t len, cnerf_info *info);
 
+/* 1 for the layers whose outputs leave the networks (density and colour): the renderer
+ * writes them by output index, every other layer's outputs in its stored row order. */
+int cn_layer_final(const cnerf_layer_info *L);
+
 /* Freestanding memset. */
 void cn_memzero(void *p, size_t n);
 

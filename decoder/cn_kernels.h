@@ -55,6 +55,15 @@ uint32_t cn_dot_variants(cn_dot_variant out[CN_DOT_MAX_VARIANTS]);
 uint32_t cn_dot_variants_x86(cn_dot_variant *out);
 uint32_t cn_dot_variants_arm(cn_dot_variant *out);
 
+#if defined(CN_HAVE_DSP)
+/* The layer inputs' quantization of render.c (requant) for 1 <= s <= 16 on the DSP
+ * extension: xq[i] = sat16(sat32(x[i] + 2^(s-1)) >> s) for i < n; returns their sum. */
+int32_t cn_requant_arm(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
+/* render.c's finish_fast for 1 <= n < 32 on the DSP extension (the same values). */
+void cn_finish_arm(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
+                   const int32_t *bq, int32_t *y, int relu);
+#endif
+
 /* Builds whose kernel is fixed at compile time call it directly (a known call graph for
  * the stack bound of firmware builds); the others go through cnerf_decoder.dot. */
 #if defined(CN_HAVE_MVE) || defined(CN_HAVE_DSP) || defined(CN_HAVE_NEON)

@@ -545,6 +545,61 @@ static uint16_t pack_rows(const cnerf_layer_info *L, int16_t *lat, uint16_t *row
     return (uint16_t)live;
 }
 
+/* The layer whose outputs feed layer l's inputs from column *off on (the renderer keeps
+ * every layer's outputs in its stored row order, [fixed-point.md]: the consumer's columns
+ * follow that order), or -1 when l's inputs are all encodings. */
+static int producer(const cnerf_info *I, uint32_t l, uint32_t *off)
+{
+    const cnerf_layer_info *L = &I->layer[l];
+    const cnerf_net_info *N = &I->net[L->net];
+    const int first = N->first_layer, D = N->depth;
+    *off = 0;
+    switch (L->role) {
+    case CNERF_ROLE_TRUNK:
+        if (L->index == 0u)
+            return -1;
+        if (N->skip != CNERF_NO_SKIP && L->index == N->skip + 1u)
+            *off = I->in_pos;
+        return first + L->index - 1;
+    case CNERF_ROLE_SIGMA:
+    case CNERF_ROLE_FEATURE:
+    case CNERF_ROLE_OUTPUT:
+        return first + D - 1;
+    case CNERF_ROLE_VIEW:
+        return first + D + 1; /* the feature */
+    default:
+        return first + D + 2; /* rgb: the view layer */
+    }
+}
+
+/* 1 for the layers whose outputs leave the networks (density, colour, or both): they are
+ * written by output index; every other layer's in its stored row order. */
+int cn_layer_final(const cnerf_layer_info *L)
+{
+    return L->role == CNERF_ROLE_SIGMA || L->role == CNERF_ROLE_RGB ||
+           L->role == CNERF_ROLE_OUTPUT;
+}
+
+/* Reorders layer l's input columns from its producer's outputs into the producer's stored
+ * row order: column off + j takes column off + rows_p[j]. tmp holds one row. */
+static void order_columns(const cnerf_decoder *dec, uint32_t l, int16_t *lat, int16_t *tmp)
+{
+    uint32_t off;
+    const int p = producer(&dec->info, l, &off);
+    if (p < 0)
+        return;
+    const cnerf_layer_info *L = &dec->info.layer[l];
+    const uint32_t pad = in_pad(L), U = dec->info.layer[p].n_out;
+    const uint16_t *rows = dec->rows[p];
+    for (uint32_t o = 0; o < L->n_out; o++) {
+        int16_t *row = lat + (size_t)o * pad;
+        for (uint32_t j = 0; j < U; j++)
+            tmp[j] = row[off + rows[j]];
+        for (uint32_t j = 0; j < U; j++)
+            row[off + j] = tmp[j];
+    }
+}
+
 /* sat32(round(v)) of the rounding rule of the layers (half up). */
 static int32_t q16_bias(int32_t m, int e)
 {
@@ -575,6 +630,13 @@ static void prove_layer(cnerf_decoder *dec, uint32_t l)
     dec->a_shift[l] = 0;
     if (!dec->wide[l] && n >= 1 && n <= 62 && (bound >> 30) >> n == 0u)
         dec->a_shift[l] = (uint8_t)n;
+    /* b sum x_q: |sum x_q| <= 2^15 n_in */
+    const int nb = -((int)L->b_e + 16 - (int)L->f_in);
+    const uint64_t bm = (uint64_t)(L->b_m < 0 ? -L->b_m : L->b_m);
+    const uint64_t bbound = ((uint64_t)L->n_in << 15) * bm; /* < 2^11 2^15 2^23 */
+    dec->b_shift[l] = 0;
+    if (nb >= 1 && nb <= 62 && (bbound >> 30) >> nb == 0u)
+        dec->b_shift[l] = (uint8_t)nb;
 }
 
 cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void *ws,
@@ -629,6 +691,7 @@ cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void
             st = decode_layer(buf, L, lat, (uint32_t *)(void *)scratch);
         if (st != CNERF_OK)
             break;
+        order_columns(dec, l, lat, (int16_t *)(void *)scratch);
         dec->n_live[l] = pack_rows(L, lat, rows, (int16_t *)(void *)scratch);
         int32_t *bq = (int32_t *)(uintptr_t)dec->bias_q16[l];
         for (uint32_t j = 0; j < L->n_out; j++)
@@ -656,5 +719,12 @@ int32_t cnerf_latent(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t 
         j++;
     if (j == dec->n_live[l])
         return 0; /* an all-zero row */
-    return dec->latent[l][packed_index(j, i, dec->n_live[l], dec->n_pairs[l])];
+    uint32_t off, c = i;
+    const int p = producer(&dec->info, l, &off);
+    if (p >= 0 && i >= off && i - off < dec->info.layer[p].n_out) {
+        c = off; /* the column of input i: its producer's stored row */
+        while (dec->rows[p][c - off] != i - off)
+            c++;
+    }
+    return dec->latent[l][packed_index(j, c, dec->n_live[l], dec->n_pairs[l])];
 }

@@ -122,7 +122,15 @@ static int32_t finish(int32_t ya, int32_t t, int32_t bq, int relu)
  * range and shifted gives the same value: it saturates only when x > 2^31 - 1 - 2^(s-1),
  * where the exact quotient is at least 2^(31-s) - 1/2, so at least 32767 after rounding
  * for s <= 16, as is the saturated one. */
-static int32_t requant(const int32_t *x, int16_t *xq, uint32_t n, unsigned s)
+/* The per-layer loops are kept out of line: inlined into linear() they share its registers
+ * and reload their pointers from the stack on every element (GCC 12, Cortex-M4). */
+#if defined(__GNUC__)
+#define CN_NOINLINE __attribute__((noinline))
+#else
+#define CN_NOINLINE
+#endif
+
+CN_NOINLINE static int32_t requant(const int32_t *x, int16_t *xq, uint32_t n, unsigned s)
 {
     int32_t sum = 0;
     if (s == 0u || s > 16u) {
@@ -133,6 +141,9 @@ static int32_t requant(const int32_t *x, int16_t *xq, uint32_t n, unsigned s)
         }
         return sum;
     }
+#if defined(CN_HAVE_DSP)
+    return cn_requant_arm(x, xq, n, s);
+#else
     const int32_t h = (int32_t)1 << (s - 1u);
     for (uint32_t i = 0; i < n; i++) {
         const int32_t v = cn_sat16(cn_asr32(cn_qadd32(x[i], h), s));
@@ -140,23 +151,30 @@ static int32_t requant(const int32_t *x, int16_t *xq, uint32_t n, unsigned s)
         sum += v;
     }
     return sum;
+#endif
 }
 
-/* Outputs of the live rows from their int32 sums, for layers whose rescale the parser
- * proved to need no saturation (cn_rescale_fast, written out: u = acc a_m + 2^(n-1), the
- * result is u >> n). One loop per case keeps the loop's values in registers. */
+/* Outputs of the live rows from their int32 sums, in stored row order, for layers whose
+ * rescale the parser proved to need no saturation (cn_rescale_fast, written out: u = acc
+ * a_m + 2^(n-1), the result is u >> n). One loop per case keeps its values in registers. */
 #define CN_FINISH_LOOP(RESCALE, RELU)                                                     \
     for (uint32_t j = 0; j < live; j++) {                                                 \
         const uint64_t u = (uint64_t)((int64_t)acc[j] * am) + half;                       \
         const int32_t v = cn_qadd32(cn_qadd32(RESCALE, t), bq[j]);                        \
-        y[rows[j]] = RELU && v < 0 ? 0 : v;                                                \
+        y[j] = RELU && v < 0 ? 0 : v;                                                      \
     }
 #define CN_LOW_WORD cn_s32(((uint32_t)u >> n) | ((uint32_t)(u >> 32) << (32u - n)))
 #define CN_HIGH_WORD cn_asr32(cn_s32((uint32_t)(u >> 32)), n - 32u)
 
-static void finish_fast(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
-                        const int32_t *bq, const uint16_t *rows, int32_t *y, int relu)
+CN_NOINLINE static void finish_fast(const int32_t *acc, uint32_t live, int32_t am, unsigned n,
+                                    int32_t t, const int32_t *bq, int32_t *y, int relu)
 {
+#if defined(CN_HAVE_DSP)
+    if (n < 32u) {
+        cn_finish_arm(acc, live, am, n, t, bq, y, relu);
+        return;
+    }
+#endif
     const uint64_t half = (uint64_t)1 << (n - 1u);
     if (n < 32u && relu)
         CN_FINISH_LOOP(CN_LOW_WORD, 1)
@@ -169,10 +187,12 @@ static void finish_fast(const int32_t *acc, uint32_t live, int32_t am, unsigned 
 }
 
 /* y = layer l of x (Q16, n_in values), through the layer's inputs at its scale and the
- * chosen kernel: the rows with a non-zero latent (stored first, row j is output
+ * chosen kernel: the rows with a non-zero latent (stored first; stored row j is output
  * dec->rows[l][j]) take their sums from the kernel, the others have sum k x = 0 exactly.
- * The order of the outputs changes no value: each is its own exact sum. Returns the
- * multiply-accumulates done. */
+ * Outputs go to y in stored row order (y[j]), the next layer's columns being stored in that
+ * order too, except for the layers whose outputs leave the network (cn_layer_final), which
+ * write y[rows[j]]. The order changes no value: each output is its own exact sum. Returns
+ * the multiply-accumulates done. */
 static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, int32_t *y,
                        int relu, int16_t *xq, int32_t *acc)
 {
@@ -183,21 +203,20 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
     const int32_t sx = requant(x, xq, n_in, (unsigned)e);
     if (n_in & 1u)
         xq[n_in] = 0; /* the pad input of an odd layer */
-    const int32_t t = cn_sat32(cn_mul_exp_r(sx, L->b_m, L->b_e + e, 1));
-    const uint16_t *rows = dec->rows[l];
+    const unsigned nb = dec->b_shift[l];
+    const int32_t t = nb ? cn_rescale_fast(sx, L->b_m, nb, (uint64_t)1 << (nb - 1u))
+                         : cn_sat32(cn_mul_exp_r(sx, L->b_m, L->b_e + e, 1));
+    const int final = cn_layer_final(L);
     const int32_t *bq = dec->bias_q16[l];
     const int16_t *k = dec->latent[l];
-    uint32_t j = 0;
     if (dec->wide[l]) {
         /* sums that may leave int32: four rows at a time in int64 (the same values) */
-        for (; j < live; j += 4u) {
-            int64_t a64[4];
+        for (uint32_t j = 0; j < live; j += 4u) {
             const uint32_t rb = live - j < 4u ? live - j : 4u;
+            int64_t a64[4];
             cn_dot64_c(k + (size_t)j * 2u * pairs, xq, pairs, rb, a64);
-            for (uint32_t q = 0; q < rb; q++) {
-                const int32_t ya = cn_sat32(cn_mul_exp_r(a64[q], L->a_m, L->a_e + e, 1));
-                y[rows[j + q]] = finish(ya, t, bq[j + q], relu);
-            }
+            for (uint32_t q = 0; q < rb; q++)
+                y[j + q] = cn_sat32(cn_mul_exp_r(a64[q], L->a_m, L->a_e + e, 1));
         }
     } else if (live) {
 #ifdef CN_DOT_DIRECT
@@ -205,17 +224,27 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
 #else
         dec->dot(k, xq, pairs, live, acc);
 #endif
-        if (dec->a_shift[l]) {
-            finish_fast(acc, live, L->a_m, dec->a_shift[l], t, bq, rows, y, relu);
+        if (dec->a_shift[l] && !final) {
+            finish_fast(acc, live, L->a_m, dec->a_shift[l], t, bq, y, relu);
         } else {
-            for (; j < live; j++) {
-                const int32_t ya = cn_sat32(cn_mul_exp_r(acc[j], L->a_m, L->a_e + e, 1));
-                y[rows[j]] = finish(ya, t, bq[j], relu);
-            }
+            for (uint32_t j = 0; j < live; j++)
+                y[j] = cn_sat32(cn_mul_exp_r(acc[j], L->a_m, L->a_e + e, 1));
         }
     }
-    for (j = live; j < n_out; j++)
-        y[rows[j]] = finish(0, t, bq[j], relu);
+    if (dec->wide[l] || !dec->a_shift[l] || final) /* y[j] holds A_j */
+        for (uint32_t j = 0; j < live; j++)
+            y[j] = finish(y[j], t, bq[j], relu);
+    for (uint32_t j = live; j < n_out; j++)
+        y[j] = finish(0, t, bq[j], relu);
+    if (final) {
+        /* at most four outputs: from stored row order to output order */
+        int32_t v[4];
+        const uint16_t *rows = dec->rows[l];
+        for (uint32_t j = 0; j < n_out; j++)
+            v[j] = y[j];
+        for (uint32_t j = 0; j < n_out; j++)
+            y[rows[j]] = v[j];
+    }
     return live * n_in; /* the multiply-accumulates done: live <= 2^11, n_in <= 2^11 */
 }
 

@@ -75,17 +75,17 @@ vector() {
 # Real scenes through the encoder (few iterations: these test the decoder, not the encoder;
 # the grid's needs a model sharp enough for its grid to have empty cells).
 CAMS="--dataset $data/lego --downscale 8 --every 100"
-vector 001-lego-encode-tiny "a real 360-degree scene from cnerf encode (Blender Lego, 50x50; format 1.0, no grid)" \
+vector 001-lego-encode-tiny "a real 360-degree scene from cnerf encode (Blender Lego, 50x50; no grid)" \
   $cnerf encode "$data/lego" -o "$tmp/s.cnrf" --lambda 1e-3 --preset tiny --downscale 8 \
   --iters 200 --seed $seed --threads 2 --every 100 --grid 0 --prune off
 CAMS="--dataset $data/fern --downscale 8 --every 2"
-vector 002-fern-encode-tiny-ndc "a real forward-facing scene in NDC from cnerf encode (LLFF Fern, 63x47; format 1.0, no grid)" \
+vector 002-fern-encode-tiny-ndc "a real forward-facing scene in NDC from cnerf encode (LLFF Fern, 63x47; no grid)" \
   $cnerf encode "$data/fern" -o "$tmp/s.cnrf" --lambda 1e-3 --preset tiny --downscale 8 \
   --iters 200 --seed $seed --threads 2 --every 100 --grid 0 --prune off
 
 # Features of the format, on random models (cnerf synth).
 CAMS="--orbit 2 --size 24"
-vector 003-int16-latents "layers whose latents need int16 storage (magnitudes in the thousands)" \
+vector 003-int16-latents "latents beyond the int8 range (magnitudes in the hundreds): int16 latents, int32 sums" \
   $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --spread 300
 vector 004-black-background "a black background" \
   $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --black
@@ -98,7 +98,7 @@ vector 007-no-view-branch "networks without a view-direction branch" \
 vector 008-small-preset "the small preset's topology (4x128, 32+32 samples)" \
   $cnerf synth -o "$tmp/s.cnrf" --preset small --seed $seed
 CAMS="--orbit 1 --size 8"
-vector 009-largest-limits "the largest depth, octaves and sample counts, and latents near +-32767" \
+vector 009-largest-limits "the largest depth, octaves and sample counts, and latents near +-32767 (sums in int64)" \
   $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --depth 16 --width 8 --view-width 8 \
   --lpos 16 --ldir 8 --coarse 1024 --fine 1024 --spread 20000
 vector 010-widest-layer "the widest trunk (1024) in a one-layer network" \
@@ -113,10 +113,10 @@ vector 011-minor-version-7 "a newer minor version (accepted)" \
 vector 012-unknown-ancillary-chunk "an unknown ancillary chunk (skipped)" \
   cp "$tmp/unknown-ancillary-chunk-is-skipped.cnrf" "$tmp/s.cnrf"
 
-# Occupancy grids (format 1.1): a real scene's grid from the encoder, grids of several
+# Occupancy grids: a real scene's grid from the encoder, grids of several
 # resolutions (one that divides no power of two) on a fog that fills the box, empty and full.
 CAMS="--dataset $data/lego --downscale 8 --every 100"
-vector 013-lego-encode-grid "a real scene's occupancy grid from cnerf encode (Lego, 50x50, lambda 3, 1000 iterations, 32^3 cells by --grid 32; format 1.1)" \
+vector 013-lego-encode-grid "a real scene's occupancy grid from cnerf encode (Lego, 50x50, lambda 3, 1000 iterations, 32^3 cells by --grid 32)" \
   $cnerf encode "$data/lego" -o "$tmp/s.cnrf" --lambda 3 --preset tiny --downscale 8 \
   --iters 1000 --seed $seed --threads 2 --every 100 --grid 32 --prune off
 CAMS="--orbit 2 --size 24"
@@ -133,7 +133,7 @@ vector 018-grid-full "a full grid: the same picture as without one" \
 vector 019-grid-ndc "a grid in NDC space (forward-facing)" \
   $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --grid 16 --ndc
 CAMS="--dataset $data/lego --downscale 8 --every 100"
-vector 020-lego-encode-pruned "dead units removed by cnerf encode, with the automatic grid (Lego, 50x50, lambda 3, 1000 iterations; format 1.2)" \
+vector 020-lego-encode-pruned "dead units removed by cnerf encode, with the automatic grid (Lego, 50x50, lambda 3, 1000 iterations)" \
   $cnerf encode "$data/lego" -o "$tmp/s.cnrf" --lambda 3 --preset tiny --downscale 8 \
   --iters 1000 --seed $seed --threads 2 --every 100
 CAMS="--orbit 2 --size 24"

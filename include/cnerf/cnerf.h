@@ -142,6 +142,7 @@ typedef struct cnerf_decoder {
      * values are the same; only the speed differs. */
     uint8_t wide[CNERF_MAX_LAYERS];
     uint8_t a_shift[CNERF_MAX_LAYERS];
+    uint8_t b_shift[CNERF_MAX_LAYERS]; /* the same for the term b sum x_q (|sum| < 2^26) */
     /* The dot-product kernel cnerf_open chose for this CPU (docs/decoder.md, Kernels). */
     void (*dot)(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                 int32_t *acc);

@@ -152,6 +152,45 @@ int main(int argc, char **argv)
             check(q == want_q, "input quantization, saturating add", "c", s, 0);
         }
     }
+#if defined(CN_HAVE_DSP)
+    /* The DSP extension's input quantization and output loops against the C forms. */
+    static int32_t xs[97], accs[97], bqs[97], ys[97], yc[97];
+    static int16_t qa[98], qc[98];
+    for (long it = 0; it < 2000 * iters; it++) {
+        const uint32_t n = 1u + rnd() % 97u;
+        const unsigned s = 1u + rnd() % 16u;
+        for (uint32_t i = 0; i < n; i++)
+            xs[i] = (int32_t)(rnd() ^ (rnd() << 16)) >> (rnd() % 24u);
+        int32_t sum = 0;
+        for (uint32_t i = 0; i < n; i++) {
+            qc[i] = cn_requant16(xs[i], s);
+            sum += qc[i];
+        }
+        int ok = cn_requant_arm(xs, qa, n, s) == sum;
+        for (uint32_t i = 0; i < n; i++)
+            ok &= qa[i] == qc[i];
+        check(ok, "input quantization", "dsp", n, s);
+        /* outputs: a_m and n as cnerf_open allows them (|acc a_m| < 2^(30+n)) */
+        const unsigned nn = 1u + rnd() % 31u;
+        const int32_t am = rnd_range(-8388607, 8388607);
+        const uint64_t mag = (uint64_t)(am < 0 ? -(int64_t)am : am) + 1u;
+        uint64_t lim = (((uint64_t)1 << (30 + nn)) - 1u) / mag;
+        lim = lim > 0x7FFFFFFFu ? 0x7FFFFFFFu : lim;
+        const int32_t t = (int32_t)(rnd() ^ (rnd() << 16)), relu = (int32_t)(rnd() & 1u);
+        for (uint32_t i = 0; i < n; i++) {
+            accs[i] = (int32_t)((int64_t)(rnd() % (lim + 1u)) * (rnd() & 1 ? 1 : -1));
+            bqs[i] = (int32_t)(rnd() ^ (rnd() << 16)) >> (rnd() % 31u);
+            const int32_t a = (int32_t)cn_mul_exp_r(accs[i], am, -(int)nn, 1);
+            const int32_t v = cn_sat32((int64_t)cn_sat32((int64_t)a + t) + bqs[i]);
+            yc[i] = relu && v < 0 ? 0 : v;
+        }
+        cn_finish_arm(accs, n, am, nn, t, bqs, ys, relu);
+        ok = 1;
+        for (uint32_t i = 0; i < n; i++)
+            ok &= ys[i] == yc[i];
+        check(ok, "outputs", "dsp", n, nn);
+    }
+#endif
     printf("%d passed, %d failed\n", passes, fails);
     return fails != 0;
 }
