@@ -34,14 +34,27 @@ void cn_dot_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_r
 void cn_dot64_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                 int64_t *acc);
 
-/* The fastest kernel this build and CPU have (x86-64: AVX2 when the CPU and the OS
- * support it; Arm: chosen at compile time; CNERF_PORTABLE builds: cn_dot_c). */
-cn_dot_fn cn_dot_select(void);
+
+/* A layer's inputs at its scale, for 1 <= s <= 16 (render.c's requant): xq[i] =
+ * sat16(floor(x[i] / 2^s + 1/2)) for i < n; returns their sum. */
+typedef int32_t (*cn_requant_fn)(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
+
+/* The outputs of a layer's live rows in stored row order, for 1 <= n < 32 where cnerf_open
+ * proved the fast rescale (render.c's finish_fast): y[j] = sat32(sat32(((acc[j] am +
+ * 2^(n-1)) >> n) + t) + bq[j]), then max(0, .) when relu. */
+typedef void (*cn_finish_fn)(const int32_t *acc, uint32_t live, int32_t am, unsigned n,
+                             int32_t t, const int32_t *bq, int32_t *y, int relu);
 
 typedef struct cn_dot_variant {
     const char *name;
     cn_dot_fn fn;
+    cn_requant_fn requant; /* NULL: the portable C */
+    cn_finish_fn finish;   /* NULL: the portable C */
 } cn_dot_variant;
+
+/* The fastest kernels this build and CPU have (x86-64: AVX2 when the CPU and the OS
+ * support it; Arm: chosen at compile time; CNERF_PORTABLE builds: cn_dot_c). */
+cn_dot_variant cn_dot_select(void);
 
 #define CN_DOT_MAX_VARIANTS 4u
 

@@ -18,34 +18,34 @@ void cn_dot_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_r
         }
         acc[j] = a0, acc[j + 1u] = a1, acc[j + 2u] = a2, acc[j + 3u] = a3;
     }
-    const uint32_t rb = n_rows - j; /* 0..3 rows in the last block */
-    if (rb == 0u)
-        return;
-    int32_t a[3];
-    a[0] = a[1] = a[2] = 0;
-    for (uint32_t p = 0; p < n_pairs; p++, k += 2u * rb) {
-        const int32_t x0 = x[2u * p], x1 = x[2u * p + 1u];
-        for (uint32_t q = 0; q < rb; q++)
-            a[q] += k[2u * q] * x0 + k[2u * q + 1u] * x1;
+    for (; j < n_rows; j++, k += 2u * n_pairs) { /* the last one to three rows, row by row */
+        int32_t a = 0;
+        for (uint32_t i = 0; i < 2u * n_pairs; i++)
+            a += k[i] * x[i];
+        acc[j] = a;
     }
-    for (uint32_t q = 0; q < rb; q++)
-        acc[j + q] = a[q];
 }
 
 void cn_dot64_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                 int64_t *acc)
 {
-    for (uint32_t j = 0; j < n_rows; j += 4u) {
-        const uint32_t rb = n_rows - j < 4u ? n_rows - j : 4u;
+    uint32_t j = 0;
+    for (; j + 4u <= n_rows; j += 4u) {
         int64_t a[4]; /* element by element: an initializer may become a memset call */
         a[0] = a[1] = a[2] = a[3] = 0;
-        for (uint32_t p = 0; p < n_pairs; p++, k += 2u * rb) {
+        for (uint32_t p = 0; p < n_pairs; p++, k += 8) {
             const int64_t x0 = x[2u * p], x1 = x[2u * p + 1u];
-            for (uint32_t q = 0; q < rb; q++)
+            for (uint32_t q = 0; q < 4u; q++)
                 a[q] += k[2u * q] * x0 + k[2u * q + 1u] * x1;
         }
-        for (uint32_t q = 0; q < rb; q++)
+        for (uint32_t q = 0; q < 4u; q++)
             acc[j + q] = a[q];
+    }
+    for (; j < n_rows; j++, k += 2u * n_pairs) {
+        int64_t a = 0;
+        for (uint32_t i = 0; i < 2u * n_pairs; i++)
+            a += (int64_t)k[i] * x[i];
+        acc[j] = a;
     }
 }
 
@@ -53,6 +53,8 @@ uint32_t cn_dot_variants(cn_dot_variant out[CN_DOT_MAX_VARIANTS])
 {
     uint32_t n = 0;
     out[n].name = "c";
+    out[n].requant = (cn_requant_fn)0;
+    out[n].finish = (cn_finish_fn)0;
     out[n++].fn = cn_dot_c;
 #ifndef CNERF_PORTABLE
     n += cn_dot_variants_x86(out + n);
@@ -61,8 +63,8 @@ uint32_t cn_dot_variants(cn_dot_variant out[CN_DOT_MAX_VARIANTS])
     return n;
 }
 
-cn_dot_fn cn_dot_select(void)
+cn_dot_variant cn_dot_select(void)
 {
     cn_dot_variant v[CN_DOT_MAX_VARIANTS];
-    return v[cn_dot_variants(v) - 1u].fn; /* the list ends with the fastest */
+    return v[cn_dot_variants(v) - 1u]; /* the list ends with the fastest */
 }

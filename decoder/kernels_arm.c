@@ -81,15 +81,13 @@ void cn_dot_arm(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n
         }
         acc[j] = a0, acc[j + 1u] = a1, acc[j + 2u] = a2, acc[j + 3u] = a3;
     }
-    /* the last one to three rows (a density or colour head, or a block's remainder): one
-     * SMLAD a row and input pair */
-    const uint32_t rb = n_rows - j;
-    for (uint32_t q = 0; q < rb; q++) {
+    /* the last one to three rows (a density or colour head, or a block's remainder), row
+     * after row: one SMLAD an input pair */
+    for (; j < n_rows; j++) {
         int32_t a = 0;
-        const int16_t *kq = k + 2u * q;
-        for (uint32_t p = 0; p < n_pairs; p++, kq += 2u * rb)
-            a = __smlad(rd2(kq), rd2(x + 2u * p), a);
-        acc[j + q] = a;
+        for (uint32_t p = 0; p < n_pairs; p++, k += 2)
+            a = __smlad(rd2(k), rd2(x + 2u * p), a);
+        acc[j] = a;
     }
 }
 
@@ -240,12 +238,18 @@ uint32_t cn_dot_variants_arm(cn_dot_variant *out)
     uint32_t n = 0;
 #if defined(CN_HAVE_DSP)
     out[n].name = "dsp";
+    out[n].requant = cn_requant_arm;
+    out[n].finish = cn_finish_arm;
     out[n++].fn = cn_dot_arm;
 #elif defined(CN_HAVE_MVE)
     out[n].name = "mve";
+    out[n].requant = (cn_requant_fn)0;
+    out[n].finish = (cn_finish_fn)0;
     out[n++].fn = cn_dot_arm;
 #elif defined(CN_HAVE_NEON)
     out[n].name = "neon";
+    out[n].requant = (cn_requant_fn)0;
+    out[n].finish = (cn_finish_fn)0;
     out[n++].fn = cn_dot_arm;
 #else
     (void)out;

@@ -9,6 +9,9 @@
 #include <cpuid.h>
 #include <immintrin.h>
 
+__attribute__((target("avx2"))) static int32_t row_avx2(const int16_t *k, const int16_t *x,
+                                                        uint32_t n);
+
 /* Each 256-bit load holds two input pairs of the block's four rows; multiplied with the
  * first pair repeated in the low half and the second in the high half, vpmaddwd gives the
  * four rows' sums over each pair. */
@@ -38,8 +41,110 @@ __attribute__((target("avx2"))) static void dot_avx2(const int16_t *k, const int
         }
         _mm_storeu_si128((__m128i *)(void *)(acc + j), s);
     }
-    if (j < n_rows)
-        cn_dot_c(k, x, n_pairs, n_rows - j, acc + j);
+    for (; j < n_rows; j++, k += 2u * n_pairs)
+        acc[j] = row_avx2(k, x, 2u * n_pairs);
+}
+
+/* The last one to three rows, row after row: sixteen inputs per vpmaddwd. */
+__attribute__((target("avx2"))) static int32_t row_avx2(const int16_t *k, const int16_t *x,
+                                                        uint32_t n)
+{
+    __m256i a = _mm256_setzero_si256();
+    uint32_t i = 0;
+    for (; i + 16u <= n; i += 16u)
+        a = _mm256_add_epi32(a, _mm256_madd_epi16(
+                                    _mm256_loadu_si256((const __m256i *)(const void *)(k + i)),
+                                    _mm256_loadu_si256((const __m256i *)(const void *)(x + i))));
+    __m128i s = _mm_add_epi32(_mm256_castsi256_si128(a), _mm256_extracti128_si256(a, 1));
+    for (; i + 8u <= n; i += 8u)
+        s = _mm_add_epi32(s, _mm_madd_epi16(_mm_loadu_si128((const __m128i *)(const void *)(k + i)),
+                                            _mm_loadu_si128((const __m128i *)(const void *)(x + i))));
+    s = _mm_add_epi32(s, _mm_shuffle_epi32(s, 0x4E));
+    s = _mm_add_epi32(s, _mm_shuffle_epi32(s, 0xB1));
+    int32_t r = _mm_cvtsi128_si32(s);
+    for (; i < n; i++)
+        r += k[i] * x[i];
+    return r;
+}
+
+/* render.c's requant for 1 <= s <= 16, sixteen inputs a step: floor(x / 2^s) plus bit s-1
+ * of x in int32 lanes (exact), packed to int16 with signed saturation (vpackssdw, lanes
+ * put back in order), and summed by vpmaddwd with ones. */
+__attribute__((target("avx2"))) static int32_t requant_avx2(const int32_t *x, int16_t *xq,
+                                                            uint32_t n, unsigned s)
+{
+    const __m128i cs = _mm_cvtsi32_si128((int)s), cb = _mm_cvtsi32_si128((int)s - 1);
+    const __m256i one = _mm256_set1_epi32(1), ones16 = _mm256_set1_epi16(1);
+    __m256i sum = _mm256_setzero_si256();
+    uint32_t i = 0;
+    for (; i + 16u <= n; i += 16u) {
+        const __m256i a = _mm256_loadu_si256((const __m256i *)(const void *)(x + i));
+        const __m256i b = _mm256_loadu_si256((const __m256i *)(const void *)(x + i + 8u));
+        const __m256i qa = _mm256_add_epi32(_mm256_sra_epi32(a, cs),
+                                            _mm256_and_si256(_mm256_srl_epi32(a, cb), one));
+        const __m256i qb = _mm256_add_epi32(_mm256_sra_epi32(b, cs),
+                                            _mm256_and_si256(_mm256_srl_epi32(b, cb), one));
+        const __m256i q = _mm256_permute4x64_epi64(_mm256_packs_epi32(qa, qb), 0xD8);
+        _mm256_storeu_si256((__m256i *)(void *)(xq + i), q);
+        sum = _mm256_add_epi32(sum, _mm256_madd_epi16(q, ones16));
+    }
+    __m128i h = _mm_add_epi32(_mm256_castsi256_si128(sum), _mm256_extracti128_si256(sum, 1));
+    h = _mm_add_epi32(h, _mm_shuffle_epi32(h, 0x4E));
+    h = _mm_add_epi32(h, _mm_shuffle_epi32(h, 0xB1));
+    int32_t r = _mm_cvtsi128_si32(h);
+    for (; i < n; i++) {
+        const int32_t v = x[i] >= 0 ? x[i] >> s : ~((~x[i]) >> s);
+        int32_t q = v + (int32_t)(((uint32_t)x[i] >> (s - 1u)) & 1u);
+        q = q > 32767 ? 32767 : q < -32768 ? -32768 : q;
+        xq[i] = (int16_t)q;
+        r += q;
+    }
+    return r;
+}
+
+/* sat32(a + b) in eight lanes: on overflow (a and b of one sign, the sum of the other) the
+ * bound of a's sign. */
+__attribute__((target("avx2"))) static inline __m256i qadd_avx2(__m256i a, __m256i b)
+{
+    const __m256i r = _mm256_add_epi32(a, b);
+    const __m256i ov = _mm256_srai_epi32(_mm256_and_si256(_mm256_xor_si256(a, r),
+                                                          _mm256_xor_si256(b, r)), 31);
+    const __m256i sat = _mm256_xor_si256(_mm256_srai_epi32(a, 31), _mm256_set1_epi32(0x7FFFFFFF));
+    return _mm256_blendv_epi8(r, sat, ov);
+}
+
+/* render.c's finish_fast for n < 32, eight outputs a step: the products acc am in 64-bit
+ * lanes (even and odd lanes by vpmuldq), plus 2^(n-1), shifted right by n (the low word is
+ * the result: bits n..n+31 of the sum, below 2^62), then the two saturating additions. */
+__attribute__((target("avx2"))) static void finish_avx2(const int32_t *acc, uint32_t live,
+                                                         int32_t am, unsigned n, int32_t t,
+                                                         const int32_t *bq, int32_t *y, int relu)
+{
+    const __m256i amv = _mm256_set1_epi32(am), half = _mm256_set1_epi64x((int64_t)1 << (n - 1u));
+    const __m256i tv = _mm256_set1_epi32(t), zero = _mm256_setzero_si256();
+    const __m128i cn = _mm_cvtsi32_si128((int)n);
+    uint32_t j = 0;
+    for (; j + 8u <= live; j += 8u) {
+        const __m256i a = _mm256_loadu_si256((const __m256i *)(const void *)(acc + j));
+        const __m256i pe = _mm256_srl_epi64(_mm256_add_epi64(_mm256_mul_epi32(a, amv), half), cn);
+        const __m256i po = _mm256_srl_epi64(
+            _mm256_add_epi64(_mm256_mul_epi32(_mm256_srli_epi64(a, 32), amv), half), cn);
+        const __m256i ya = _mm256_blend_epi32(pe, _mm256_slli_epi64(po, 32), 0xAA);
+        __m256i v = qadd_avx2(qadd_avx2(ya, tv),
+                              _mm256_loadu_si256((const __m256i *)(const void *)(bq + j)));
+        if (relu)
+            v = _mm256_max_epi32(v, zero);
+        _mm256_storeu_si256((__m256i *)(void *)(y + j), v);
+    }
+    for (; j < live; j++) {
+        const uint64_t u = (uint64_t)((int64_t)acc[j] * am) + ((uint64_t)1 << (n - 1u));
+        const uint32_t lo = ((uint32_t)u >> n) | ((uint32_t)(u >> 32) << (32u - n));
+        int64_t v = (int64_t)(lo < 0x80000000u ? (int32_t)lo : -(int32_t)(~lo) - 1) + t;
+        v = v > INT32_MAX ? INT32_MAX : v < INT32_MIN ? INT32_MIN : v;
+        v += bq[j];
+        v = v > INT32_MAX ? INT32_MAX : v < INT32_MIN ? INT32_MIN : v;
+        y[j] = relu && v < 0 ? 0 : (int32_t)v;
+    }
 }
 
 static int have_avx2(void)
@@ -60,6 +165,8 @@ uint32_t cn_dot_variants_x86(cn_dot_variant *out)
         return 0;
     out[0].name = "avx2";
     out[0].fn = dot_avx2;
+    out[0].requant = requant_avx2;
+    out[0].finish = finish_avx2;
     return 1;
 }
 #else

@@ -507,8 +507,9 @@ static cnerf_status decode_layer(const uint8_t *buf, const cnerf_layer_info *L, 
 static size_t packed_index(uint32_t j, uint32_t i, uint32_t live, uint32_t pairs)
 {
     const uint32_t b = j >> 2, q = j & 3u;
-    const uint32_t rb = (b + 1u) * 4u <= live ? 4u : live & 3u; /* rows in j's block */
-    return (size_t)b * 8u * pairs + (size_t)(i >> 1) * 2u * rb + 2u * q + (i & 1u);
+    if ((b + 1u) * 4u > live) /* the last one to three rows: row after row */
+        return (size_t)b * 8u * pairs + (size_t)q * 2u * pairs + i;
+    return (size_t)b * 8u * pairs + (size_t)(i >> 1) * 8u + 2u * q + (i & 1u);
 }
 
 /* Orders the layer's rows (live ones first, in increasing output order; rows[] gets each
@@ -698,8 +699,12 @@ cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void
             bq[j] = L->bias_bits ? q16_bias(bias[rows[j]], L->bias_e) : 0;
         prove_layer(dec, l);
     }
-    if (st == CNERF_OK)
-        dec->dot = cn_dot_select();
+    if (st == CNERF_OK) {
+        const cn_dot_variant v = cn_dot_select();
+        dec->dot = v.fn;
+        dec->requant = v.requant;
+        dec->finish = v.finish;
+    }
     if (st != CNERF_OK)
         cn_memzero(dec, sizeof *dec);
     return st;

@@ -200,7 +200,12 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
     const uint32_t n_in = L->n_in, n_out = L->n_out, live = dec->n_live[l];
     const uint32_t pairs = dec->n_pairs[l];
     const int e = 16 - L->f_in; /* 0..31 */
+#ifdef CN_DOT_DIRECT
     const int32_t sx = requant(x, xq, n_in, (unsigned)e);
+#else
+    const int32_t sx = dec->requant && e >= 1 && e <= 16 ? dec->requant(x, xq, n_in, (unsigned)e)
+                                                         : requant(x, xq, n_in, (unsigned)e);
+#endif
     if (n_in & 1u)
         xq[n_in] = 0; /* the pad input of an odd layer */
     const unsigned nb = dec->b_shift[l];
@@ -213,7 +218,7 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
         /* sums that may leave int32: four rows at a time in int64 (the same values) */
         for (uint32_t j = 0; j < live; j += 4u) {
             const uint32_t rb = live - j < 4u ? live - j : 4u;
-            int64_t a64[4];
+            int64_t a64[4]; /* a full block of four, or the last rows (the same layout) */
             cn_dot64_c(k + (size_t)j * 2u * pairs, xq, pairs, rb, a64);
             for (uint32_t q = 0; q < rb; q++)
                 y[j + q] = cn_sat32(cn_mul_exp_r(a64[q], L->a_m, L->a_e + e, 1));
@@ -225,7 +230,12 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
         dec->dot(k, xq, pairs, live, acc);
 #endif
         if (dec->a_shift[l] && !final) {
-            finish_fast(acc, live, L->a_m, dec->a_shift[l], t, bq, y, relu);
+#ifndef CN_DOT_DIRECT
+            if (dec->finish && dec->a_shift[l] < 32u)
+                dec->finish(acc, live, L->a_m, dec->a_shift[l], t, bq, y, relu);
+            else
+#endif
+                finish_fast(acc, live, L->a_m, dec->a_shift[l], t, bq, y, relu);
         } else {
             for (uint32_t j = 0; j < live; j++)
                 y[j] = cn_sat32(cn_mul_exp_r(acc[j], L->a_m, L->a_e + e, 1));

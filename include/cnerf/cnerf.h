@@ -143,9 +143,14 @@ typedef struct cnerf_decoder {
     uint8_t wide[CNERF_MAX_LAYERS];
     uint8_t a_shift[CNERF_MAX_LAYERS];
     uint8_t b_shift[CNERF_MAX_LAYERS]; /* the same for the term b sum x_q (|sum| < 2^26) */
-    /* The dot-product kernel cnerf_open chose for this CPU (docs/decoder.md, Kernels). */
+    /* The kernels cnerf_open chose for this CPU (docs/decoder.md, Kernels): the sums, and,
+     * where the CPU has its own (NULL: the portable C), the inputs' quantization and the
+     * outputs' rescale. */
     void (*dot)(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                 int32_t *acc);
+    int32_t (*requant)(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
+    void (*finish)(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
+                   const int32_t *bq, int32_t *y, int relu);
     const uint8_t *grid;   /* occupancy bitmap, bit (z g + y) g + x, LSB first; NULL: none */
     uint32_t grid_occupied; /* occupied cells */
 } cnerf_decoder;

@@ -22,6 +22,25 @@ static uint32_t rnd(void)
     rng ^= rng << 17;
     return (uint32_t)(rng >> 16);
 }
+/* Random values built from several draws take them in statement order (the order of
+ * evaluation within an expression is unspecified), so every architecture checks the same
+ * cases. */
+static int32_t rnd_i32(void)
+{
+    const uint32_t lo = rnd();
+    const uint32_t hi = rnd() << 16;
+    return (int32_t)(lo ^ hi);
+}
+static int32_t rnd_shifted(void)
+{
+    const int32_t v = rnd_i32();
+    return v >> (rnd() % 24u);
+}
+static int32_t rnd_signed(uint64_t below)
+{
+    const int64_t m = (int64_t)(rnd() % below);
+    return (int32_t)(rnd() & 1 ? m : -m);
+}
 static int32_t rnd_range(int32_t lo, int32_t hi) { return lo + (int32_t)(rnd() % (uint32_t)(hi - lo + 1)); }
 
 #define MAX_ROWS 13
@@ -31,13 +50,17 @@ static int16_t packed[MAX_ROWS * 2 * MAX_PAIRS + 16];
 static int16_t xq[2 * MAX_PAIRS + 8] __attribute__((aligned(8)));
 static int16_t kbuf[MAX_ROWS * 2 * MAX_PAIRS + 16] __attribute__((aligned(8)));
 
-/* The packed layout of cnerf_decoder.latent (blocks of four rows, pair by pair). */
+/* The packed layout of cnerf_decoder.latent (blocks of four rows, pair by pair; the last
+ * one to three rows row after row), written here independently of the decoder's. */
 static void pack(uint32_t rows, uint32_t pairs)
 {
     for (uint32_t j = 0; j < rows; j++)
         for (uint32_t i = 0; i < 2 * pairs; i++) {
-            const uint32_t b = j / 4, q = j % 4, rb = (b + 1) * 4 <= rows ? 4 : rows % 4;
-            packed[b * 8 * pairs + (i / 2) * 2 * rb + 2 * q + (i & 1)] = rowmajor[j][i];
+            const uint32_t b = j / 4, q = j % 4;
+            if ((b + 1) * 4 <= rows)
+                packed[b * 8 * pairs + (i / 2) * 8 + 2 * q + (i & 1)] = rowmajor[j][i];
+            else /* the last one to three rows, row after row */
+                packed[b * 8 * pairs + q * 2 * pairs + i] = rowmajor[j][i];
         }
     for (uint32_t i = 0; i < rows * 2 * pairs; i++)
         kbuf[i] = packed[i];
@@ -135,7 +158,7 @@ int main(int argc, char **argv)
             lim = ((uint64_t)1 << (30 + n)) / am;
         if (lim < 1)
             continue;
-        const int32_t acc = (int32_t)((int64_t)(rnd() % lim) * (rnd() & 1 ? 1 : -1));
+        const int32_t acc = rnd_signed(lim);
         const int32_t fast = cn_rescale_fast(acc, m, n, (uint64_t)1 << (n - 1u));
         const int64_t exact = cn_mul_exp_r(acc, m, -(int)n, 1);
         check(fast == exact, "fast rescale", "c", n, 0);
@@ -143,7 +166,7 @@ int main(int argc, char **argv)
     /* Input quantization: the saturating-add form against floor(x / 2^s + 1/2) in int64. */
     for (long it = 0; it < 200000 * iters; it++) {
         const unsigned s = rnd() % 32u;
-        const int32_t x = (int32_t)(rnd() ^ (rnd() << 16)) >> (rnd() % 24u);
+        const int32_t x = rnd_shifted();
         const int64_t e = s ? ((int64_t)x + ((int64_t)1 << (s - 1))) >> s : x; /* gcc: arithmetic */
         const int32_t want_q = (int32_t)(e > 32767 ? 32767 : e < -32768 ? -32768 : e);
         check(cn_requant16(x, s) == want_q, "input quantization", "c", s, 0);
@@ -152,45 +175,52 @@ int main(int argc, char **argv)
             check(q == want_q, "input quantization, saturating add", "c", s, 0);
         }
     }
-#if defined(CN_HAVE_DSP)
-    /* The DSP extension's input quantization and output loops against the C forms. */
+    /* Each kernel set's own input quantization and output loops against the C forms. */
     static int32_t xs[97], accs[97], bqs[97], ys[97], yc[97];
     static int16_t qa[98], qc[98];
-    for (long it = 0; it < 2000 * iters; it++) {
-        const uint32_t n = 1u + rnd() % 97u;
-        const unsigned s = 1u + rnd() % 16u;
-        for (uint32_t i = 0; i < n; i++)
-            xs[i] = (int32_t)(rnd() ^ (rnd() << 16)) >> (rnd() % 24u);
-        int32_t sum = 0;
-        for (uint32_t i = 0; i < n; i++) {
-            qc[i] = cn_requant16(xs[i], s);
-            sum += qc[i];
+    for (uint32_t k = 0; k < nv; k++) {
+        if (!v[k].requant && !v[k].finish)
+            continue;
+        for (long it = 0; it < 2000 * iters; it++) {
+            const uint32_t n = 1u + rnd() % 97u;
+            const unsigned s = 1u + rnd() % 16u;
+            for (uint32_t i = 0; i < n; i++)
+                xs[i] = rnd_shifted();
+            int32_t sum = 0;
+            for (uint32_t i = 0; i < n; i++) {
+                qc[i] = cn_requant16(xs[i], s);
+                sum += qc[i];
+            }
+            if (v[k].requant) {
+                int ok = v[k].requant(xs, qa, n, s) == sum;
+                for (uint32_t i = 0; i < n; i++)
+                    ok &= qa[i] == qc[i];
+                check(ok, "input quantization", v[k].name, n, s);
+            }
+            /* outputs: a_m and n as cnerf_open allows them (|acc a_m| < 2^(30+n)) */
+            const unsigned nn = 1u + rnd() % 31u;
+            const int32_t am = rnd_range(-8388607, 8388607);
+            const uint64_t mag = (uint64_t)(am < 0 ? -(int64_t)am : am) + 1u;
+            uint64_t lim = (((uint64_t)1 << (30 + nn)) - 1u) / mag;
+            lim = lim > 0x7FFFFFFFu ? 0x7FFFFFFFu : lim;
+            const int32_t t = rnd_i32(), relu = (int32_t)(rnd() & 1u);
+            for (uint32_t i = 0; i < n; i++) {
+                accs[i] = rnd_signed(lim + 1u);
+                bqs[i] = rnd_i32();
+                bqs[i] >>= rnd() % 31u;
+                const int32_t a = (int32_t)cn_mul_exp_r(accs[i], am, -(int)nn, 1);
+                const int32_t r = cn_sat32((int64_t)cn_sat32((int64_t)a + t) + bqs[i]);
+                yc[i] = relu && r < 0 ? 0 : r;
+            }
+            if (v[k].finish) {
+                v[k].finish(accs, n, am, nn, t, bqs, ys, relu);
+                int ok = 1;
+                for (uint32_t i = 0; i < n; i++)
+                    ok &= ys[i] == yc[i];
+                check(ok, "outputs", v[k].name, n, nn);
+            }
         }
-        int ok = cn_requant_arm(xs, qa, n, s) == sum;
-        for (uint32_t i = 0; i < n; i++)
-            ok &= qa[i] == qc[i];
-        check(ok, "input quantization", "dsp", n, s);
-        /* outputs: a_m and n as cnerf_open allows them (|acc a_m| < 2^(30+n)) */
-        const unsigned nn = 1u + rnd() % 31u;
-        const int32_t am = rnd_range(-8388607, 8388607);
-        const uint64_t mag = (uint64_t)(am < 0 ? -(int64_t)am : am) + 1u;
-        uint64_t lim = (((uint64_t)1 << (30 + nn)) - 1u) / mag;
-        lim = lim > 0x7FFFFFFFu ? 0x7FFFFFFFu : lim;
-        const int32_t t = (int32_t)(rnd() ^ (rnd() << 16)), relu = (int32_t)(rnd() & 1u);
-        for (uint32_t i = 0; i < n; i++) {
-            accs[i] = (int32_t)((int64_t)(rnd() % (lim + 1u)) * (rnd() & 1 ? 1 : -1));
-            bqs[i] = (int32_t)(rnd() ^ (rnd() << 16)) >> (rnd() % 31u);
-            const int32_t a = (int32_t)cn_mul_exp_r(accs[i], am, -(int)nn, 1);
-            const int32_t v = cn_sat32((int64_t)cn_sat32((int64_t)a + t) + bqs[i]);
-            yc[i] = relu && v < 0 ? 0 : v;
-        }
-        cn_finish_arm(accs, n, am, nn, t, bqs, ys, relu);
-        ok = 1;
-        for (uint32_t i = 0; i < n; i++)
-            ok &= ys[i] == yc[i];
-        check(ok, "outputs", "dsp", n, nn);
     }
-#endif
     printf("%d passed, %d failed\n", passes, fails);
     return fails != 0;
 }
