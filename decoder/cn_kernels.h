@@ -11,13 +11,16 @@
 
 #include <stdint.h>
 
-/* Which Arm kernel this build has (kernels_arm.c): Helium, the DSP extension or Advanced
- * SIMD, chosen at compile time. */
+/* Which Arm kernels this build has (kernels_arm.c), chosen at compile time: the sums by
+ * Helium, else the DSP extension, else Advanced SIMD; the inputs' quantization and the
+ * outputs' rescale by the DSP extension wherever it exists (Cortex-M4, M7, M33, M55). */
 #if !defined(CNERF_PORTABLE) && defined(__ARM_FEATURE_MVE) && (__ARM_FEATURE_MVE & 1)
 #define CN_HAVE_MVE 1
-#elif !defined(CNERF_PORTABLE) && defined(__ARM_FEATURE_DSP) && !defined(__aarch64__)
+#endif
+#if !defined(CNERF_PORTABLE) && defined(__ARM_FEATURE_DSP) && !defined(__aarch64__)
 #define CN_HAVE_DSP 1
-#elif !defined(CNERF_PORTABLE) && defined(__aarch64__) && defined(__ARM_NEON)
+#endif
+#if !defined(CNERF_PORTABLE) && defined(__aarch64__) && defined(__ARM_NEON)
 #define CN_HAVE_NEON 1
 #endif
 

@@ -8,9 +8,11 @@
 
 #if defined(CN_HAVE_MVE)
 #include <arm_mve.h>
-#elif defined(CN_HAVE_DSP)
+#endif
+#if defined(CN_HAVE_DSP)
 #include <arm_acle.h>
-#elif defined(CN_HAVE_NEON)
+#endif
+#if defined(CN_HAVE_NEON)
 #include <arm_neon.h>
 #endif
 
@@ -23,6 +25,7 @@ static inline int32_t rd2(const int16_t *p)
     return v;
 }
 
+#if !defined(CN_HAVE_MVE)
 /* One step of the inner loop: two input words (one LDRD) against the block's eight latent
  * words (four LDRDs), eight dual multiply-accumulates. */
 #define CN_DSP_STEP                                                                         \
@@ -95,6 +98,8 @@ void cn_dot_arm(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n
  * 2^(s-1) saturated, shifted right by s), two at a time: one LDRD, two QADDs, two shifts,
  * two SSATs, one PKHBT packing the pair, one store, and one SMLAD with (1, 1) adding both
  * to the sum. Returns the sum. */
+#endif /* the DSP extension's sums where there is no Helium */
+
 /* render.c's finish_fast for n < 32, two outputs per step: y[j] = sat32(sat32(((acc[j] a_m
  * + 2^(n-1)) >> n) + t) + bq[j]), then max(0, .) when relu. The 64-bit value starts at
  * 2^(n-1) and SMLAL adds the product; its low word after the shift is the result (|result|
@@ -189,22 +194,39 @@ int32_t cn_requant_arm(const int32_t *x, int16_t *xq, uint32_t n, unsigned s)
 #if defined(CN_HAVE_MVE)
 /* Each vector holds one input pair of the block's four rows; multiplied lane by lane with
  * the pair repeated four times, the bottom (even) lanes give k[r][2p] x[2p] and the top
- * (odd) lanes k[r][2p+1] x[2p+1], both as four int32. */
+ * (odd) lanes k[r][2p+1] x[2p+1], both as four int32. Two pairs a step, one LDRD for the
+ * inputs. */
 void cn_dot_arm(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                 int32_t *acc)
 {
     uint32_t j = 0;
     for (; j + 4u <= n_rows; j += 4u) {
-        int32x4_t a = vdupq_n_s32(0);
-        for (uint32_t p = 0; p < n_pairs; p++, k += 8) {
+        int32x4_t a = vdupq_n_s32(0), b = vdupq_n_s32(0);
+        const int16_t *xp = x;
+        for (uint32_t p = n_pairs >> 1; p > 0u; p--) {
+            int32_t xa, xb;
+            __builtin_memcpy(&xa, xp, 4);
+            __builtin_memcpy(&xb, xp + 2, 4);
+            xp += 4;
+            const int16x8_t x0 = vreinterpretq_s16_s32(vdupq_n_s32(xa));
+            const int16x8_t x1 = vreinterpretq_s16_s32(vdupq_n_s32(xb));
+            const int16x8_t w0 = vld1q_s16(k), w1 = vld1q_s16(k + 8);
+            k += 16;
+            a = vaddq_s32(a, vmullbq_int_s16(w0, x0));
+            b = vaddq_s32(b, vmulltq_int_s16(w0, x0));
+            a = vaddq_s32(a, vmullbq_int_s16(w1, x1));
+            b = vaddq_s32(b, vmulltq_int_s16(w1, x1));
+        }
+        if (n_pairs & 1u) {
             int32_t xv;
-            __builtin_memcpy(&xv, x + 2u * p, 4);
+            __builtin_memcpy(&xv, xp, 4);
             const int16x8_t xx = vreinterpretq_s16_s32(vdupq_n_s32(xv));
             const int16x8_t w = vld1q_s16(k);
+            k += 8;
             a = vaddq_s32(a, vmullbq_int_s16(w, xx));
-            a = vaddq_s32(a, vmulltq_int_s16(w, xx));
+            b = vaddq_s32(b, vmulltq_int_s16(w, xx));
         }
-        vst1q_s32(acc + j, a);
+        vst1q_s32(acc + j, vaddq_s32(a, b));
     }
     if (j < n_rows)
         cn_dot_c(k, x, n_pairs, n_rows - j, acc + j);
@@ -236,15 +258,20 @@ void cn_dot_arm(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n
 uint32_t cn_dot_variants_arm(cn_dot_variant *out)
 {
     uint32_t n = 0;
+#if defined(CN_HAVE_MVE)
+    out[n].name = "mve";
 #if defined(CN_HAVE_DSP)
+    out[n].requant = cn_requant_arm;
+    out[n].finish = cn_finish_arm;
+#else
+    out[n].requant = (cn_requant_fn)0;
+    out[n].finish = (cn_finish_fn)0;
+#endif
+    out[n++].fn = cn_dot_arm;
+#elif defined(CN_HAVE_DSP)
     out[n].name = "dsp";
     out[n].requant = cn_requant_arm;
     out[n].finish = cn_finish_arm;
-    out[n++].fn = cn_dot_arm;
-#elif defined(CN_HAVE_MVE)
-    out[n].name = "mve";
-    out[n].requant = (cn_requant_fn)0;
-    out[n].finish = (cn_finish_fn)0;
     out[n++].fn = cn_dot_arm;
 #elif defined(CN_HAVE_NEON)
     out[n].name = "neon";
