@@ -513,33 +513,44 @@ static size_t packed_index(uint32_t j, uint32_t i, uint32_t live, uint32_t pairs
 }
 
 /* Orders the layer's rows (live ones first, in increasing output order; rows[] gets each
- * stored row's output index, the all-zero rows last) and packs the live rows into blocks
- * of four, using `tmp` (4 padded rows). A block's rows come from row slots at or after its
+ * stored row's output index, the all-zero rows last), puts the largest sum |k| of a row
+ * into *maxsum, and packs the live rows into blocks of four, using `tmp` (4 padded rows). A block's rows come from row slots at or after its
  * own (a live row's output index is at least its rank), so writing block b overwrites
  * only slots that were copied to tmp, belong to earlier blocks or hold zeros. Returns the
  * live rows. */
-static uint16_t pack_rows(const cnerf_layer_info *L, int16_t *lat, uint16_t *rows, int16_t *tmp)
+static uint16_t pack_rows(const cnerf_layer_info *L, int16_t *lat, uint16_t *rows, int16_t *tmp,
+                          uint32_t *maxsum)
 {
-    const uint32_t pad = in_pad(L), pairs = pad / 2u, n_out = L->n_out;
+    const uint32_t pad = in_pad(L), n_out = L->n_out;
     uint32_t live = 0, dead = n_out;
+    *maxsum = 0;
     for (uint32_t o = 0; o < n_out; o++) {
         const int16_t *row = lat + (size_t)o * pad;
-        uint32_t nz = 0;
-        for (uint32_t i = 0; i < pad && !nz; i++)
-            nz = row[i] != 0;
-        if (nz)
+        uint32_t sum = 0; /* <= 1124 * 32767 < 2^26 */
+        for (uint32_t i = 0; i < pad; i++) {
+            const int32_t k = row[i];
+            sum += (uint32_t)(k < 0 ? -k : k);
+        }
+        *maxsum = sum > *maxsum ? sum : *maxsum;
+        if (sum)
             rows[live++] = (uint16_t)o;
         else
             rows[--dead] = (uint16_t)o; /* fills from the end, in decreasing order */
     }
     for (uint32_t b = 0; 4u * b < live; b++) {
         const uint32_t rb = live - 4u * b < 4u ? live - 4u * b : 4u;
+        int16_t *blk = lat + (size_t)b * 4u * pad;
         for (uint32_t q = 0; q < rb; q++)
             for (uint32_t i = 0; i < pad; i++)
                 tmp[(size_t)q * pad + i] = lat[(size_t)rows[4u * b + q] * pad + i];
-        for (uint32_t q = 0; q < rb; q++)
-            for (uint32_t i = 0; i < pad; i++)
-                lat[packed_index(4u * b + q, i, live, pairs)] = tmp[(size_t)q * pad + i];
+        if (rb < 4u) { /* the last rows, row after row: as they are (packed_index) */
+            for (uint32_t i = 0; i < rb * pad; i++)
+                blk[i] = tmp[i];
+            continue;
+        }
+        for (uint32_t i = 0; i < pad; i++) /* pair by pair: k[q][i] at (i / 2) 8 + 2 q + i % 2 */
+            for (uint32_t q = 0; q < 4u; q++)
+                blk[(i >> 1) * 8u + 2u * q + (i & 1u)] = tmp[(size_t)q * pad + i];
     }
     for (size_t i = (size_t)live * pad; i < (size_t)n_out * pad; i++)
         lat[i] = 0;
@@ -611,19 +622,9 @@ static int32_t q16_bias(int32_t m, int e)
  * 2^15 S, S its sum |k|; with every row's S <= 65535 it is below 2^31 (an int32 sum). The
  * rescale round(acc a_m 2^-n) of such a sum needs no saturation when 2^15 max S |a_m| <
  * 2^(30+n): it stays below 2^30 in magnitude. */
-static void prove_layer(cnerf_decoder *dec, uint32_t l)
+static void prove_layer(cnerf_decoder *dec, uint32_t l, uint32_t maxsum)
 {
     const cnerf_layer_info *L = &dec->info.layer[l];
-    const uint32_t pad = in_pad(L);
-    uint32_t maxsum = 0;
-    for (uint32_t j = 0; j < dec->n_live[l]; j++) {
-        uint32_t sum = 0; /* <= 1124 * 32767 < 2^26 */
-        for (uint32_t i = 0; i < pad; i++) {
-            const int32_t k = dec->latent[l][packed_index(j, i, dec->n_live[l], pad / 2u)];
-            sum += (uint32_t)(k < 0 ? -k : k);
-        }
-        maxsum = sum > maxsum ? sum : maxsum;
-    }
     dec->wide[l] = maxsum > 65535u;
     const int n = -((int)L->a_e + 16 - (int)L->f_in);
     const uint64_t am = (uint64_t)(L->a_m < 0 ? -L->a_m : L->a_m); /* < 2^23 */
@@ -693,11 +694,12 @@ cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void
         if (st != CNERF_OK)
             break;
         order_columns(dec, l, lat, (int16_t *)(void *)scratch);
-        dec->n_live[l] = pack_rows(L, lat, rows, (int16_t *)(void *)scratch);
+        uint32_t maxsum;
+        dec->n_live[l] = pack_rows(L, lat, rows, (int16_t *)(void *)scratch, &maxsum);
         int32_t *bq = (int32_t *)(uintptr_t)dec->bias_q16[l];
         for (uint32_t j = 0; j < L->n_out; j++)
             bq[j] = L->bias_bits ? q16_bias(bias[rows[j]], L->bias_e) : 0;
-        prove_layer(dec, l);
+        prove_layer(dec, l, maxsum);
     }
     if (st == CNERF_OK) {
         const cn_dot_variant v = cn_dot_select();
