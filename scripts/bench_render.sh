@@ -53,7 +53,7 @@ if [ -z "$settings" ]; then
   settings+=" $NC $NF 0.015625; $NC $h 0.000244140625; $NC $q 0.000244140625;"
   settings+=" $c $h 0.000244140625; $NC 0 0.000244140625; $c 0 0.000244140625"
   # a stream with an occupancy grid: the main settings again without it
-  if ./build/cnerf info "$stream" | grep -q "^occupancy grid: [0-9]"; then
+  if grep -q "^occupancy grid: [0-9]" <<< "$(./build/cnerf info "$stream")"; then
     settings+="; $NC $NF 0.000244140625 noskip; $NC $h 0.000244140625 noskip;"
     settings+=" $NC 0 0.000244140625 noskip"
   fi

@@ -72,7 +72,7 @@ need qemu-system-arm qemu-system-arm
 need timeout coreutils
 need md5sum coreutils
 need python3 python3
-if ! qemu-system-arm -machine help | grep -q "^$machine "; then
+if ! grep -q "^$machine " <<< "$(qemu-system-arm -machine help)"; then
   echo "firmware.sh: this qemu-system-arm has no $machine machine (QEMU 7.2: apt-get install qemu-system-arm)" >&2
   exit 1
 fi

@@ -68,7 +68,9 @@ grep -q "^random backgrounds: [0-9]* of [0-9]* training views have transparency"
   || fail "encode on Lego: random backgrounds line: $out"
 grep -q "^dead units removed: coarse [0-9+]* of 4 x 64, view [0-9]* of 32; fine " <<<"$out" \
   || fail "encode: dead units line: $out"
-"$cnerf" info "$work/s.cnrf" | grep -q "samples: 8 coarse + 8 fine" || fail "info of encoded file"
+# Outputs are captured before grep: with pipefail, `cnerf ... | grep -q` fails when grep exits
+# at its match before cnerf has written its last line, which then dies of SIGPIPE.
+grep -q "samples: 8 coarse + 8 fine" <<<"$("$cnerf" info "$work/s.cnrf")" || fail "info of encoded file"
 # eval of a stream renders its float reference model: the same PSNR that encode printed.
 enc_psnr=$(sed -n 's/^test: 2 views, psnr \([0-9.]*\) dB.*/\1/p' <<<"$out")
 out=$("$cnerf" eval "$work/s.cnrf" "$data/lego" --downscale 16 --every 100)
@@ -81,8 +83,8 @@ grep -q "mean over 2 views (fixed point, 8+8 samples.*(float reference $enc_psnr
   || fail "render ($enc_psnr): $out"
 [ -s "$work/r/r_0.png" ] && [ -s "$work/r/r_100.png" ] || fail "render wrote no PNGs"
 md5=$(sed -n 's/^md5 of all frames: //p' <<<"$out")
-"$cnerf" render "$work/s.cnrf" --dataset "$data/lego" --downscale 16 --every 100 --verify "$md5" \
-  | grep -q "verified: $md5" || fail "render --verify of its own md5"
+out=$("$cnerf" render "$work/s.cnrf" --dataset "$data/lego" --downscale 16 --every 100 --verify "$md5")
+grep -q "verified: $md5" <<<"$out" || fail "render --verify of its own md5"
 
 # The occupancy grid: a forced 16^3 grid is written, shown by info, applied by
 # eval (the PSNR encode printed) and counted by render, which --no-skip turns off.
@@ -166,8 +168,8 @@ set -e
 out=$("$cnerf" quantize "$work/m.ckpt" -o "$work/q.cnrf" --bits 6)
 grep -q "wrote $work/q.cnrf: [0-9]* bytes" <<<"$out" || fail "quantize: $out"
 "$cnerf" info "$work/q.cnrf" > /dev/null || fail "info of quantized file"
-"$cnerf" eval "$work/q.cnrf" "$data/lego" --downscale 16 --every 100 | grep -q "mean over 2 test views (stream)" \
-  || fail "eval of quantized file"
+out=$("$cnerf" eval "$work/q.cnrf" "$data/lego" --downscale 16 --every 100)
+grep -q "mean over 2 test views (stream)" <<<"$out" || fail "eval of quantized file"
 
 # --skip-saturated: the fine network skips samples behind the coarse surface from
 # --occupancy-start on; the run trains and saves as usual.
