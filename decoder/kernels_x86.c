@@ -4,6 +4,7 @@
  * registers. Computes exactly cn_dot_c's sums (cn_kernels.h).
  */
 #include "cn_kernels.h"
+#include "cnerf/format.h"
 
 #if !defined(CNERF_PORTABLE) && defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #include <cpuid.h>
@@ -14,29 +15,43 @@ __attribute__((target("avx2"))) static int32_t row_avx2(const int16_t *k, const 
 
 /* Each 256-bit load holds two input pairs of the block's four rows; multiplied with the
  * first pair repeated in the low half and the second in the high half, vpmaddwd gives the
- * four rows' sums over each pair. */
+ * four rows' sums over each pair. The inputs are spread that way once per call (xx, on
+ * the stack: at most 281 vectors), so a block's step is a load, a vpmaddwd and an add. */
 __attribute__((target("avx2"))) static void dot_avx2(const int16_t *k, const int16_t *x,
                                                      uint32_t n_pairs, uint32_t n_rows,
                                                      int32_t *acc)
 {
+    __m256i xx[(CNERF_MAX_LAYER_IN + 3u) / 4u];
     const __m256i spread = _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1);
+    const uint32_t steps = n_pairs >> 1;
+    for (uint32_t q = 0; q < steps; q++)
+        xx[q] = _mm256_permutevar8x32_epi32(
+            _mm256_castsi128_si256(_mm_loadl_epi64((const __m128i *)(const void *)(x + 4u * q))),
+            spread);
+    int32_t xlast = 0;
+    if (n_pairs & 1u)
+        __builtin_memcpy(&xlast, x + 4u * steps, 4);
     uint32_t j = 0;
     for (; j + 4u <= n_rows; j += 4u) {
-        __m256i a = _mm256_setzero_si256();
-        uint32_t p = 0;
-        for (; p + 2u <= n_pairs; p += 2u, k += 16) {
-            const __m256i xx = _mm256_permutevar8x32_epi32(
-                _mm256_castsi128_si256(_mm_loadl_epi64((const __m128i *)(const void *)(x + 2u * p))),
-                spread);
-            const __m256i w = _mm256_loadu_si256((const __m256i *)(const void *)k);
-            a = _mm256_add_epi32(a, _mm256_madd_epi16(w, xx));
+        __m256i a = _mm256_setzero_si256(), b = _mm256_setzero_si256();
+        uint32_t q = 0;
+        for (; q + 2u <= steps; q += 2u, k += 32) {
+            a = _mm256_add_epi32(a, _mm256_madd_epi16(
+                                        _mm256_loadu_si256((const __m256i *)(const void *)k), xx[q]));
+            b = _mm256_add_epi32(b, _mm256_madd_epi16(
+                                        _mm256_loadu_si256((const __m256i *)(const void *)(k + 16)),
+                                        xx[q + 1u]));
         }
+        if (q < steps) {
+            a = _mm256_add_epi32(a, _mm256_madd_epi16(
+                                        _mm256_loadu_si256((const __m256i *)(const void *)k), xx[q]));
+            k += 16;
+        }
+        a = _mm256_add_epi32(a, b);
         __m128i s = _mm_add_epi32(_mm256_castsi256_si128(a), _mm256_extracti128_si256(a, 1));
-        if (p < n_pairs) {
-            int32_t xv;
-            __builtin_memcpy(&xv, x + 2u * p, 4);
+        if (n_pairs & 1u) {
             const __m128i w = _mm_loadu_si128((const __m128i *)(const void *)k);
-            s = _mm_add_epi32(s, _mm_madd_epi16(w, _mm_set1_epi32(xv)));
+            s = _mm_add_epi32(s, _mm_madd_epi16(w, _mm_set1_epi32(xlast)));
             k += 8;
         }
         _mm_storeu_si128((__m128i *)(void *)(acc + j), s);
@@ -45,7 +60,6 @@ __attribute__((target("avx2"))) static void dot_avx2(const int16_t *k, const int
         acc[j] = row_avx2(k, x, 2u * n_pairs);
 }
 
-/* The last one to three rows, row after row: sixteen inputs per vpmaddwd. */
 __attribute__((target("avx2"))) static int32_t row_avx2(const int16_t *k, const int16_t *x,
                                                         uint32_t n)
 {
