@@ -134,7 +134,7 @@ __attribute__((target("avx2"))) static void finish_avx2(const int32_t *acc, uint
                                                          int32_t am, unsigned n, int32_t t,
                                                          const int32_t *bq, int32_t *y, int relu)
 {
-    const __m256i amv = _mm256_set1_epi32(am), half = _mm256_set1_epi64x((int64_t)1 << (n - 1u));
+    const __m256i amv = _mm256_set1_epi32(am), half = _mm256_set1_epi64x((long long)1 << (n - 1u));
     const __m256i tv = _mm256_set1_epi32(t), zero = _mm256_setzero_si256();
     const __m128i cn = _mm_cvtsi32_si128((int)n);
     uint32_t j = 0;
