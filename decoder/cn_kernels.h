@@ -1,9 +1,9 @@
 /*
  * The networks' dot-product kernels (docs/decoder.md, Kernels). A layer's live latent rows
  * are stored packed (cnerf_decoder.latent): blocks of four rows, each block input pair by
- * input pair, k[r][2p] and k[r][2p+1] for each row r; the last block holds the remaining
- * one to three rows the same way. The portable C kernel is the definition; every other
- * kernel computes the same sums and is checked against it (tests/unit/test_kernels.c).
+ * input pair, k[r][2p] and k[r][2p+1] for each row r; the remaining one to three rows
+ * follow row after row. The portable C kernel is the definition; every other kernel
+ * computes the same sums and is checked against it (tests/xarch/check_kernels.c).
  * Freestanding: <stdint.h> only.
  */
 #ifndef CNERF_DECODER_KERNELS_H

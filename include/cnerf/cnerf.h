@@ -125,9 +125,10 @@ typedef struct cnerf_decoder {
     cnerf_info info;
     /* Latents widened to int16 and packed for the dot-product kernels (docs/decoder.md):
      * the n_live[l] rows with a non-zero latent, in increasing output order, in blocks of
-     * four rows (the last block holds the rest), each block input pair by input pair:
-     * k[r][2p], k[r][2p+1] for each row r of the block; inputs padded to n_pairs[l] pairs
-     * with zero. cnerf_latent reads one latent by output and input index. */
+     * four rows, each block input pair by input pair: k[r][2p], k[r][2p+1] for each row r
+     * of the block; the remaining one to three rows row after row; inputs padded to
+     * n_pairs[l] pairs with zero; the columns fed by a hidden layer in that layer's stored
+     * row order. cnerf_latent reads one latent by output and input index. */
     const int16_t *latent[CNERF_MAX_LAYERS];
     const int32_t *bias[CNERF_MAX_LAYERS];     /* n_out bias mantissas, by output */
     const int32_t *bias_q16[CNERF_MAX_LAYERS]; /* sat32(round(bias 2^16)), by stored row */
