@@ -194,8 +194,8 @@ int32_t cn_requant_arm(const int32_t *x, int16_t *xq, uint32_t n, unsigned s)
 #if defined(CN_HAVE_MVE)
 /* Each vector holds one input pair of the block's four rows; multiplied lane by lane with
  * the pair repeated four times, the bottom (even) lanes give k[r][2p] x[2p] and the top
- * (odd) lanes k[r][2p+1] x[2p+1], both as four int32. Two pairs a step, one LDRD for the
- * inputs. */
+ * (odd) lanes k[r][2p+1] x[2p+1], both as four int32. Two pairs a step, into two
+ * accumulators. */
 void cn_dot_arm(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                 int32_t *acc)
 {

@@ -160,6 +160,15 @@ static void test_full_latent_range(void **state)
     assert_int_equal(cn_write_stream(&s.src, &b, NULL, err, sizeof err), -1);
     assert_non_null(strstr(err, "outside"));
     cn_buf_free(&b);
+    /* An input scale outside the format's range: refused with the range, nothing written. */
+    s.k[0][0] = 0;
+    for (int f = CNERF_F_MIN - 1; f <= CNERF_F_MAX + 1; f += CNERF_F_MAX - CNERF_F_MIN + 2) {
+        s.src.layer[1].f_in = (int8_t)f;
+        assert_int_equal(cn_write_stream(&s.src, &b, NULL, err, sizeof err), -1);
+        assert_non_null(strstr(err, "layer 1: input scale"));
+        assert_non_null(strstr(err, "outside -15..16"));
+        cn_buf_free(&b);
+    }
     cn_synth_free(&s);
 }
 
