@@ -3,18 +3,19 @@
  * GRID, has its semantics; docs/decoder.md the rule by which the encoder builds it).
  *
  * 1. Density on a lattice: both networks' density max(sigma, 0) at the (M + 1)^3 corners of
- *    M^3 equal cells of the scene box, then a max over each point's 26 neighbours (one lattice
- *    step of dilation, so a feature thinner than the lattice still marks its cells).
+ *    M^3 equal cells of the scene box.
  * 2. A grid of g cells per axis (g divides M): a cell is occupied when some lattice point of
  *    its closed box has density above the threshold.
- * 3. The threshold starts at the density that makes an opacity of 1% over the box's diagonal
- *    and is halved until rendering training views (up to 8, about 2^17 pixels) with the grid
+ * 3. A grid is kept only if rendering training views (up to 8, about 2^17 pixels) with it
  *    loses at most 0.025 dB against rendering them without (half of the 0.05 dB the grid may
- *    cost on test views).
- * 4. The resolution: going from no grid through g = 16, 32, 64, 128, a finer grid is taken
- *    when each 1% that it adds to the file removes at least 4% of the network evaluations
- *    still left on the training rays (the in-bounds coarse samples, a proxy for both
- *    networks' work); no grid is written when even 16^3 does not pay that way.
+ *    cost on test views). Trials: the lattice as measured at the density that makes an
+ *    opacity of 1% over the box's diagonal; then the lattice dilated by one step (a max over
+ *    each point's 26 neighbours, so a feature thinner than the lattice still marks its cells)
+ *    at that threshold; then dilated with the threshold halved at each further trial.
+ * 4. The resolution, in each trial: going from no grid through g = 16, 32, 64, 128, a finer
+ *    grid is taken when each 1% that it adds to the file removes at least 4% of the network
+ *    evaluations still left on the training rays (the in-bounds coarse samples, a proxy for
+ *    both networks' work); no grid is written when even 16^3 does not pay that way.
  */
 #ifndef CNERF_ENC_GRID_H
 #define CNERF_ENC_GRID_H
@@ -26,9 +27,12 @@
 #include "cn_nerf.h"
 
 /* Densities at the (M + 1)^3 lattice points, index (k (M + 1) + j) (M + 1) + i for the point
- * lo + (i, j, k) w / M, maximum of both networks, then dilated by one lattice step.
- * Returns a malloc'ed array or NULL. */
+ * lo + (i, j, k) w / M, maximum of both networks. Returns a malloc'ed array or NULL. */
 float *cn_grid_lattice(const cn_model *m, int M);
+
+/* One lattice step of dilation: each point raised to the maximum over its 26 neighbours.
+ * Returns a new malloc'ed array or NULL. */
+float *cn_grid_dilate(const float *lat, int M);
 
 /* occ[(z g + y) g + x] = 1 when a lattice point of the cell's closed box exceeds thr
  * (g divides M). Returns the number of occupied cells. */
@@ -43,6 +47,7 @@ typedef struct cn_grid_choice {
     int g;                 /* 0: no grid is worth writing */
     uint8_t *occ;          /* g^3 flags (malloc'ed) */
     float threshold;       /* density threshold used */
+    int dilation;          /* lattice steps of dilation used: 0 or 1 */
     double occupied;       /* fraction of occupied cells */
     double eval_fraction;  /* estimated fraction of evaluations left on the training rays */
     size_t bytes;          /* GRID payload bytes */

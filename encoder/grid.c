@@ -16,15 +16,15 @@ float *cn_grid_lattice(const cn_model *m, int M)
 {
     const cnerf_info *T = &m->topo;
     const size_t n1 = (size_t)M + 1, pts_n = n1 * n1 * n1, chunk = 16384;
-    float *sig = malloc(sizeof(float) * pts_n), *tmp = malloc(sizeof(float) * pts_n);
+    float *sig = malloc(sizeof(float) * pts_n);
     float *pts = malloc(sizeof(float) * 3 * chunk);
     cn_net_buf nb[2];
     memset(nb, 0, sizeof nb);
-    int bad = !sig || !tmp || !pts;
+    int bad = !sig || !pts;
     for (unsigned n = 0; n < T->n_nets && !bad; n++)
         bad = cn_net_buf_init(&nb[n], T, n, chunk) != 0;
     if (bad) {
-        free(sig), free(tmp), free(pts);
+        free(sig), free(pts);
         for (unsigned n = 0; n < 2; n++)
             if (nb[n].cap)
                 cn_net_buf_free(&nb[n]);
@@ -59,10 +59,22 @@ float *cn_grid_lattice(const cn_model *m, int M)
         if (nb[n].cap)
             cn_net_buf_free(&nb[n]);
     free(pts);
-    /* One lattice step of dilation: a separable max over -1..1 along each axis. */
+    return sig;
+}
+
+float *cn_grid_dilate(const float *lat, int M)
+{
+    const size_t n1 = (size_t)M + 1, pts_n = n1 * n1 * n1;
+    float *a0 = malloc(sizeof(float) * pts_n), *a1 = malloc(sizeof(float) * pts_n);
+    if (!a0 || !a1) {
+        free(a0), free(a1);
+        return NULL;
+    }
+    /* A separable max over -1..1 along each axis: lat -> a0 -> a1 -> a0. */
     const size_t stride[3] = {1, n1, n1 * n1};
     for (int a = 0; a < 3; a++) {
-        float *src = a & 1 ? tmp : sig, *dst = a & 1 ? sig : tmp;
+        const float *src = a == 0 ? lat : a == 1 ? a0 : a1;
+        float *dst = a == 1 ? a1 : a0;
 #pragma omp parallel for schedule(static)
         for (size_t c = 0; c < pts_n; c++) {
             const size_t i = c / stride[a] % n1;
@@ -74,9 +86,8 @@ float *cn_grid_lattice(const cn_model *m, int M)
             dst[c] = v;
         }
     }
-    /* three passes: sig -> tmp -> sig -> tmp */
-    free(sig);
-    return tmp;
+    free(a1);
+    return a0;
 }
 
 size_t cn_grid_from_lattice(const float *lat, int M, int g, float thr, uint8_t *occ)
@@ -187,11 +198,11 @@ int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes,
     memset(out, 0, sizeof *out);
     const cnerf_info *T = &m->topo;
     char line[256];
-    float *lat = cn_grid_lattice(m, GRID_M);
+    float *lat0 = cn_grid_lattice(m, GRID_M), *lat1 = NULL;
     const size_t cells_max = (size_t)GRID_M * GRID_M * GRID_M;
     uint8_t *occ = malloc(cells_max), *best = malloc(cells_max);
-    if (!lat || !occ || !best) {
-        free(lat), free(occ), free(best);
+    if (!lat0 || !occ || !best) {
+        free(lat0), free(occ), free(best);
         snprintf(err, errlen, "occupancy grid: out of memory");
         return -1;
     }
@@ -205,8 +216,17 @@ int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes,
     cn_model plain = *m;
     plain.grid = NULL;
     const double psnr0 = views_psnr(&plain, ds, &ok);
-    float thr = (float)(-log(0.99) / diag);
-    for (int tries = 0; ok && tries < GRID_TRIES && !out->g; tries++, thr *= 0.5f) {
+    const float thr0 = (float)(-log(0.99) / diag);
+    for (int tries = 0; ok && tries < GRID_TRIES && !out->g; tries++) {
+        /* First the lattice as measured, then dilated at the same threshold, then dilated
+         * with the threshold halved at each further trial. */
+        const int dil = tries > 0;
+        const float thr = ldexpf(thr0, dil ? 1 - tries : 0);
+        if (dil && !lat1 && !(lat1 = cn_grid_dilate(lat0, GRID_M))) {
+            ok = 0;
+            break;
+        }
+        const float *lat = dil ? lat1 : lat0;
         /* The resolution: finer while the evaluations it removes pay for its bytes. */
         int g_best = 0;
         double e_best = 1, frac_best = 0;
@@ -228,9 +248,9 @@ int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes,
             const double frac = (double)occupied / ((double)g * g * g);
             if (say) {
                 snprintf(line, sizeof line,
-                         "grid: threshold %.3g, %d^3: %.1f%% occupied, %zu bytes, %.1f%% of "
-                         "the evaluations",
-                         thr, g, 100 * frac, bytes, 100 * e);
+                         "grid: threshold %.3g, dilation %d, %d^3: %.1f%% occupied, %zu bytes, "
+                         "%.1f%% of the evaluations",
+                         thr, dil, g, 100 * frac, bytes, 100 * e);
                 say(line);
             }
             /* A finer grid pays when each 1% of the file it adds removes at least
@@ -256,14 +276,15 @@ int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes,
         cn_occ_free(&o);
         if (say) {
             snprintf(line, sizeof line,
-                     "grid: %d^3 at threshold %.3g: training views %.3f dB with it, %.3f dB "
-                     "without",
-                     g_best, thr, psnr1, psnr0);
+                     "grid: %d^3 at threshold %.3g, dilation %d: training views %.3f dB with "
+                     "it, %.3f dB without",
+                     g_best, thr, dil, psnr1, psnr0);
             say(line);
         }
         if (ok && psnr0 - psnr1 <= GRID_MAX_DROP_DB) {
             out->g = g_best;
             out->threshold = thr;
+            out->dilation = dil;
             out->occupied = frac_best;
             out->eval_fraction = e_best;
             out->bytes = b_best;
@@ -275,7 +296,7 @@ int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes,
                 ok = 0;
         }
     }
-    free(lat), free(occ), free(best);
+    free(lat0), free(lat1), free(occ), free(best);
     if (!ok) {
         cn_grid_choice_free(out);
         snprintf(err, errlen, "occupancy grid: out of memory");

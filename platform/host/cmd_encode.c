@@ -217,9 +217,9 @@ int cmd_encode(int argc, char **argv)
         if (rc == 0 && grid.g) {
             printf("occupancy grid: %d^3, %.1f%% of the cells occupied, %zu bytes; %.1f%% of the "
                    "evaluations left on the training rays, %+.3f dB on the training views "
-                   "(threshold %.3g)\n",
+                   "(threshold %.3g, dilation %d)\n",
                    grid.g, 100 * grid.occupied, grid.bytes, 100 * grid.eval_fraction,
-                   0.0 - grid.psnr_drop + 0.0, grid.threshold); /* no "-0.000" */
+                   0.0 - grid.psnr_drop + 0.0, grid.threshold, grid.dilation); /* no "-0.000" */
             e.src.grid = grid.occ;
             e.src.grid_g = (uint32_t)grid.g;
             if (cn_write_stream(&e.src, &b, &rep, err, sizeof err))

@@ -42,6 +42,45 @@ static void test_from_lattice(void **state)
     assert_int_equal(cn_grid_from_lattice(lat, M, M, 0.5f, fine), 8);
 }
 
+/* One step of dilation raises each point to the maximum of its 3x3x3 box, clipped at the
+ * lattice's faces, and leaves its input alone. */
+static void test_dilate(void **state)
+{
+    (void)state;
+    enum { M = 6, N1 = M + 1 };
+    static float lat[N1 * N1 * N1];
+    memset(lat, 0, sizeof lat);
+    lat[(3 * N1 + 3) * N1 + 3] = 2.0f; /* an interior point */
+    lat[(0 * N1 + 0) * N1 + 6] = 1.0f; /* a corner of the lattice */
+    float *d = cn_grid_dilate(lat, M);
+    assert_non_null(d);
+    int n2 = 0, n1 = 0;
+    for (int k = 0; k < N1; k++)
+        for (int j = 0; j < N1; j++)
+            for (int i = 0; i < N1; i++) {
+                const float v = d[(k * N1 + j) * N1 + i];
+                const int near_c = abs(i - 3) <= 1 && abs(j - 3) <= 1 && abs(k - 3) <= 1;
+                const int near_k = i >= 5 && j <= 1 && k <= 1;
+                assert_true(v == (near_c ? 2.0f : near_k ? 1.0f : 0.0f));
+                n2 += v == 2.0f, n1 += v == 1.0f;
+            }
+    assert_int_equal(n2, 27);
+    assert_int_equal(n1, 8);
+    assert_true(lat[(3 * N1 + 3) * N1 + 4] == 0.0f);
+    /* dilated, a 2^3 grid's cell next to the point is occupied; undilated it is not */
+    uint8_t occ[2 * 2 * 2];
+    memset(lat, 0, sizeof lat);
+    lat[(1 * N1 + 1) * N1 + 4] = 2.0f; /* x = 4, in the cell x >= 3 only */
+    assert_int_equal(cn_grid_from_lattice(lat, M, 2, 0.5f, occ), 1);
+    assert_int_equal(occ[1], 1);
+    free(d);
+    d = cn_grid_dilate(lat, M);
+    assert_non_null(d);
+    assert_int_equal(cn_grid_from_lattice(d, M, 2, 0.5f, occ), 2);
+    assert_int_equal(occ[0], 1);
+    free(d);
+}
+
 /* The estimate of evaluations left: 0 with an empty grid, 1 with a full one, in between
  * with half the box. */
 static void test_eval_fraction(void **state)
@@ -80,6 +119,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_from_lattice),
+        cmocka_unit_test(test_dilate),
         cmocka_unit_test(test_eval_fraction),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
