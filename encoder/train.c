@@ -332,10 +332,33 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
  * g (0: no grid), whether it has an estimate, and then, when it has, the g^3 decaying maxima.
  * Without them a resumed run rebuilt its grids from one pass over the resumed model, which
  * marks fewer cells occupied than the running maxima did, and the first steps after the
- * resume trained with samples missing. Version 1 files still load; their grids are rebuilt. */
+ * resume trained with samples missing. Version 1 files still load; their grids are rebuilt.
+ * Version 3 adds what the run was trained on, after the grids: lambda (f64 bits), the
+ * number of training views, the first view's width and height, and a 64-bit hash of the
+ * training poses, so that --resume refuses another dataset, resolution or lambda. Version 1
+ * and 2 files load without those checks. */
 #define CKPT_MAGIC "CNCK"
-#define CKPT_VERSION 2u
+#define CKPT_VERSION 3u
+#define CKPT_VERSION_NO_RUN 2u
 #define CKPT_VERSION_NO_GRIDS 1u
+
+/* FNV-1a over the training views' camera-to-world matrices, each double taken as its
+ * little-endian IEEE bytes: the scene's identity, independent of the resolution. */
+static uint64_t poses_hash(const cn_dataset *ds)
+{
+    uint64_t h = 0xcbf29ce484222325ull;
+    for (int v = 0; v < ds->n_train; v++)
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 4; j++) {
+                uint64_t u;
+                memcpy(&u, &ds->train[v].c2w[i][j], 8);
+                for (int k = 0; k < 8; k++) {
+                    h ^= (uint8_t)(u >> (8 * k));
+                    h *= 0x100000001b3ull;
+                }
+            }
+    return h;
+}
 
 static void put_floats(cn_buf *b, const float *x, size_t n)
 {
@@ -376,6 +399,13 @@ int cn_checkpoint_save(const cn_trainer *t, const char *path, char *err, size_t 
         if (o->g && o->valid)
             put_floats(&b, o->density, (size_t)o->g * o->g * o->g);
     }
+    uint64_t lambda_bits;
+    memcpy(&lambda_bits, &t->opts.lambda, 8);
+    put_u64(&b, lambda_bits);
+    cn_buf_u32(&b, (uint32_t)t->ds->n_train);
+    cn_buf_u32(&b, t->ds->n_train ? (uint32_t)t->ds->train[0].w : 0u);
+    cn_buf_u32(&b, t->ds->n_train ? (uint32_t)t->ds->train[0].h : 0u);
+    put_u64(&b, poses_hash(t->ds));
     cn_buf_u32(&b, cnerf_crc32(0, b.p, b.n));
     int rc = b.oom ? -1 : cn_write_file_atomic(path, b.p, b.n, err, errlen);
     if (b.oom)
@@ -394,6 +424,10 @@ typedef struct ckpt {
     unsigned n_grids;      /* 0 in a version 1 file */
     uint32_t grid_g[CNERF_MAX_NETS];
     const uint8_t *grid[CNERF_MAX_NETS]; /* g^3 densities, or NULL: no estimate */
+    int has_run;                         /* version 3: the fields below are known */
+    double lambda;
+    uint32_t n_train, w, h;
+    uint64_t poses;
 } ckpt;
 
 /* The grids after the parameter blocks (version 2); NULL or the reason they are invalid. */
@@ -415,7 +449,24 @@ static const char *ckpt_read_grids(cn_reader *r, ckpt *c)
         c->grid[n] = r->p;
         r->p += bytes;
     }
-    return cn_rd_left(r) == 0 ? NULL : "unexpected bytes after the occupancy grids";
+    return NULL;
+}
+
+/* What the run was trained on (version 3). */
+static const char *ckpt_read_run(cn_reader *r, ckpt *c)
+{
+    uint64_t u = cn_rd_u32(r);
+    u |= (uint64_t)cn_rd_u32(r) << 32;
+    memcpy(&c->lambda, &u, 8);
+    c->n_train = cn_rd_u32(r);
+    c->w = cn_rd_u32(r);
+    c->h = cn_rd_u32(r);
+    c->poses = cn_rd_u32(r);
+    c->poses |= (uint64_t)cn_rd_u32(r) << 32;
+    if (r->err)
+        return "truncated after the occupancy grids";
+    c->has_run = 1;
+    return NULL;
 }
 
 static int ckpt_read(const char *path, ckpt *c, char *err, size_t errlen)
@@ -440,7 +491,8 @@ static int ckpt_read(const char *path, ckpt *c, char *err, size_t errlen)
         c->seed |= (uint64_t)cn_rd_u32(&r) << 32;
         c->compressed = cn_rd_u32(&r);
         uint32_t hl = cn_rd_u32(&r);
-        if (version != CKPT_VERSION && version != CKPT_VERSION_NO_GRIDS)
+        if (version != CKPT_VERSION && version != CKPT_VERSION_NO_RUN &&
+            version != CKPT_VERSION_NO_GRIDS)
             why = "unsupported checkpoint version";
         else if (r.err || cn_rd_left(&r) < hl ||
                  cn_parse_head(r.p, hl, &c->hdr) != CNERF_OK)
@@ -457,6 +509,10 @@ static int ckpt_read(const char *path, ckpt *c, char *err, size_t errlen)
                 r.p += c->n_params * 12;
                 if (version != CKPT_VERSION_NO_GRIDS)
                     why = ckpt_read_grids(&r, c);
+                if (!why && version == CKPT_VERSION)
+                    why = ckpt_read_run(&r, c);
+                if (!why && cn_rd_left(&r) != 0)
+                    why = "unexpected bytes at the end";
             }
         }
     }
@@ -503,6 +559,22 @@ int cn_checkpoint_resume(cn_trainer *t, const char *path, char *err, size_t errl
         c.hdr.n_coarse != t->model.topo.n_coarse || c.hdr.n_fine != t->model.topo.n_fine) {
         snprintf(err, errlen, "%s: checkpoint model differs from the requested one (preset, "
                  "depth, width, samples or compression)", path);
+        rc = -1;
+    } else if (c.has_run && (c.n_train != (uint32_t)t->ds->n_train ||
+                             c.poses != poses_hash(t->ds))) {
+        snprintf(err, errlen, "%s was trained on another dataset (%u training views with "
+                 "other camera poses; this one has %d): resume on that dataset, or start a new "
+                 "run", path, c.n_train, t->ds->n_train);
+        rc = -1;
+    } else if (c.has_run && t->ds->n_train &&
+               (c.w != (uint32_t)t->ds->train[0].w || c.h != (uint32_t)t->ds->train[0].h)) {
+        snprintf(err, errlen, "%s was trained on %ux%u images and this run has %dx%d: resume "
+                 "with that --downscale, or start a new run", path, c.w, c.h,
+                 t->ds->train[0].w, t->ds->train[0].h);
+        rc = -1;
+    } else if (c.has_run && c.lambda != t->opts.lambda) {
+        snprintf(err, errlen, "%s was encoded with --lambda %g: resume with that lambda (this "
+                 "run has %g), or start a new run", path, c.lambda, t->opts.lambda);
         rc = -1;
     } else {
         ckpt_fill(&c, &t->model);

@@ -14,6 +14,8 @@ fail() { echo "FAIL: $*" >&2; exit 1; }
 "$cnerf" train "$data/lego" -o "$work/t.ckpt" --preset tiny --downscale 16 --iters 2 \
   > "$work/fixture.log" || fail "fixture: train"
 "$cnerf" synth -o "$work/s.cnrf" --preset tiny > /dev/null || fail "fixture: synth"
+"$cnerf" encode "$data/lego" -o "$work/e.cnrf" --lambda 1 --preset tiny --downscale 16 --iters 2 \
+  --every 200 > "$work/fixture-e.log" || fail "fixture: encode"
 cp -al "$data/lego" "$work/ds"
 cp -al "$data/lego" "$work/ds_dir" # an image that is a directory
 rm "$work/ds_dir/train/r_0.png" && mkdir "$work/ds_dir/train/r_0.png"
@@ -32,7 +34,7 @@ PY
 ln -s "$work/s.cnrf" "$work/link.cnrf"
 ln -s "$work/loop" "$work/loop"
 mkfifo "$work/fifo"
-sums() { md5sum "$work/t.ckpt" "$work/s.cnrf" "$work/ds/transforms_train.json" \
+sums() { md5sum "$work/t.ckpt" "$work/s.cnrf" "$work/e.cnrf.ckpt" "$work/ds/transforms_train.json" \
          "$work/ds/test/r_0.png"; }
 before=$(sums)
 
@@ -74,6 +76,9 @@ rows=(
   "2|need a checkpoint and -o FILE|quantize $work/t.ckpt"
   "2|--grid takes 16, 32, 64 or 128|encode $D -o $work/x.cnrf --lambda 1 --grid 17"
   "1|t.ckpt was trained with --seed 1: resume with that seed|train $D -o $work/t.ckpt --resume --seed 7 ${T[*]}"
+  "1|t.ckpt was trained on another dataset (100 training views with other camera poses|train $data/mic -o $work/t.ckpt --resume ${T[*]}"
+  "1|t.ckpt was trained on 25x25 images and this run has 50x50: resume with that --downscale|train $D -o $work/t.ckpt --resume --preset tiny --downscale 8 --iters 100000"
+  "1|e.cnrf.ckpt was encoded with --lambda 1: resume with that lambda (this run has 2)|encode $D -o $work/e2.cnrf --resume $work/e.cnrf.ckpt --lambda 2 ${T[*]}"
   "2|--iters 0 trains nothing|train $D -o $work/x.ckpt --iters 0"
   "2|--iters 0 trains nothing|encode $D -o $work/x.cnrf --lambda 1 --iters 0"
   "2|unknown command 'nope'|help nope"

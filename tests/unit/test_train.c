@@ -293,7 +293,8 @@ static void put_le32(uint8_t *p, uint32_t v)
 
 /* The occupancy grids in a checkpoint: a version 1 file (no grids) still resumes, with its
  * grids rebuilt, as does a run with another grid size; a grid section that does not fit
- * the model is refused with its reason even when the CRC is right. */
+ * the model is refused with its reason even when the CRC is right. A version 3 file refuses
+ * a run with another lambda; a version 2 file (no record of the run) resumes it. */
 static void test_checkpoint_grids(void **state)
 {
     (void)state;
@@ -313,7 +314,8 @@ static void test_checkpoint_grids(void **state)
     assert_int_equal(cn_read_file(path, &v2, &len, err, sizeof err), 0);
     const size_t cells = (size_t)o.occ_grid * o.occ_grid * o.occ_grid;
     const size_t grids = 4 + t.model.topo.n_nets * (8 + 4 * cells);
-    const size_t body = len - 4 - grids; /* up to the end of the Adam moments */
+    const size_t run = 8 + 3 * 4 + 8; /* lambda, views, width, height, poses hash */
+    const size_t body = len - 4 - run - grids; /* up to the end of the Adam moments */
     uint8_t *buf = malloc(len + 4);
     assert_non_null(buf);
 
@@ -344,6 +346,20 @@ static void test_checkpoint_grids(void **state)
     assert_memory_equal(r.occ[1].occupied, t.occ[1].occupied, cells);
     cn_trainer_free(&r);
 
+    /* Another lambda: refused by version 3, resumed from version 2. */
+    cn_train_opts ol = o;
+    ol.lambda = o.lambda + 1;
+    assert_int_equal(cn_trainer_init(&r, &ds, &ol, err, sizeof err), 0);
+    assert_int_equal(cn_checkpoint_resume(&r, path, err, sizeof err), -1);
+    print_message("# another lambda: %s\n", err);
+    assert_non_null(strstr(err, "was encoded with --lambda"));
+    memcpy(buf, v2, body + grids);
+    put_le32(buf + 4, 2);
+    write_with_crc(path, buf, body + grids);
+    assert_int_equal(cn_checkpoint_resume(&r, path, err, sizeof err), 0);
+    assert_true(r.occ[0].valid && r.occ[1].valid);
+    cn_trainer_free(&r);
+
     const struct {
         const char *what;
         long cut;       /* bytes removed before the CRC (negative: added) */
@@ -351,9 +367,10 @@ static void test_checkpoint_grids(void **state)
         const char *message;
     } bad[] = {
         {"one grid for two networks", 0, 1, "occupancy grids do not match the model"},
-        {"a grid cut short", 4, -1, "occupancy grid truncated"},
-        {"bytes after the grids", -4, -1, "unexpected bytes after the occupancy grids"},
-        {"no grid section", (long)grids, -1, "grid"},
+        {"a grid cut short", (long)run + 4, -1, "occupancy grid truncated"},
+        {"the run's record cut short", 4, -1, "truncated after the occupancy grids"},
+        {"bytes after the run's record", -4, -1, "unexpected bytes at the end"},
+        {"no grid section", (long)(grids + run), -1, "grid"},
     };
     for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
         memcpy(buf, v2, len - 4);
