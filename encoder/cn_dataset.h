@@ -31,6 +31,7 @@
 #define CNERF_ENC_DATASET_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 enum { CN_DS_BLENDER = 1, CN_DS_NGP = 2, CN_DS_LLFF = 3 };
 
@@ -72,5 +73,11 @@ int cn_dataset_load(const char *dir, const cn_dataset_opts *o, cn_dataset *ds, c
 
 /* Frees every view and empties *ds; safe on an empty dataset. */
 void cn_dataset_free(cn_dataset *ds);
+
+/* The loaders' metadata parsers on a file's bytes, without the file system: kind 0 a
+ * Blender transforms_*.json, 1 an instant-ngp transforms.json, 2 an LLFF poses_bounds.npy.
+ * Everything the loader checks before it looks for images is checked; images are not
+ * read. Returns 0, or -1 with the loader's message (for fuzzing and tests). */
+int cn_dataset_parse_meta(int kind, const uint8_t *data, size_t len, char *err, size_t errlen);
 
 #endif /* CNERF_ENC_DATASET_H */

@@ -23,6 +23,9 @@ typedef struct cn_image {
  * precision. Returns 0, or -1 with a message naming the file and the problem (missing,
  * not a PNG, truncated, corrupt) in err; *img is then empty. */
 int cn_png_read(const char *path, cn_image *img, char *err, size_t errlen);
+/* The same on a file's bytes in memory; `path` names it in messages. */
+int cn_png_read_mem(const char *path, const uint8_t *data, size_t len, cn_image *img, char *err,
+                    size_t errlen);
 
 /* Writes w*h 8-bit RGB pixels (rows `stride` bytes apart, stride >= 3*w) as a PNG,
  * atomically: the file is encoded in memory, written to a temporary file in the same

@@ -398,13 +398,11 @@ static int cn_json_syntax_error(const char *path, const char *text, size_t len, 
 }
 
 /* Reads and parses a JSON file whose top level must be an object. */
-static int cn_json_load(const char *path, cJSON **root, char *err, size_t errlen)
+/* Parses a JSON object from memory; `path` names it in messages. */
+static int cn_json_parse(const char *path, const uint8_t *data, size_t len, cJSON **root,
+                         char *err, size_t errlen)
 {
     *root = NULL;
-    uint8_t *data;
-    size_t len;
-    if (cn_read_file(path, &data, &len, err, errlen) != 0)
-        return -1;
     const char *text = (const char *)data, *end = NULL;
     cJSON *j = len ? cJSON_ParseWithLengthOpts(text, len, &end, 0) : NULL;
     int rc = 0;
@@ -422,11 +420,22 @@ static int cn_json_load(const char *path, cJSON **root, char *err, size_t errlen
             rc = cn_fail(err, errlen, "%s: expected a JSON object at the top level", path);
         }
     }
-    free(data);
     if (rc != 0)
         cJSON_Delete(j);
     else
         *root = j;
+    return rc;
+}
+
+static int cn_json_load(const char *path, cJSON **root, char *err, size_t errlen)
+{
+    *root = NULL;
+    uint8_t *data;
+    size_t len;
+    if (cn_read_file(path, &data, &len, err, errlen) != 0)
+        return -1;
+    const int rc = cn_json_parse(path, data, len, root, err, errlen);
+    free(data);
     return rc;
 }
 
@@ -963,23 +972,18 @@ static int cn_llff_recentre(cn_llff_cam *cams, int n, const char *file, char *er
     return 0;
 }
 
-/* Reads poses_bounds.npy into NeRF-convention cameras: scaled so that the nearest bound
- * is 1/0.75, recentred. Sets the dataset's near/far (0.9 x nearest bound, farthest). */
-static int cn_llff_cameras(const char *file, cn_llff_cam **cams, int *n, cn_dataset *ds,
-                           char *err, size_t errlen)
+/* poses_bounds.npy's bytes into NeRF-convention cameras (see cn_llff_cameras). */
+static int cn_llff_cameras_mem(const char *file, const uint8_t *data, size_t len,
+                               cn_llff_cam **cams, int *n, cn_dataset *ds, char *err,
+                               size_t errlen)
 {
     *cams = NULL;
-    uint8_t *data;
-    size_t len;
-    if (cn_read_file(file, &data, &len, err, errlen) != 0)
-        return -1;
     const uint8_t *body;
     int rc = cn_npy_poses(data, len, file, n, &body, err, errlen);
     if (rc == 0 && !(*cams = calloc((size_t)*n, sizeof **cams)))
         rc = cn_fail(err, errlen, "%s: out of memory", file);
     for (int i = 0; rc == 0 && i < *n; i++)
         rc = cn_llff_row(body + (size_t)i * 17 * 8, i, file, &(*cams)[i], err, errlen);
-    free(data);
     if (rc != 0)
         return -1;
     double bmin = (*cams)[0].bnear, bmax = (*cams)[0].bfar;
@@ -994,6 +998,21 @@ static int cn_llff_cameras(const char *file, cn_llff_cam **cams, int *n, cn_data
     ds->near = bmin * sc * 0.9;
     ds->far = bmax * sc;
     return cn_llff_recentre(*cams, *n, file, err, errlen);
+}
+
+/* Reads poses_bounds.npy into NeRF-convention cameras: scaled so that the nearest bound
+ * is 1/0.75, recentred. Sets the dataset's near/far (0.9 x nearest bound, farthest). */
+static int cn_llff_cameras(const char *file, cn_llff_cam **cams, int *n, cn_dataset *ds,
+                           char *err, size_t errlen)
+{
+    *cams = NULL;
+    uint8_t *data;
+    size_t len;
+    if (cn_read_file(file, &data, &len, err, errlen) != 0)
+        return -1;
+    const int rc = cn_llff_cameras_mem(file, data, len, cams, n, ds, err, errlen);
+    free(data);
+    return rc;
 }
 
 static int cn_cmp_name(const void *a, const void *b)
@@ -1232,4 +1251,48 @@ void cn_dataset_free(cn_dataset *ds)
     cn_views_free(ds->val, ds->n_val);
     cn_views_free(ds->test, ds->n_test);
     memset(ds, 0, sizeof *ds);
+}
+
+/* ---- the metadata parsers on bytes (fuzzing, tests) ---- */
+
+int cn_dataset_parse_meta(int kind, const uint8_t *data, size_t len, char *err, size_t errlen)
+{
+    static const char *names[3] = {"transforms_train.json", "transforms.json",
+                                   "poses_bounds.npy"};
+    if (kind < 0 || kind > 2)
+        return cn_fail(err, errlen, "unknown metadata kind %d", kind);
+    const char *file = names[kind];
+    if (kind == 2) {
+        cn_llff_cam *cams;
+        int n = 0;
+        cn_dataset ds;
+        memset(&ds, 0, sizeof ds);
+        const int rc = cn_llff_cameras_mem(file, data, len, &cams, &n, &ds, err, errlen);
+        free(cams);
+        return rc;
+    }
+    cJSON *root;
+    if (cn_json_parse(file, data, len, &root, err, errlen) != 0)
+        return -1;
+    cn_jloc l = {file, -1};
+    cn_intr in = cn_intr_none;
+    double aabb;
+    int rc = kind == 0 ? cn_json_angle(root, "camera_angle_x", 1, &l, &in.angle_x, err, errlen)
+                       : cn_ngp_intrinsics(root, &l, &in, &aabb, err, errlen);
+    const cJSON *frames = NULL;
+    if (rc == 0)
+        rc = cn_json_frames(root, file, &frames, err, errlen);
+    const cJSON *fr;
+    int i = 0;
+    if (rc == 0)
+        cJSON_ArrayForEach(fr, frames)
+        {
+            cn_jloc lf = {file, i++};
+            const char *file_path = NULL;
+            double c2w[3][4];
+            if ((rc = cn_json_frame(fr, &lf, &file_path, c2w, err, errlen)) != 0)
+                break;
+        }
+    cJSON_Delete(root);
+    return rc;
 }

@@ -128,22 +128,17 @@ static int cn_png_decode(cn_png_rd *r, cn_image *img)
     return 0;
 }
 
-int cn_png_read(const char *path, cn_image *img, char *err, size_t errlen)
+int cn_png_read_mem(const char *path, const uint8_t *data, size_t len, cn_image *img, char *err,
+                    size_t errlen)
 {
     *img = (cn_image){0};
-    uint8_t *data;
-    size_t len;
-    if (cn_read_file(path, &data, &len, err, errlen) != 0)
-        return -1;
     size_t sig = len < 8 ? len : 8;
     if (sig == 0 || png_sig_cmp(data, 0, sig) != 0) {
         snprintf(err, errlen, "%s: not a PNG file (bad signature)", path);
-        free(data);
         return -1;
     }
     if (len < 8) {
         snprintf(err, errlen, "%s: truncated (unexpected end of file)", path);
-        free(data);
         return -1;
     }
     cn_png_rd r = {.e = {path, err, errlen}, .data = data, .len = len};
@@ -160,6 +155,17 @@ int cn_png_read(const char *path, cn_image *img, char *err, size_t errlen)
     free(r.raw);
     free(r.rows);
     free(r.px);
+    return rc;
+}
+
+int cn_png_read(const char *path, cn_image *img, char *err, size_t errlen)
+{
+    *img = (cn_image){0};
+    uint8_t *data;
+    size_t len;
+    if (cn_read_file(path, &data, &len, err, errlen) != 0)
+        return -1;
+    const int rc = cn_png_read_mem(path, data, len, img, err, errlen);
     free(data);
     return rc;
 }
