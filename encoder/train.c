@@ -9,6 +9,7 @@
 #include "cn_prior.h"
 #include "cn_synth.h"
 #include "cn_train.h"
+#include "cn_ckpt.h"
 
 void cn_train_defaults(cn_train_opts *o)
 {
@@ -328,19 +329,6 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
 
 /* ---- checkpoints ---- */
 
-/* Version 2 adds the occupancy grids after the Adam moments: per network the cells per axis
- * g (0: no grid), whether it has an estimate, and then, when it has, the g^3 decaying maxima.
- * Without them a resumed run rebuilt its grids from one pass over the resumed model, which
- * marks fewer cells occupied than the running maxima did, and the first steps after the
- * resume trained with samples missing. Version 1 files still load; their grids are rebuilt.
- * Version 3 adds what the run was trained on, after the grids: lambda (f64 bits), the
- * number of training views, the first view's width and height, and a 64-bit hash of the
- * training poses, so that --resume refuses another dataset, resolution or lambda. Version 1
- * and 2 files load without those checks. */
-#define CKPT_MAGIC "CNCK"
-#define CKPT_VERSION 3u
-#define CKPT_VERSION_NO_RUN 2u
-#define CKPT_VERSION_NO_GRIDS 1u
 
 /* FNV-1a over the training views' camera-to-world matrices, each double taken as its
  * little-endian IEEE bytes: the scene's identity, independent of the resolution. */
@@ -378,8 +366,8 @@ static void put_u64(cn_buf *b, uint64_t v)
 int cn_checkpoint_save(const cn_trainer *t, const char *path, char *err, size_t errlen)
 {
     cn_buf b = {0}, h = {0};
-    cn_buf_put(&b, CKPT_MAGIC, 4);
-    cn_buf_u32(&b, CKPT_VERSION);
+    cn_buf_put(&b, CN_CKPT_MAGIC, 4);
+    cn_buf_u32(&b, CN_CKPT_VERSION);
     put_u64(&b, (uint64_t)t->step);
     put_u64(&b, t->opts.seed);
     cn_buf_u32(&b, (uint32_t)t->model.compressed);
@@ -414,112 +402,15 @@ int cn_checkpoint_save(const cn_trainer *t, const char *path, char *err, size_t 
     return rc;
 }
 
-typedef struct ckpt {
-    uint8_t *data;
+/* Reads and parses a checkpoint file; *data (to free) holds what c points into. */
+static int ckpt_read(const char *path, uint8_t **data, cn_ckpt *c, char *err, size_t errlen)
+{
     size_t len;
-    uint64_t step, seed, n_params;
-    uint32_t compressed;
-    cnerf_info hdr;
-    const uint8_t *blocks; /* params, m, v */
-    unsigned n_grids;      /* 0 in a version 1 file */
-    uint32_t grid_g[CNERF_MAX_NETS];
-    const uint8_t *grid[CNERF_MAX_NETS]; /* g^3 densities, or NULL: no estimate */
-    int has_run;                         /* version 3: the fields below are known */
-    double lambda;
-    uint32_t n_train, w, h;
-    uint64_t poses;
-} ckpt;
-
-/* The grids after the parameter blocks (version 2); NULL or the reason they are invalid. */
-static const char *ckpt_read_grids(cn_reader *r, ckpt *c)
-{
-    c->n_grids = cn_rd_u32(r);
-    if (r->err || c->n_grids != c->hdr.n_nets)
-        return "occupancy grids do not match the model";
-    for (unsigned n = 0; n < c->n_grids; n++) {
-        const uint32_t g = cn_rd_u32(r), valid = cn_rd_u32(r);
-        if (r->err || g > 256 || valid > 1 || (valid && g == 0))
-            return "invalid occupancy grid";
-        c->grid_g[n] = g;
-        if (!valid)
-            continue;
-        const size_t bytes = 4 * (size_t)g * g * g;
-        if (cn_rd_left(r) < bytes)
-            return "occupancy grid truncated";
-        c->grid[n] = r->p;
-        r->p += bytes;
-    }
-    return NULL;
-}
-
-/* What the run was trained on (version 3). */
-static const char *ckpt_read_run(cn_reader *r, ckpt *c)
-{
-    uint64_t u = cn_rd_u32(r);
-    u |= (uint64_t)cn_rd_u32(r) << 32;
-    memcpy(&c->lambda, &u, 8);
-    c->n_train = cn_rd_u32(r);
-    c->w = cn_rd_u32(r);
-    c->h = cn_rd_u32(r);
-    c->poses = cn_rd_u32(r);
-    c->poses |= (uint64_t)cn_rd_u32(r) << 32;
-    if (r->err)
-        return "truncated after the occupancy grids";
-    c->has_run = 1;
-    return NULL;
-}
-
-static int ckpt_read(const char *path, ckpt *c, char *err, size_t errlen)
-{
-    memset(c, 0, sizeof *c);
-    if (cn_read_file(path, &c->data, &c->len, err, errlen))
+    if (cn_read_file(path, data, &len, err, errlen))
         return -1;
-    cn_reader r; /* over everything before the CRC */
-    const char *why = NULL;
-    if (c->len < 12 || memcmp(c->data, CKPT_MAGIC, 4) != 0)
-        why = "not a cnerf checkpoint";
-    else if (cnerf_crc32(0, c->data, c->len - 4) !=
-             (uint32_t)(c->data[c->len - 4] | c->data[c->len - 3] << 8 |
-                        c->data[c->len - 2] << 16 | (uint32_t)c->data[c->len - 1] << 24))
-        why = "checksum mismatch (truncated or corrupt)";
-    if (!why) {
-        cn_rd_init(&r, c->data + 4, c->len - 8);
-        uint32_t version = cn_rd_u32(&r);
-        c->step = cn_rd_u32(&r);
-        c->step |= (uint64_t)cn_rd_u32(&r) << 32;
-        c->seed = cn_rd_u32(&r);
-        c->seed |= (uint64_t)cn_rd_u32(&r) << 32;
-        c->compressed = cn_rd_u32(&r);
-        uint32_t hl = cn_rd_u32(&r);
-        if (version != CKPT_VERSION && version != CKPT_VERSION_NO_RUN &&
-            version != CKPT_VERSION_NO_GRIDS)
-            why = "unsupported checkpoint version";
-        else if (r.err || cn_rd_left(&r) < hl ||
-                 cn_parse_head(r.p, hl, &c->hdr) != CNERF_OK)
-            why = "invalid model header";
-        else {
-            r.p += hl;
-            c->n_params = cn_rd_u32(&r);
-            c->n_params |= (uint64_t)cn_rd_u32(&r) << 32;
-            if (r.err || c->n_params > cn_rd_left(&r) / 12 ||
-                (version == CKPT_VERSION_NO_GRIDS && cn_rd_left(&r) != c->n_params * 12))
-                why = "parameter blocks have the wrong size";
-            else {
-                c->blocks = r.p;
-                r.p += c->n_params * 12;
-                if (version != CKPT_VERSION_NO_GRIDS)
-                    why = ckpt_read_grids(&r, c);
-                if (!why && version == CKPT_VERSION)
-                    why = ckpt_read_run(&r, c);
-                if (!why && cn_rd_left(&r) != 0)
-                    why = "unexpected bytes at the end";
-            }
-        }
-    }
-    if (why) {
-        snprintf(err, errlen, "%s: %s", path, why);
-        free(c->data);
-        c->data = NULL;
+    if (cn_ckpt_parse(path, *data, len, c, err, errlen)) {
+        free(*data);
+        *data = NULL;
         return -1;
     }
     return 0;
@@ -534,7 +425,7 @@ static void get_floats(float *x, const uint8_t *p, size_t n)
     }
 }
 
-static void ckpt_fill(const ckpt *c, cn_model *m)
+static void ckpt_fill(const cn_ckpt *c, cn_model *m)
 {
     const size_t n = m->n_params;
     get_floats(m->params, c->blocks, n);
@@ -544,8 +435,9 @@ static void ckpt_fill(const ckpt *c, cn_model *m)
 
 int cn_checkpoint_resume(cn_trainer *t, const char *path, char *err, size_t errlen)
 {
-    ckpt c;
-    if (ckpt_read(path, &c, err, errlen))
+    cn_ckpt c;
+    uint8_t *data;
+    if (ckpt_read(path, &data, &c, err, errlen))
         return -1;
     int rc = 0;
     if (c.seed != t->opts.seed) { /* every step's random draws derive from the seed */
@@ -590,15 +482,16 @@ int cn_checkpoint_resume(cn_trainer *t, const char *path, char *err, size_t errl
             t->occ_frac[n] = cn_occ_refresh(o, threshold);
         }
     }
-    free(c.data);
+    free(data);
     return rc;
 }
 
 int cn_checkpoint_load_model(const char *path, cn_model *m, long *step, char *err,
                              size_t errlen)
 {
-    ckpt c;
-    if (ckpt_read(path, &c, err, errlen))
+    cn_ckpt c;
+    uint8_t *data;
+    if (ckpt_read(path, &data, &c, err, errlen))
         return -1;
     int rc = c.compressed ? cn_model_init_compressed(m, &c.hdr, 0, 1.0, err, errlen)
                           : cn_model_init(m, &c.hdr, 0, err, errlen);
@@ -613,7 +506,7 @@ int cn_checkpoint_load_model(const char *path, cn_model *m, long *step, char *er
         if (step)
             *step = (long)c.step;
     }
-    free(c.data);
+    free(data);
     return rc;
 }
 

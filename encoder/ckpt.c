@@ -1,0 +1,104 @@
+/* The checkpoint container (cn_ckpt.h): parsing from memory, shared by the trainer and the
+ * fuzz harness. */
+#include "cn_ckpt.h"
+
+#include <stdio.h>
+#include <string.h>
+
+#include "../decoder/cn_internal.h"
+#include "cn_stream.h"
+
+/* The grids after the parameter blocks (version 2); NULL or the reason they are invalid. */
+static const char *ckpt_read_grids(cn_reader *r, cn_ckpt *c)
+{
+    c->n_grids = cn_rd_u32(r);
+    if (r->err || c->n_grids != c->hdr.n_nets)
+        return "occupancy grids do not match the model";
+    for (unsigned n = 0; n < c->n_grids; n++) {
+        const uint32_t g = cn_rd_u32(r), valid = cn_rd_u32(r);
+        if (r->err || g > 256 || valid > 1 || (valid && g == 0))
+            return "invalid occupancy grid";
+        c->grid_g[n] = g;
+        if (!valid)
+            continue;
+        const size_t bytes = 4 * (size_t)g * g * g;
+        if (cn_rd_left(r) < bytes)
+            return "occupancy grid truncated";
+        c->grid[n] = r->p;
+        r->p += bytes;
+    }
+    return NULL;
+}
+
+/* What the run was trained on (version 3). */
+static const char *ckpt_read_run(cn_reader *r, cn_ckpt *c)
+{
+    uint64_t u = cn_rd_u32(r);
+    u |= (uint64_t)cn_rd_u32(r) << 32;
+    memcpy(&c->lambda, &u, 8);
+    c->n_train = cn_rd_u32(r);
+    c->w = cn_rd_u32(r);
+    c->h = cn_rd_u32(r);
+    c->poses = cn_rd_u32(r);
+    c->poses |= (uint64_t)cn_rd_u32(r) << 32;
+    if (r->err)
+        return "truncated after the occupancy grids";
+    c->has_run = 1;
+    return NULL;
+}
+
+int cn_ckpt_parse(const char *path, const uint8_t *data, size_t len, cn_ckpt *c, char *err,
+                  size_t errlen)
+{
+    memset(c, 0, sizeof *c);
+    cn_reader r; /* over everything before the CRC */
+    const char *why = NULL;
+    if (len < 12 || memcmp(data, CN_CKPT_MAGIC, 4) != 0)
+        why = "not a cnerf checkpoint";
+#ifndef FUZZING_BUILD_MODE_UNSAFE_FOR_PRODUCTION /* fuzzing: let mutations past the CRC */
+    else if (cnerf_crc32(0, data, len - 4) !=
+             (uint32_t)(data[len - 4] | data[len - 3] << 8 |
+                        data[len - 2] << 16 | (uint32_t)data[len - 1] << 24))
+        why = "checksum mismatch (truncated or corrupt)";
+#endif
+    if (!why) {
+        cn_rd_init(&r, data + 4, len - 8);
+        uint32_t version = cn_rd_u32(&r);
+        c->step = cn_rd_u32(&r);
+        c->step |= (uint64_t)cn_rd_u32(&r) << 32;
+        c->seed = cn_rd_u32(&r);
+        c->seed |= (uint64_t)cn_rd_u32(&r) << 32;
+        c->compressed = cn_rd_u32(&r);
+        uint32_t hl = cn_rd_u32(&r);
+        if (version != CN_CKPT_VERSION && version != CN_CKPT_VERSION_NO_RUN &&
+            version != CN_CKPT_VERSION_NO_GRIDS)
+            why = "unsupported checkpoint version";
+        else if (r.err || cn_rd_left(&r) < hl ||
+                 cn_parse_head(r.p, hl, &c->hdr) != CNERF_OK)
+            why = "invalid model header";
+        else {
+            r.p += hl;
+            c->n_params = cn_rd_u32(&r);
+            c->n_params |= (uint64_t)cn_rd_u32(&r) << 32;
+            if (r.err || c->n_params > cn_rd_left(&r) / 12 ||
+                (version == CN_CKPT_VERSION_NO_GRIDS && cn_rd_left(&r) != c->n_params * 12))
+                why = "parameter blocks have the wrong size";
+            else {
+                c->blocks = r.p;
+                r.p += c->n_params * 12;
+                if (version != CN_CKPT_VERSION_NO_GRIDS)
+                    why = ckpt_read_grids(&r, c);
+                if (!why && version == CN_CKPT_VERSION)
+                    why = ckpt_read_run(&r, c);
+                if (!why && cn_rd_left(&r) != 0)
+                    why = "unexpected bytes at the end";
+            }
+        }
+    }
+    if (why) {
+        snprintf(err, errlen, "%s: %s", path, why);
+        return -1;
+    }
+    return 0;
+}
+
