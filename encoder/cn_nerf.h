@@ -63,6 +63,10 @@ typedef struct cn_model {
     /* The stream's occupancy grid (owned; NULL: none): a sample in an empty cell has
      * density 0 and is not evaluated, by every renderer of the model. */
     struct cn_occ *grid;
+    /* Group penalty on the trunk's units (0: off): the backward pass adds the gradient of
+     * group * sum over trunk layers and units u of sqrt(sum over the P rows of h_u^2), which
+     * drives whole units to output 0 on every sample, so that export can remove them. */
+    float group;
 } cn_model;
 
 /* Glorot-uniform limit of a layer's kernel, sqrt(6 / (n_in + n_out)). */
@@ -121,7 +125,11 @@ void cn_net_buf_free(cn_net_buf *nb);
  * nb->in (columns 0..in_pos) and, with a view branch, nb->view_in (columns W..W+in_dir).
  * Raw outputs (r, g, b, sigma before sigmoid/ReLU) land in nb->out. */
 void cn_net_forward(const cn_model *m, unsigned net, cn_net_buf *nb, size_t P);
-/* Backward pass from nb->d_out (P x 4); accumulates into m->grads. */
+/* Backward pass from nb->d_out (P x 4); accumulates into m->grads, plus the group penalty's
+ * gradient when m->group > 0. */
 void cn_net_backward(cn_model *m, unsigned net, cn_net_buf *nb, size_t P);
+/* The group penalty of the last forward pass of network `net`: m->group times the sum over
+ * its trunk layers' units of the units' L2 norms over the P rows. */
+double cn_net_group_penalty(const cn_model *m, unsigned net, const cn_net_buf *nb, size_t P);
 
 #endif /* CNERF_ENC_NERF_H */

@@ -52,6 +52,10 @@ typedef struct cn_train_opts {
      * stream's occupancy grid then cannot skip. 1 on, 0 off, -1 (the default) on when
      * some training view has transparency. Rendering keeps the stream's background. */
     int random_bg;
+    /* Group penalty on the trunk's units (cn_model.group), in the units of D: mu times the
+     * sum over units of their L2 norm over all training samples, estimated from the batch
+     * as sqrt(pixels / rays) times the batch's norm. 0 (the default) is off. */
+    double group;
 } cn_train_opts;
 
 /* NeRF's defaults: 1024 rays, 5e-4 decaying tenfold over 500k steps, preset "small",

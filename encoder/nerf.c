@@ -493,6 +493,46 @@ void cn_net_forward(const cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
     }
 }
 
+/* Each unit's L2 norm over the P rows of a trunk layer's output. */
+static void unit_norms(double *norm, const float *h, size_t ld, size_t P, size_t U)
+{
+#pragma omp parallel for schedule(static)
+    for (size_t u = 0; u < U; u++) {
+        double s = 0;
+        for (size_t p = 0; p < P; p++)
+            s += (double)h[p * ld + u] * h[p * ld + u];
+        norm[u] = sqrt(s);
+    }
+}
+
+double cn_net_group_penalty(const cn_model *m, unsigned net, const cn_net_buf *nb, size_t P)
+{
+    const cnerf_net_info *N = &m->topo.net[net];
+    double norm[CNERF_MAX_WIDTH], sum = 0;
+    for (unsigned i = 0; i < N->depth; i++) {
+        unit_norms(norm, nb->h[i], nb->ld_h[i], P, N->units[i]);
+        for (size_t u = 0; u < N->units[i]; u++)
+            sum += norm[u];
+    }
+    return (double)m->group * sum;
+}
+
+/* Adds the group penalty's gradient, group h / |h_u|, to a trunk layer's output gradient. A
+ * unit that is 0 on every row has no gradient there (the subgradient 0). */
+static void group_backward(float group, float *dh, const float *h, size_t ld, size_t P,
+                           size_t U)
+{
+    double norm[CNERF_MAX_WIDTH];
+    unit_norms(norm, h, ld, P, U);
+    float f[CNERF_MAX_WIDTH];
+    for (size_t u = 0; u < U; u++)
+        f[u] = norm[u] > 0 ? (float)(group / norm[u]) : 0.0f;
+#pragma omp parallel for schedule(static)
+    for (size_t p = 0; p < P; p++)
+        for (size_t u = 0; u < U; u++)
+            dh[p * ld + u] += f[u] * h[p * ld + u];
+}
+
 void cn_net_backward(cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
 {
     const cnerf_info *T = &m->topo;
@@ -521,6 +561,8 @@ void cn_net_backward(cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
     }
     for (unsigned i = D; i-- > 0;) {
         const cnerf_layer_info *L = &T->layer[l0 + i];
+        if (m->group > 0)
+            group_backward(m->group, nb->d_h[i], nb->h[i], nb->ld_h[i], P, N->units[i]);
         size_t ldx;
         const float *x = trunk_input(T, N, nb, i, &ldx);
         float *dx = NULL;

@@ -285,6 +285,7 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
     draw_rays(t, R);
     const uint64_t seed = t->opts.seed + 0x9E3779B97F4A7C15ull * (uint64_t)(t->step + 1);
     cn_model_materialize(m);
+    m->group = (float)(t->opts.group * sqrt((double)cn_trainer_pixels(t) / (double)R));
     update_occupancy(t);
     cn_render_forward(m, &t->batch, R, &seed);
     double loss = 0, mse = 0;

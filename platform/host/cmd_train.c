@@ -18,7 +18,8 @@
     "       [--width W] [--coarse N] [--fine N] [--lr X] [--precrop-iters N] [--black]\n"     \
     "       [--near X] [--far X] [--ckpt-every N | --ckpt-secs S] [--log-every N] [--occupancy G]\n"     \
     "       [--eval-every N] [--every K]\n"                                              \
-    "       [--occupancy-start N] [--skip-saturated EPS] [--random-bg auto|on|off]"
+    "       [--occupancy-start N] [--skip-saturated EPS] [--random-bg auto|on|off]\n"    \
+    "       [--group-penalty MU]"
 
 /* Stopping a training: Ctrl-C (SIGINT), and SIGTERM and SIGHUP as schedulers, service
  * managers and closed terminals send them. The loop stops after the current iteration, saves
@@ -258,6 +259,7 @@ int cmd_train(int argc, char **argv)
         {"--occupancy", CLI_LONG, &occ, 0, 256},
         {"--occupancy-start", CLI_LONG, &occ_start, 0, 1e9},
         {"--skip-saturated", CLI_DOUBLE, &o.sat_eps, 0, 1},
+        {"--group-penalty", CLI_DOUBLE, &o.group, 0, 1e6},
         {"--random-bg", CLI_STR, &random_bg, 0, 0},
     };
     if (cli_parse("train", TRAIN_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,

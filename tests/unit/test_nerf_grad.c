@@ -174,7 +174,8 @@ static double render_loss(unsigned net)
     const uint64_t seed = 99;
     cn_model_materialize(&gm);
     cn_render_forward(&gm, &gb, GR, &seed);
-    return dot(gb.color[net], gg[net], GR * 3);
+    return dot(gb.color[net], gg[net], GR * 3) +
+           cn_net_group_penalty(&gm, net, &gb.nb[net], gb.n_rows[net]);
 }
 
 /* pruned: trunk layers of 5, 3, 8 and 6 units (width 8; the skip after the 3-unit layer)
@@ -289,6 +290,36 @@ static void test_render_grads_pruned(void **state)
         cn_rng r = cn_rng_seed(11);
         fill(bg, GR * 3, &r, 1.0);
         gb.bg = bg;
+        check_render_grads(0);
+        check_render_grads(1);
+        cn_batch_free(&gb);
+        cn_model_free(&gm);
+    }
+}
+
+/* The group penalty on the trunk's units adds its gradient to every layer before it, and
+ * it is the sum of the units' norms. */
+static void test_render_grads_group(void **state)
+{
+    (void)state;
+    for (int pruned = 0; pruned < 2; pruned++) {
+        setup_model(1, 0, pruned);
+        gm.group = 0.0f;
+        render_loss(0);
+        assert_true(cn_net_group_penalty(&gm, 0, &gb.nb[0], gb.n_rows[0]) == 0.0);
+        gm.group = 0.5f;
+        const double pen = cn_net_group_penalty(&gm, 0, &gb.nb[0], gb.n_rows[0]);
+        const cn_net_buf *nb = &gb.nb[0];
+        double sum = 0;
+        for (unsigned i = 0; i < gm.topo.net[0].depth; i++)
+            for (size_t u = 0; u < gm.topo.net[0].units[i]; u++) {
+                double s2 = 0;
+                for (size_t p = 0; p < gb.n_rows[0]; p++)
+                    s2 += (double)nb->h[i][p * nb->ld_h[i] + u] * nb->h[i][p * nb->ld_h[i] + u];
+                sum += sqrt(s2);
+            }
+        assert_true(sum > 0);
+        assert_true(fabs(pen - 0.5 * sum) <= 1e-9 * sum);
         check_render_grads(0);
         check_render_grads(1);
         cn_batch_free(&gb);
@@ -505,6 +536,7 @@ int main(void)
         cmocka_unit_test(test_render_grads_view),
         cmocka_unit_test(test_render_grads_no_view),
         cmocka_unit_test(test_render_grads_pruned),
+        cmocka_unit_test(test_render_grads_group),
         cmocka_unit_test(test_render_all_outside),
         cmocka_unit_test(test_compressed_kernels),
     };
