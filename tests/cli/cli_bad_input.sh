@@ -31,6 +31,33 @@ ihdr = struct.pack(">IIBBBBB", 100000, 100000, 8, 2, 0, 0, 0)
 png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(b"\0")) + chunk(b"IEND", b"")
 open(sys.argv[1], "wb").write(png)
 PY
+# a transforms file without "frames", one with an infinite pose entry (JSON has no NaN;
+# 1e999 overflows to infinity), and an image of another size than the others
+for d in nokey nanpose mism; do
+  cp -al "$data/lego" "$work/ds_$d" && rm "$work/ds_$d/transforms_train.json"
+done
+python3 - "$data/lego/transforms_train.json" "$work" <<'PY'
+import json, sys
+j = json.load(open(sys.argv[1]))
+k = dict(j); del k["frames"]
+open(sys.argv[2] + "/ds_nokey/transforms_train.json", "w").write(json.dumps(k))
+j["frames"][3]["transform_matrix"][0][3] = "INF"
+s = json.dumps(j)
+open(sys.argv[2] + "/ds_nanpose/transforms_train.json", "w").write(s.replace('"INF"', "1e999"))
+j["frames"][3]["transform_matrix"][0][3] = 0.5
+open(sys.argv[2] + "/ds_mism/transforms_train.json", "w").write(json.dumps(j))
+PY
+rm "$work/ds_mism/train/r_1.png" # a hard link: removed first, so the shared data is untouched
+python3 - "$work/ds_mism/train/r_1.png" <<'PY'
+import struct, sys, zlib
+def chunk(t, d):
+    return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))
+w, h = 40, 30
+raw = b"".join(b"\0" + bytes(3 * w) for _ in range(h))
+png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)) +
+       chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+open(sys.argv[1], "wb").write(png)
+PY
 ln -s "$work/s.cnrf" "$work/link.cnrf"
 ln -s "$work/loop" "$work/loop"
 mkfifo "$work/fifo"
@@ -50,6 +77,9 @@ rows=(
   "1|$work/s.cnrf: not a directory|train $work/s.cnrf -o $work/x.ckpt ${T[*]}"
   "1|r_0.png: a directory, not a file (frames[0].file_path|train $work/ds_dir -o $work/x.ckpt ${T[*]}"
   "1|(nested 100000 deep; the parser stops at 1000)|train $work/ds_deep -o $work/x.ckpt ${T[*]}"
+  "1|transforms_train.json: frames: missing|train $work/ds_nokey -o $work/x.ckpt ${T[*]}"
+  "1|frames[3].transform_matrix: non-finite entry [0][3]|train $work/ds_nanpose -o $work/x.ckpt ${T[*]}"
+  "1|images differ in size: $work/ds_mism/train/r_0.png is 400x400 but $work/ds_mism/train/r_1.png is 40x30|train $work/ds_mism -o $work/x.ckpt ${T[*]}"
   "1|r_0.png: 100000 x 100000 pixels, more than the 268435456 that cnerf loads|train $work/ds_big -o $work/x.ckpt ${T[*]}"
   "1|cannot write $work/nodir/x.cnrf|encode $D -o $work/nodir/x.cnrf --lambda 1 ${T[*]}"
   "1|cannot write $work/nodir/x.ckpt|train $D -o $work/nodir/x.ckpt ${T[*]}"
