@@ -96,7 +96,7 @@ int cmd_encode(int argc, char **argv)
         {"--latent-lr", CLI_STR, &latent_lr, 0, 0},
         {"--prior-lr", CLI_DOUBLE, &o.lr_prior, 0, 1},
         {"--skip-saturated", CLI_DOUBLE, &o.sat_eps, 0, 1},
-        {"--group-penalty", CLI_DOUBLE, &o.group, 0, 1e6},
+        {"--group-penalty", CLI_DOUBLE, &o.group, 0, 1000},
         {"--affine-lr", CLI_DOUBLE, &o.lr_affine, 0, 1},
         {"--grid", CLI_LONG, &grid_g, -1, CNERF_MAX_GRID},
         {"--grid-verbose", CLI_FLAG, &grid_verbose, 0, 0},

@@ -259,7 +259,7 @@ int cmd_train(int argc, char **argv)
         {"--occupancy", CLI_LONG, &occ, 0, 256},
         {"--occupancy-start", CLI_LONG, &occ_start, 0, 1e9},
         {"--skip-saturated", CLI_DOUBLE, &o.sat_eps, 0, 1},
-        {"--group-penalty", CLI_DOUBLE, &o.group, 0, 1e6},
+        {"--group-penalty", CLI_DOUBLE, &o.group, 0, 1000},
         {"--random-bg", CLI_STR, &random_bg, 0, 0},
     };
     if (cli_parse("train", TRAIN_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,

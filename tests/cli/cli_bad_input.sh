@@ -101,6 +101,8 @@ rows=(
   "2|--lambda: expected a number in [0, 1000]|encode $D -o $work/x.cnrf --lambda -1"
   "2|--lambda: expected a number in [0, 1000]|encode $D -o $work/x.cnrf --lambda nan"
   "2|--lambda: expected a number in [0, 1000]|encode $D -o $work/x.cnrf --lambda inf"
+  "2|--group-penalty: expected a number in [0, 1000]|encode $D -o $work/x.cnrf --lambda 1 --group-penalty -1"
+  "2|--group-penalty: expected a number in [0, 1000]|train $D -o $work/x.ckpt --group-penalty nan"
   "2|unknown option '--bogus'|train $D -o $work/x.ckpt --bogus"
   "2|need one stream file|info --bogus"
   "2|need a checkpoint and -o FILE|quantize $work/t.ckpt"
