@@ -60,6 +60,7 @@ __attribute__((target("avx2"))) static void dot_avx2(const int16_t *k, const int
         acc[j] = row_avx2(k, x, 2u * n_pairs);
 }
 
+/* The last one to three rows, row after row: sixteen inputs per vpmaddwd. */
 __attribute__((target("avx2"))) static int32_t row_avx2(const int16_t *k, const int16_t *x,
                                                         uint32_t n)
 {

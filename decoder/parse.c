@@ -514,10 +514,10 @@ static size_t packed_index(uint32_t j, uint32_t i, uint32_t live, uint32_t pairs
 
 /* Orders the layer's rows (live ones first, in increasing output order; rows[] gets each
  * stored row's output index, the all-zero rows last), puts the largest sum |k| of a row
- * into *maxsum, and packs the live rows into blocks of four, using `tmp` (4 padded rows). A block's rows come from row slots at or after its
- * own (a live row's output index is at least its rank), so writing block b overwrites
- * only slots that were copied to tmp, belong to earlier blocks or hold zeros. Returns the
- * live rows. */
+ * into *maxsum, and packs the live rows into blocks of four, using `tmp` (4 padded rows).
+ * A block's rows come from row slots at or after its own (a live row's output index is at
+ * least its rank), so writing block b overwrites only slots that were copied to tmp,
+ * belong to earlier blocks or hold zeros. Returns the live rows. */
 static uint16_t pack_rows(const cnerf_layer_info *L, int16_t *lat, uint16_t *rows, int16_t *tmp,
                           uint32_t *maxsum)
 {

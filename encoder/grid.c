@@ -189,7 +189,7 @@ void cn_grid_choice_free(cn_grid_choice *c)
 #define GRID_M 128
 #define GRID_RAYS 40000
 #define GRID_MAX_DROP_DB 0.025
-#define GRID_TRIES 6
+#define GRID_TRIES 7 /* the undilated lattice, then six thresholds on the dilated one */
 #define GRID_GAIN_PER_BYTE 4.0
 
 int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes, int force_g,
