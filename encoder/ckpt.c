@@ -2,6 +2,7 @@
  * fuzz harness. */
 #include "cn_ckpt.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -30,12 +31,19 @@ static const char *ckpt_read_grids(cn_reader *r, cn_ckpt *c)
     return NULL;
 }
 
-/* What the run was trained on (version 3). */
-static const char *ckpt_read_run(cn_reader *r, cn_ckpt *c)
+static double rd_f64(cn_reader *r)
 {
     uint64_t u = cn_rd_u32(r);
     u |= (uint64_t)cn_rd_u32(r) << 32;
-    memcpy(&c->lambda, &u, 8);
+    double v;
+    memcpy(&v, &u, 8);
+    return v;
+}
+
+/* What the run was trained on (version 3). */
+static const char *ckpt_read_run(cn_reader *r, cn_ckpt *c)
+{
+    c->lambda = rd_f64(r);
     c->n_train = cn_rd_u32(r);
     c->w = cn_rd_u32(r);
     c->h = cn_rd_u32(r);
@@ -44,6 +52,33 @@ static const char *ckpt_read_run(cn_reader *r, cn_ckpt *c)
     if (r->err)
         return "truncated after the occupancy grids";
     c->has_run = 1;
+    return NULL;
+}
+
+/* Rate control (version 4). */
+static const char *ckpt_read_rc(cn_reader *r, cn_ckpt *c)
+{
+    const uint32_t on = cn_rd_u32(r);
+    if (r->err || on > 1)
+        return "invalid rate-control flag";
+    if (!on)
+        return NULL;
+    c->rc_scheme = cn_rd_u32(r);
+    c->rc_grid_done = cn_rd_u32(r);
+    c->rc_start = cn_rd_u32(r);
+    c->rc_start |= (uint64_t)cn_rd_u32(r) << 32;
+    for (int i = 0; i < 9; i++)
+        c->rc[i] = rd_f64(r);
+    if (r->err)
+        return "rate-control state truncated";
+    if (c->rc_scheme > 1 || c->rc_grid_done > 2 || c->rc_start > c->step)
+        return "invalid rate-control state";
+    for (int i = 0; i < 9; i++) /* all finite; all but the integral (index 4) >= 0 */
+        if (!isfinite(c->rc[i]) || (i != 4 && c->rc[i] < 0))
+            return "invalid rate-control state";
+    if (c->rc[0] <= 0 || c->rc[2] <= 0)
+        return "invalid rate-control state";
+    c->has_rc = 1;
     return NULL;
 }
 
@@ -70,7 +105,8 @@ int cn_ckpt_parse(const char *path, const uint8_t *data, size_t len, cn_ckpt *c,
         c->seed |= (uint64_t)cn_rd_u32(&r) << 32;
         c->compressed = cn_rd_u32(&r);
         uint32_t hl = cn_rd_u32(&r);
-        if (version != CN_CKPT_VERSION && version != CN_CKPT_VERSION_NO_RUN &&
+        if (version != CN_CKPT_VERSION && version != CN_CKPT_VERSION_NO_RC &&
+            version != CN_CKPT_VERSION_NO_RUN &&
             version != CN_CKPT_VERSION_NO_GRIDS)
             why = "unsupported checkpoint version";
         else if (r.err || cn_rd_left(&r) < hl ||
@@ -88,8 +124,10 @@ int cn_ckpt_parse(const char *path, const uint8_t *data, size_t len, cn_ckpt *c,
                 r.p += c->n_params * 12;
                 if (version != CN_CKPT_VERSION_NO_GRIDS)
                     why = ckpt_read_grids(&r, c);
-                if (!why && version == CN_CKPT_VERSION)
+                if (!why && version >= CN_CKPT_VERSION_NO_RC)
                     why = ckpt_read_run(&r, c);
+                if (!why && version == CN_CKPT_VERSION)
+                    why = ckpt_read_rc(&r, c);
                 if (!why && cn_rd_left(&r) != 0)
                     why = "unexpected bytes at the end";
             }

@@ -13,7 +13,11 @@
  * Version 3 adds what the run was trained on, after the grids: lambda (f64 bits), the
  * number of training views, the first view's width and height, and a 64-bit hash of the
  * training poses, so that --resume refuses another dataset, resolution or lambda. Version 1
- * and 2 files load without those checks. */
+ * and 2 files load without those checks.
+ * Version 4 adds rate control (cnerf encode --size) after those: u32 1 when the run is
+ * rate-controlled (else 0 and nothing more), then u32 scheme, u32 grid measurements made,
+ * u64 first controlled step, and f64 target, reserved, lambda unit, first size, integral,
+ * lambda, last size, last plan, grid bytes (cn_ratectl.h). */
 #ifndef CNERF_ENC_CKPT_H
 #define CNERF_ENC_CKPT_H
 
@@ -23,7 +27,8 @@
 #include "cnerf/cnerf.h"
 
 #define CN_CKPT_MAGIC "CNCK"
-#define CN_CKPT_VERSION 3u
+#define CN_CKPT_VERSION 4u
+#define CN_CKPT_VERSION_NO_RC 3u
 #define CN_CKPT_VERSION_NO_RUN 2u
 #define CN_CKPT_VERSION_NO_GRIDS 1u
 
@@ -39,6 +44,10 @@ typedef struct cn_ckpt {
     double lambda;
     uint32_t n_train, w, h;
     uint64_t poses;
+    int has_rc; /* version 4 and rate-controlled: the fields below are set */
+    uint32_t rc_scheme, rc_grid_done;
+    uint64_t rc_start;
+    double rc[9]; /* target, reserved, lambda unit, first, integral, lambda, size, plan, grid */
 } cn_ckpt;
 
 /* Parses a checkpoint's bytes (path names it in messages); c's pointers point into data.

@@ -11,6 +11,7 @@
 #include "cn_dataset.h"
 #include "cn_nerf.h"
 #include "cn_occ.h"
+#include "cn_ratectl.h"
 #include "cn_render.h"
 
 typedef struct cn_train_opts {
@@ -19,7 +20,7 @@ typedef struct cn_train_opts {
     long iters;
     int batch;             /* rays per iteration */
     double lr;             /* initial learning rate */
-    double lr_decay_steps; /* lr = lr0 * 0.1^(step / lr_decay_steps) */
+    double lr_decay_steps; /* lr = lr0 * 0.1^(step / lr_decay_steps); 0: over iters */
     long precrop_iters;    /* first iterations draw rays from the centre crop only */
     double precrop_frac;
     uint64_t seed;
@@ -58,8 +59,8 @@ typedef struct cn_train_opts {
     double group;
 } cn_train_opts;
 
-/* NeRF's defaults: 1024 rays, 5e-4 decaying tenfold over 500k steps, preset "small",
- * 500 centre-crop iterations at 50% for 360-degree scenes. */
+/* 1024 rays, 5e-3 decaying tenfold over the run (NeRF: 5e-4 over 500k steps), preset
+ * "small", 500 centre-crop iterations at 50% for 360-degree scenes. */
 void cn_train_defaults(cn_train_opts *o);
 
 /* The stream header (render parameters and topology) for a dataset and options. */
@@ -77,13 +78,19 @@ typedef struct cn_trainer {
     cn_occ occ[2];
     double occ_frac[2]; /* occupied fraction after the last update */
     float *bg;          /* batch x 3 per-ray backgrounds when random_bg is on, else NULL */
+    /* Rate control (cnerf encode --size): when rate_control is set, rc moves opts.lambda.
+     * rc_grid_g is the encode's --grid (-1 automatic, 0 none), measured once (cn_ratectl.h). */
+    int rate_control, rc_grid_g, rc_prune;
+    cn_ratectl rc;
+    char err[256]; /* why cn_trainer_step returned NaN, when it says */
 } cn_trainer;
 
 int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o, char *err,
                     size_t errlen);
 void cn_trainer_free(cn_trainer *t);
 /* One iteration; returns the loss (coarse MSE + fine MSE) and the fine (or only) MSE;
- * with compression also the noisy rate estimate in bits (when `bits` is not NULL). */
+ * with compression also the noisy rate estimate in bits (when `bits` is not NULL). Returns
+ * NaN with a message in t->err when rate control fails (out of memory). */
 double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits);
 /* The photometric loss of n colour values x against y: returns the squared error
  * SE = sum (x - y)^2 and writes grad = gscale (x - y), the gradient of the loss
@@ -92,6 +99,10 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits);
 double cn_sq_error(float *grad, const float *x, const float *y, size_t n, float gscale);
 /* Pixels in the training views (the distortion's scale). */
 double cn_trainer_pixels(const cn_trainer *t);
+/* Turns on rate control towards target_bytes (the whole file) from the current step to the
+ * end of the run; reserved_bytes are the bytes the in-memory stream lacks (metadata). */
+void cn_trainer_rate_control(cn_trainer *t, double target_bytes, double reserved_bytes,
+                             cn_rc_scheme scheme, int grid_g, int prune);
 /* Current learning rate. */
 double cn_trainer_lr(const cn_trainer *t);
 

@@ -37,8 +37,9 @@ table="| nerf-pytorch (PyTorch, 2 threads) | $iters | $ref_s | $ref_spi | $ref_p
 run_cnerf() { # name, train options...
   local name=$1; shift
   echo "bench_train: cnerf $*, $iters iterations" >&2
+  # The reference's learning rate and decay (cnerf's defaults are 5e-3 over the run).
   build-rel/cnerf train "$data" -o "$out/$name.ckpt" --preset small --iters "$iters" --downscale 4 \
-    --log-every 100 "$@" > "$out/${name}_train.log"
+    --lr 5e-4 --lr-decay 500000 --log-every 100 "$@" > "$out/${name}_train.log"
   build-rel/cnerf eval "$out/$name.ckpt" "$data" --downscale 4 --every 40 > "$out/${name}_eval.log"
   local s spi psnr ratio
   s=$(sed -n 's/^saved .*: \([0-9.]*\) s, \([0-9.]*\) s\/it.*/\1/p' "$out/${name}_train.log")

@@ -12,12 +12,14 @@
 #include "cn_grid.h"
 #include "cn_metrics.h"
 #include "cn_prune.h"
+#include "cn_ratectl.h"
 #include "cn_scales.h"
 #include "cn_report.h"
 #include "cn_train.h"
 
 #define ENCODE_USAGE                                                                          \
-    "usage: cnerf encode DATASET -o scene.cnrf --lambda L [--preset tiny|small|paper]\n"     \
+    "usage: cnerf encode DATASET -o scene.cnrf (--lambda L | --size BYTES | --bits-per-param X)\n" \
+    "       [--preset tiny|small|paper] [--rate-control pi|dual] [--lr X] [--lr-decay N]\n"     \
     "       [--iters N] [--downscale F] [--threads T] [--seed S] [--resume CKPT]\n"          \
     "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N | --ckpt-secs S]\n" \
     "       [--log-every N] [--depth D] [--width W] [--coarse N] [--fine N]\n"                \
@@ -25,6 +27,9 @@
     "       [--eval-every N] [--prior-lr X] [--affine-lr X]\n"   \
     "       [--skip-saturated EPS] [--grid G|0] [--grid-verbose] [--random-bg auto|on|off]\n"    \
     "       [--prune on|off] [--group-penalty MU]"
+
+/* --size and --bits-per-param: the file may miss its target by this fraction. */
+#define CLI_SIZE_TOLERANCE 0.03
 
 static void say(const char *line)
 {
@@ -69,12 +74,16 @@ int cmd_encode(int argc, char **argv)
     long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 0, log_every = 100;
     double ckpt_secs = CLI_CKPT_SECS;
     long eval_every = 0, grid_g = -1;
-    double lambda = -1, levels = o.levels;
+    double lambda = -1, levels = o.levels, size = 0, bpp = 0;
+    const char *scheme = "pi";
     uint64_t seed = o.seed;
     int black = 0, n_pos, grid_verbose = 0;
     const cli_opt opts[] = {
         {"-o", CLI_STR, &out, 0, 0},
         {"--lambda", CLI_DOUBLE, &lambda, 0, 1e3},
+        {"--size", CLI_DOUBLE, &size, 1, 1e9},
+        {"--bits-per-param", CLI_DOUBLE, &bpp, 1e-3, 32},
+        {"--rate-control", CLI_STR, &scheme, 0, 0},
         {"--preset", CLI_STR, &o.preset, 0, 0},
         {"--iters", CLI_LONG, &iters, 0, 1e9},
         {"--downscale", CLI_LONG, &downscale, 1, 64},
@@ -94,6 +103,8 @@ int cmd_encode(int argc, char **argv)
         {"--coarse", CLI_LONG, &coarse, 1, CNERF_MAX_SAMPLES},
         {"--fine", CLI_LONG, &fine, 0, CNERF_MAX_SAMPLES},
         {"--latent-lr", CLI_STR, &latent_lr, 0, 0},
+        {"--lr", CLI_DOUBLE, &o.lr, 1e-8, 1},
+        {"--lr-decay", CLI_DOUBLE, &o.lr_decay_steps, 1, 1e12},
         {"--prior-lr", CLI_DOUBLE, &o.lr_prior, 0, 1},
         {"--skip-saturated", CLI_DOUBLE, &o.sat_eps, 0, 1},
         {"--group-penalty", CLI_DOUBLE, &o.group, 0, 1000},
@@ -106,9 +117,18 @@ int cmd_encode(int argc, char **argv)
     if (cli_parse("encode", ENCODE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
                   &n_pos))
         return 2;
-    if (n_pos != 1 || !out || lambda < 0)
-        return cli_usage("encode", "need a dataset directory, -o FILE and --lambda L\n%s",
-                        ENCODE_USAGE);
+    if (n_pos != 1 || !out || (lambda < 0 && size == 0 && bpp == 0))
+        return cli_usage("encode", "need a dataset directory, -o FILE and one of --lambda L, "
+                         "--size BYTES or --bits-per-param X\n%s", ENCODE_USAGE);
+    if ((lambda >= 0) + (size > 0) + (bpp > 0) > 1)
+        return cli_usage("encode", "--lambda, --size and --bits-per-param each set the rate: "
+                         "give one of them");
+    if (strcmp(scheme, "pi") && strcmp(scheme, "dual"))
+        return cli_usage("encode", "--rate-control takes pi (log-lambda PI control, the "
+                         "default) or dual (dual ascent), not '%s'", scheme);
+    const int controlled = size > 0 || bpp > 0;
+    if (controlled)
+        lambda = 0;
     if (grid_g > 0 && (grid_g < 16 || (grid_g & (grid_g - 1))))
         return cli_usage("encode", "--grid takes 16, 32, 64 or 128 cells per axis, or 0 for no "
                         "grid, not %ld", grid_g);
@@ -160,6 +180,43 @@ int cmd_encode(int argc, char **argv)
     }
     cli_say_random_bg(&t);
     int rc = 0, stopped = 0;
+    if (controlled) {
+        const double latents = (double)t.model.topo.n_params;
+        const double target = size > 0 ? size : bpp * latents / 8;
+        size_t floor_bytes;
+        if (cn_stream_floor(&t.model, seed, &floor_bytes, err, sizeof err)) {
+            cn_trainer_free(&t);
+            cn_dataset_free(&ds);
+            cli_unlock_output(lk, lock);
+            return cli_fail("encode", "%s", err);
+        }
+        /* The smallest sensible file: the topology's floor and a tenth of a bit per latent
+         * (docs/results.md: below that the models lose several dB). */
+        const double least = (double)floor_bytes + 0.1 * latents / 8 + 300;
+        if (target < least) {
+            cn_trainer_free(&t);
+            cn_dataset_free(&ds);
+            cli_unlock_output(lk, lock);
+            return cli_fail("encode", "a %.0f-byte file is too small for preset %s on this "
+                            "scene: its headers, affine decoders and biases alone take %zu "
+                            "bytes, and below about %.0f bytes (0.1 bit per latent for its "
+                            "%.0f latents, and a grid) the model collapses; ask for at least "
+                            "%.0f bytes, or a smaller preset", target, o.preset, floor_bytes,
+                            least, latents, least);
+        }
+        char meta0[1024];
+        const int mlen = snprintf(meta0, sizeof meta0,
+                                  "encoder=cnerf %s; command=encode; dataset=%s; preset=%s; "
+                                  "iters=%ld; size=%.0f; lambda=%g; downscale=%ld; seed=%llu; "
+                                  "levels=%g; latent-lr=%s", CNERF_VERSION_STRING, pos[0],
+                                  o.preset, iters, target, 1.0, downscale,
+                                  (unsigned long long)seed, levels, latent_lr);
+        cn_trainer_rate_control(&t, target, mlen + 16, strcmp(scheme, "dual") ? CN_RC_LOG_PI
+                                                                                : CN_RC_DUAL,
+                                (int)grid_g, !strcmp(prune, "on"));
+        printf("rate control (%s): a file of %.0f bytes (%.3f bits per latent); the topology "
+               "alone takes %zu\n", scheme, target, 8 * target / latents, floor_bytes);
+    }
     if (resume) {
         if (access(resume, F_OK) != 0)
             rc = cli_fail("encode", "%s: no such checkpoint", resume);
@@ -167,8 +224,10 @@ int cmd_encode(int argc, char **argv)
             rc = cli_resume("encode", &t, resume);
     }
     if (rc == 0) {
-        printf("encoding %s: %d train views %dx%d, lambda %g, %zu latents, checkpoint %s\n",
-               pos[0], ds.n_train, ds.train[0].w, ds.train[0].h, lambda,
+        char lam[32];
+        snprintf(lam, sizeof lam, controlled ? "controlled" : "%g", lambda);
+        printf("encoding %s: %d train views %dx%d, lambda %s, %zu latents, checkpoint %s\n",
+               pos[0], ds.n_train, ds.train[0].w, ds.train[0].h, lam,
                (size_t)t.model.topo.n_params, ckpt);
         rc = cli_run_training("encode", &t, ckpt, ckpt_every, ckpt_secs, log_every, eval_every,
                               every, &stopped);
@@ -180,11 +239,13 @@ int cmd_encode(int argc, char **argv)
     cn_export e;
     cn_buf b = {0};
     cn_write_report rep;
-    char meta[1024];
+    char meta[1024], sizebuf[64] = "";
+    if (t.rate_control)
+        snprintf(sizebuf, sizeof sizebuf, "size=%.0f; ", t.rc.target);
     snprintf(meta, sizeof meta,
-             "encoder=cnerf %s; command=encode; dataset=%s; preset=%s; iters=%ld; lambda=%g; "
+             "encoder=cnerf %s; command=encode; dataset=%s; preset=%s; iters=%ld; %slambda=%g; "
              "downscale=%ld; seed=%llu; levels=%g; latent-lr=%s",
-             CNERF_VERSION_STRING, pos[0], o.preset, t.step, lambda, downscale,
+             CNERF_VERSION_STRING, pos[0], o.preset, t.step, sizebuf, t.opts.lambda, downscale,
              (unsigned long long)seed, levels, latent_lr);
     if (rc == 0 && (cn_model_snap(&t.model, err, sizeof err) ||
                     cn_export_compressed(&t.model, meta, &e, err, sizeof err)))
@@ -254,6 +315,20 @@ int cmd_encode(int argc, char **argv)
         }
         printf("tables: %d from the prior, %d from counts, %u constant layers\n", prior, counts,
                st.dec->info.n_layers - prior - counts);
+        if (t.rate_control) {
+            const double dev = (double)st.len / t.rc.target - 1;
+            printf("size: %zu bytes against the target %.0f (%+.2f%%), final lambda %.4g\n",
+                   st.len, t.rc.target, 100 * dev, t.opts.lambda);
+            if (dev > CLI_SIZE_TOLERANCE)
+                rc = cli_fail("encode", "%s is %.1f%% over the target of %.0f bytes (the file is "
+                              "written): the run ended before the rate settled; give more "
+                              "--iters or a larger --size", out, 100 * dev, t.rc.target);
+            else if (dev < -CLI_SIZE_TOLERANCE)
+                rc = cli_fail("encode", "%s is %.1f%% under the target of %.0f bytes (the file "
+                              "is written): preset %s does not use that many bytes on this "
+                              "scene (lambda fell to %.3g); take a larger preset or a smaller "
+                              "--size", out, -100 * dev, t.rc.target, o.preset, t.opts.lambda);
+        }
         /* The rate the training objective estimated, against what the coder wrote. */
         cn_totals tot;
         cn_breakdown(&st.dec->info, &tot);

@@ -1,4 +1,5 @@
 /* cnerf train DATASET -o model.ckpt: trains the float NeRF. */
+#include <math.h>
 #include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
@@ -179,8 +180,18 @@ int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt
     double last_save = t0;  /* with ckpt_every 0: a checkpoint each ckpt_secs of training */
     while (rc == 0 && t->step < t->opts.iters && !sigint_seen(&guard)) {
         loss = cn_trainer_step(t, &mse, &bits);
-        char extra[64] = "";
-        if (t->model.compressed)
+        if (isnan(loss) && t->err[0]) {
+            cli_progress_break(&p);
+            rc = cli_fail(cmd, "%s", t->err);
+            break;
+        }
+        char extra[96] = "";
+        if (t->rate_control && t->rc.first > 0)
+            snprintf(extra, sizeof extra, "  size %.2f kB, plan %.2f, target %.2f, lambda %.3g",
+                     (t->rc.size + t->rc.reserved) / 1000.0,
+                     (t->rc.plan + t->rc.reserved) / 1000.0, t->rc.target / 1000.0,
+                     t->opts.lambda);
+        else if (t->model.compressed)
             snprintf(extra, sizeof extra, "  rate %.1f kB", bits / 8000.0);
         else if (t->occ[0].valid)
             snprintf(extra, sizeof extra, "  occupied %.0f%%", 100.0 * t->occ_frac[t->model.topo.n_nets - 1]);
@@ -247,6 +258,7 @@ int cmd_train(int argc, char **argv)
         {"--coarse", CLI_LONG, &coarse, 1, CNERF_MAX_SAMPLES},
         {"--fine", CLI_LONG, &fine, 0, CNERF_MAX_SAMPLES},
         {"--lr", CLI_DOUBLE, &lr, 1e-8, 1},
+        {"--lr-decay", CLI_DOUBLE, &o.lr_decay_steps, 1, 1e12},
         {"--precrop-iters", CLI_LONG, &precrop, 0, 1e9},
         {"--black", CLI_FLAG, &black, 0, 0},
         {"--near", CLI_DOUBLE, &near, 1e-6, 1e4},

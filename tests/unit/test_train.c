@@ -47,7 +47,8 @@ static void small_opts(cn_train_opts *o)
     o->n_fine = 16;
     o->precrop_iters = 0;
     o->seed = 7;
-    o->lr = 5e-3; /* a short run: a larger step than NeRF's 5e-4 */
+    o->lr = 5e-3;
+    o->lr_decay_steps = 500000; /* the schedule the pinned trajectory was measured with */
 }
 
 static double mean_test_psnr(const cn_model *m, int views)
@@ -220,29 +221,62 @@ static void test_reproducible(void **state)
  * to the bit: same losses after the resume, same parameters at the end. The occupancy grids
  * are in use, and the resume falls between two of their updates, so that a grid rebuilt from
  * the resumed model instead of the saved one shows as a different trajectory. Plain and
- * compressed training both. */
-static void run_split(int compress)
+ * compressed training, and compressed under rate control (the controller's state is in the
+ * checkpoint: lambda, its integral, the plan's start and the grid's reserved bytes). */
+static void rate_control(cn_trainer *t, int on)
+{
+    if (on) /* 20 kB, below the start: lambda moves at steps 0 and 10, the grid at 4 and 9 */
+        cn_trainer_rate_control(t, 20000, 100, CN_RC_LOG_PI, 16, 1);
+}
+
+static void run_split(int mode) /* 0 plain, 1 compressed, 2 compressed with --size */
 {
     cn_train_opts o;
     small_opts(&o);
     o.occ_start = 2;
     o.occ_every = 4;
+    const int compress = mode > 0;
     o.compress = compress;
-    o.lambda = compress ? 1.0 : 0.0;
-    enum { N = 12, HALF = 7 };
+    o.lambda = mode == 1 ? 1.0 : 0.0;
+    o.iters = 12; /* the controller's plan spans the run */
+    enum { N = 12, HALF = 7 }; /* N = o.iters */
     char err[512], path[512];
-    snprintf(path, sizeof path, "%s/test_train_split%d.ckpt", CNERF_BINARY_DIR, compress);
+    snprintf(path, sizeof path, "%s/test_train_split%d.ckpt", CNERF_BINARY_DIR, mode);
     cn_trainer whole, first, second;
     double loss_whole[N], loss_split[N];
     assert_int_equal(cn_trainer_init(&whole, &ds, &o, err, sizeof err), 0);
+    rate_control(&whole, mode == 2);
     for (int i = 0; i < N; i++)
         loss_whole[i] = cn_trainer_step(&whole, NULL, NULL);
+    if (mode == 2) { /* the controller acted: lambda moved off 0, the grid was measured */
+        print_message("# rate control: lambda %g after %d steps, size %.0f, plan %.0f, "
+                      "reserved %.0f, grid %d\n", whole.opts.lambda, N, whole.rc.size,
+                      whole.rc.plan, whole.rc.reserved, whole.rc.grid_done);
+        assert_true(whole.opts.lambda > 0 && whole.rc.grid_done == 2 && whole.rc.reserved > 100);
+    }
     assert_int_equal(cn_trainer_init(&first, &ds, &o, err, sizeof err), 0);
+    rate_control(&first, mode == 2);
     for (int i = 0; i < HALF; i++)
         loss_split[i] = cn_trainer_step(&first, NULL, NULL);
     assert_int_equal(cn_checkpoint_save(&first, path, err, sizeof err), 0);
     cn_trainer_free(&first);
     assert_int_equal(cn_trainer_init(&second, &ds, &o, err, sizeof err), 0);
+    if (mode == 2) { /* refused: a fixed lambda, another size */
+        assert_int_equal(cn_checkpoint_resume(&second, path, err, sizeof err), -1);
+        print_message("# a fixed lambda: %s\n", err);
+        assert_non_null(strstr(err, "was encoded with --size 20000"));
+        cn_trainer_rate_control(&second, 30000, 100, CN_RC_LOG_PI, 16, 1);
+        assert_int_equal(cn_checkpoint_resume(&second, path, err, sizeof err), -1);
+        print_message("# another size: %s\n", err);
+        assert_non_null(strstr(err, "resume with that size"));
+    } else if (mode == 1) { /* refused: rate control on a fixed-lambda checkpoint */
+        cn_trainer_rate_control(&second, 20000, 100, CN_RC_LOG_PI, 16, 1);
+        assert_int_equal(cn_checkpoint_resume(&second, path, err, sizeof err), -1);
+        print_message("# --size on a fixed lambda: %s\n", err);
+        assert_non_null(strstr(err, "was encoded with a fixed --lambda 1"));
+        second.rate_control = 0;
+    }
+    rate_control(&second, mode == 2);
     assert_int_equal(cn_checkpoint_resume(&second, path, err, sizeof err), 0);
     assert_int_equal(second.step, HALF);
     for (int i = HALF; i < N; i++)
@@ -250,8 +284,8 @@ static void run_split(int compress)
     int bad = 0;
     for (int i = 0; i < N; i++)
         if (loss_split[i] != loss_whole[i]) {
-            print_error("compress %d, step %d: loss %.9g after a resume at %d, %.9g without\n",
-                        compress, i + 1, loss_split[i], HALF, loss_whole[i]);
+            print_error("mode %d, step %d: loss %.9g after a resume at %d, %.9g without\n",
+                        mode, i + 1, loss_split[i], HALF, loss_whole[i]);
             bad++;
         }
     assert_int_equal(bad, 0);
@@ -270,6 +304,7 @@ static void test_resume_continues_exactly(void **state)
     (void)state;
     run_split(0);
     run_split(1);
+    run_split(2);
 }
 
 /* Writes bytes[0..n) followed by their CRC-32, as a checkpoint ends. */
@@ -293,8 +328,8 @@ static void put_le32(uint8_t *p, uint32_t v)
 
 /* The occupancy grids in a checkpoint: a version 1 file (no grids) still resumes, with its
  * grids rebuilt, as does a run with another grid size; a grid section that does not fit
- * the model is refused with its reason even when the CRC is right. A version 3 file refuses
- * a run with another lambda; a version 2 file (no record of the run) resumes it. */
+ * the model is refused with its reason even when the CRC is right. A version 3 or 4 file
+ * refuses a run with another lambda; a version 2 file (no record of the run) resumes it. */
 static void test_checkpoint_grids(void **state)
 {
     (void)state;
@@ -314,7 +349,8 @@ static void test_checkpoint_grids(void **state)
     assert_int_equal(cn_read_file(path, &v2, &len, err, sizeof err), 0);
     const size_t cells = (size_t)o.occ_grid * o.occ_grid * o.occ_grid;
     const size_t grids = 4 + t.model.topo.n_nets * (8 + 4 * cells);
-    const size_t run = 8 + 3 * 4 + 8; /* lambda, views, width, height, poses hash */
+    /* lambda, views, width, height, poses hash; then version 4's rate-control flag (0) */
+    const size_t run = 8 + 3 * 4 + 8 + 4;
     const size_t body = len - 4 - run - grids; /* up to the end of the Adam moments */
     uint8_t *buf = malloc(len + 4);
     assert_non_null(buf);
@@ -359,6 +395,18 @@ static void test_checkpoint_grids(void **state)
     assert_int_equal(cn_checkpoint_resume(&r, path, err, sizeof err), 0);
     assert_true(r.occ[0].valid && r.occ[1].valid);
     cn_trainer_free(&r);
+    /* Version 3 (the run's record, no rate-control flag) resumes and still checks lambda. */
+    memcpy(buf, v2, len - 8);
+    put_le32(buf + 4, 3);
+    write_with_crc(path, buf, len - 8);
+    assert_int_equal(cn_trainer_init(&r, &ds, &o, err, sizeof err), 0);
+    assert_int_equal(cn_checkpoint_resume(&r, path, err, sizeof err), 0);
+    assert_int_equal(r.step, 3);
+    cn_trainer_free(&r);
+    assert_int_equal(cn_trainer_init(&r, &ds, &ol, err, sizeof err), 0);
+    assert_int_equal(cn_checkpoint_resume(&r, path, err, sizeof err), -1);
+    assert_non_null(strstr(err, "was encoded with --lambda"));
+    cn_trainer_free(&r);
 
     const struct {
         const char *what;
@@ -368,7 +416,8 @@ static void test_checkpoint_grids(void **state)
     } bad[] = {
         {"one grid for two networks", 0, 1, "occupancy grids do not match the model"},
         {"a grid cut short", (long)run + 4, -1, "occupancy grid truncated"},
-        {"the run's record cut short", 4, -1, "truncated after the occupancy grids"},
+        {"the rate-control flag cut short", 4, -1, "invalid rate-control flag"},
+        {"the run's record cut short", 8, -1, "truncated after the occupancy grids"},
         {"bytes after the run's record", -4, -1, "unexpected bytes at the end"},
         {"no grid section", (long)(grids + run), -1, "grid"},
     };

@@ -1,0 +1,100 @@
+/* Rate control for cnerf encode --size (cn_ratectl.h). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cn_export.h"
+#include "cn_prune.h"
+#include "cn_ratectl.h"
+#include "cn_scales.h"
+
+int cn_stream_size(const cn_model *m, uint64_t seed, int prune, size_t *bytes, char *err,
+                   size_t errlen)
+{
+    cn_export e;
+    if (cn_export_compressed(m, NULL, &e, err, errlen))
+        return -1;
+    int rc = cn_choose_scales(&e.src, seed, NULL, err, errlen);
+    cn_prune_report pr;
+    if (rc == 0 && prune)
+        rc = cn_export_prune(&e, &pr, err, errlen);
+    cn_buf b = {0};
+    cn_write_report rep;
+    if (rc == 0)
+        rc = cn_write_stream(&e.src, &b, &rep, err, errlen);
+    if (rc == 0)
+        *bytes = b.n;
+    cn_buf_free(&b);
+    cn_export_free(&e);
+    return rc;
+}
+
+int cn_stream_floor(cn_model *m, uint64_t seed, size_t *bytes, char *err, size_t errlen)
+{
+    const size_t n = m->off_ab; /* latents and biases, layer by layer, come first */
+    float *keep = malloc(sizeof(float) * (n ? n : 1));
+    if (!keep) {
+        snprintf(err, errlen, "out of memory");
+        return -1;
+    }
+    memcpy(keep, m->params, sizeof(float) * n);
+    for (unsigned l = 0; l < m->topo.n_layers; l++) {
+        const size_t k = (size_t)m->topo.layer[l].n_in * m->topo.layer[l].n_out;
+        memset(m->params + m->layer[l].w, 0, sizeof(float) * k);
+        for (unsigned j = 0; j < m->topo.layer[l].n_out; j++)
+            m->params[m->layer[l].b + j] = 0.5f;
+    }
+    const int rc = cn_stream_size(m, seed, 1, bytes, err, errlen);
+    memcpy(m->params, keep, sizeof(float) * n);
+    free(keep);
+    return rc;
+}
+
+double cn_ratectl_plan(const cn_ratectl *rc, long step)
+{
+    const double goal = rc->target - rc->reserved;
+    const double span = CN_RC_ARRIVE * (double)(rc->iters - rc->start);
+    double u = span > 0 ? (double)(step - rc->start) / span : 1;
+    u = u < 0 ? 0 : u > 1 ? 1 : u;
+    if (rc->first <= 0 || goal <= 0)
+        return goal;
+    /* Geometric: the same relative decrease per iteration. */
+    return exp((1 - u) * log(rc->first) + u * log(goal));
+}
+
+/* Gains, per measurement (every rc->every iterations), measured in docs/results.md. */
+#define PI_KP 1.0
+#define PI_KI 0.2
+#define DUAL_STEP 0.005
+/* lambda's floor and start, in lambda_unit. */
+#define LAMBDA_MIN 1e-4
+#define LAMBDA_START 1e-3
+
+double cn_ratectl_update(cn_ratectl *rc, long step, double size)
+{
+    if (rc->first <= 0) {
+        rc->first = size;
+        rc->lambda = LAMBDA_START * rc->lambda_unit;
+        rc->integral = 0;
+    }
+    rc->size = size;
+    rc->plan = cn_ratectl_plan(rc, step);
+    const double lo = LAMBDA_MIN * rc->lambda_unit;
+    if (rc->plan <= 0)
+        return rc->lambda;
+    if (rc->scheme == CN_RC_DUAL) {
+        rc->lambda += DUAL_STEP * rc->lambda_unit * (size - rc->plan) / rc->plan;
+    } else {
+        const double e = log(size / rc->plan);
+        /* Anti-windup: the integral stops growing while lambda sits on its floor. */
+        const double l0 = log(LAMBDA_START * rc->lambda_unit);
+        const double next = rc->integral + e;
+        if (l0 + PI_KP * e + PI_KI * next > log(lo) || e > 0)
+            rc->integral = next;
+        rc->lambda = exp(l0 + PI_KP * e + PI_KI * rc->integral);
+    }
+    if (rc->lambda < lo)
+        rc->lambda = lo;
+    return rc->lambda;
+}

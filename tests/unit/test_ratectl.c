@@ -1,0 +1,139 @@
+/* Rate control (cn_ratectl.h): the planned path, both controllers on a model of how a
+ * trained stream's size answers lambda, and the in-memory size of a real model. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cn_nerf.h"
+#include "cn_ratectl.h"
+#include "cn_synth.h"
+#include "testutil.h"
+
+static cn_ratectl make(cn_rc_scheme scheme, double target, long iters)
+{
+    cn_ratectl rc;
+    memset(&rc, 0, sizeof rc);
+    rc.scheme = scheme;
+    rc.target = target;
+    rc.reserved = 300;
+    rc.every = 10;
+    rc.start = 0;
+    rc.iters = iters;
+    rc.lambda_unit = 50;
+    return rc;
+}
+
+/* The plan: the target (less the reserve) before any measurement; from the first size down
+ * to the goal geometrically, arriving at CN_RC_ARRIVE of the run, then flat. */
+static void test_plan(void **state)
+{
+    (void)state;
+    cn_ratectl rc = make(CN_RC_LOG_PI, 10300, 1000);
+    const long arrive = (long)(CN_RC_ARRIVE * 1000);
+    assert_true(fabs(cn_ratectl_plan(&rc, 0) - 10000) < 1e-9);
+    cn_ratectl_update(&rc, 0, 40000);
+    assert_true(fabs(cn_ratectl_plan(&rc, 0) - 40000) < 1e-6);
+    /* halfway: the mean of the logs */
+    assert_true(fabs(cn_ratectl_plan(&rc, arrive / 2) - 20000) < 1e-6);
+    assert_true(fabs(cn_ratectl_plan(&rc, arrive) - 10000) < 1e-6);
+    assert_true(fabs(cn_ratectl_plan(&rc, 1000) - 10000) < 1e-6);
+    rc.reserved = 1300; /* a grid measured later lowers the goal from then on */
+    assert_true(fabs(cn_ratectl_plan(&rc, 900) - 9000) < 1e-6);
+}
+
+/* A stand-in for training: the size the latents settle at falls steeply with lambda (from
+ * 29 kB at lambda 0 towards the topology's 3 kB; tiny on Lego at 100x100 goes from 28.7 kB
+ * to 15.6 kB at lambda = 0.1 units), and the stream's size approaches it by a fraction `lag`
+ * of the gap per measurement (the latents need tens to hundreds of iterations to follow a
+ * new lambda). */
+static double settle(double lambda, double unit)
+{
+    return 3000 + 26000 / (1 + 100 * lambda / unit);
+}
+
+static double run_plant(cn_rc_scheme scheme, double target, double lag, double *overshoot)
+{
+    const long iters = 3000;
+    cn_ratectl rc = make(scheme, target, iters);
+    double size = settle(0, rc.lambda_unit), lambda = 0;
+    *overshoot = 0;
+    for (long step = 0; step < iters; step += rc.every) {
+        lambda = cn_ratectl_update(&rc, step, size);
+        assert_true(lambda > 0 && isfinite(lambda));
+        if (step >= CN_RC_ARRIVE * iters) {
+            const double below = 1 - size / rc.plan;
+            *overshoot = below > *overshoot ? below : *overshoot;
+        }
+        size += lag * (settle(lambda, rc.lambda_unit) - size);
+    }
+    return size / (target - rc.reserved) - 1;
+}
+
+static void test_controllers_settle(void **state)
+{
+    (void)state;
+    const char *names[2] = {"log PI", "dual"};
+    for (int s = 0; s < 2; s++)
+        for (double target = 5000; target <= 20000; target *= 2)
+            for (double lag = 0.05; lag <= 0.1; lag *= 2) {
+                double over;
+                const double miss = run_plant((cn_rc_scheme)s, target, lag, &over);
+                print_message("# %s, target %.0f, lag %.2f: final %+.2f%%, largest "
+                              "undershoot after arrival %.2f%%\n",
+                              names[s], target, lag, 100 * miss, 100 * over);
+                assert_true(fabs(miss) < 0.02);
+                assert_true(over < 0.1);
+            }
+}
+
+/* A target above what the model needs: lambda sits on its floor, never below. */
+static void test_floor(void **state)
+{
+    (void)state;
+    cn_ratectl rc = make(CN_RC_LOG_PI, 100000, 1000);
+    double lambda = 0;
+    for (long step = 0; step < 1000; step += 10)
+        lambda = cn_ratectl_update(&rc, step, 40000);
+    assert_true(lambda > 0 && lambda <= 1e-3 * rc.lambda_unit);
+    /* The integral did not wind up: one measurement over the plan raises lambda at once. */
+    const double up = cn_ratectl_update(&rc, 1000, 200000);
+    assert_true(up > lambda);
+}
+
+/* A real model: its stream's size without and with dead units removed, and the floor of
+ * its topology; none of them changes the model. */
+static void test_stream_size(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    assert_int_equal(cn_preset_header("tiny", &hdr), 0);
+    cn_model m;
+    char err[256];
+    assert_int_equal(cn_model_init_compressed(&m, &hdr, 5, 8.0, err, sizeof err), 0);
+    float *before = malloc(sizeof(float) * m.n_params);
+    assert_non_null(before);
+    memcpy(before, m.params, sizeof(float) * m.n_params);
+    size_t all, pruned, least;
+    assert_int_equal(cn_stream_size(&m, 1, 0, &all, err, sizeof err), 0);
+    assert_int_equal(cn_stream_size(&m, 1, 1, &pruned, err, sizeof err), 0);
+    assert_int_equal(cn_stream_floor(&m, 1, &least, err, sizeof err), 0);
+    print_message("# tiny at initialisation: %zu bytes, %zu with dead units removed; floor %zu\n",
+                  all, pruned, least);
+    assert_true(pruned <= all);
+    assert_true(least < pruned / 4);
+    assert_memory_equal(before, m.params, sizeof(float) * m.n_params);
+    free(before);
+    cn_model_free(&m);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_plan),
+        cmocka_unit_test(test_controllers_settle),
+        cmocka_unit_test(test_floor),
+        cmocka_unit_test(test_stream_size),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
