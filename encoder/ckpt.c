@@ -67,14 +67,14 @@ static const char *ckpt_read_rc(cn_reader *r, cn_ckpt *c)
     c->rc_grid_done = cn_rd_u32(r);
     c->rc_start = cn_rd_u32(r);
     c->rc_start |= (uint64_t)cn_rd_u32(r) << 32;
-    for (int i = 0; i < 9; i++)
+    for (int i = 0; i < 10; i++)
         c->rc[i] = rd_f64(r);
     if (r->err)
         return "rate-control state truncated";
     if (c->rc_scheme > 1 || c->rc_grid_done > 2 || c->rc_start > c->step)
         return "invalid rate-control state";
-    for (int i = 0; i < 9; i++) /* all finite; all but the integral (index 4) >= 0 */
-        if (!isfinite(c->rc[i]) || (i != 4 && c->rc[i] < 0))
+    for (int i = 0; i < 10; i++) /* finite; >= 0 but the integral (4) and the slope (9) */
+        if (!isfinite(c->rc[i]) || (i != 4 && i != 9 && c->rc[i] < 0))
             return "invalid rate-control state";
     if (c->rc[0] <= 0 || c->rc[2] <= 0)
         return "invalid rate-control state";

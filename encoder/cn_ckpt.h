@@ -17,7 +17,7 @@
  * Version 4 adds rate control (cnerf encode --size) after those: u32 1 when the run is
  * rate-controlled (else 0 and nothing more), then u32 scheme, u32 grid measurements made,
  * u64 first controlled step, and f64 target, reserved, lambda unit, first size, integral,
- * lambda, last size, last plan, grid bytes (cn_ratectl.h). */
+ * lambda, last size, last plan, grid bytes, slope (cn_ratectl.h). */
 #ifndef CNERF_ENC_CKPT_H
 #define CNERF_ENC_CKPT_H
 
@@ -47,7 +47,8 @@ typedef struct cn_ckpt {
     int has_rc; /* version 4 and rate-controlled: the fields below are set */
     uint32_t rc_scheme, rc_grid_done;
     uint64_t rc_start;
-    double rc[9]; /* target, reserved, lambda unit, first, integral, lambda, size, plan, grid */
+    double rc[10]; /* target, reserved, lambda unit, first, integral, lambda, size, plan,
+                    * grid, slope */
 } cn_ckpt;
 
 /* Parses a checkpoint's bytes (path names it in messages); c's pointers point into data.

@@ -17,9 +17,9 @@
 
 /* Fractions of the run: where the planned size reaches the target, where the grid is
  * measured. */
-#define CN_RC_ARRIVE 0.5
-#define CN_RC_GRID_AT 0.4
-#define CN_RC_GRID_AGAIN 0.8
+#define CN_RC_ARRIVE 0.8
+#define CN_RC_GRID_AT 0.5
+#define CN_RC_GRID_AGAIN 0.75
 
 typedef enum cn_rc_scheme {
     CN_RC_LOG_PI = 0, /* proportional-integral control of log(lambda) on log(size / plan) */
@@ -36,6 +36,7 @@ typedef struct cn_ratectl {
     /* State (checkpointed). */
     double first;    /* the first measured size (the plan's start), 0 before it */
     double integral; /* PI: sum of log errors; dual: unused */
+    double slope;    /* average change of log(size) per measurement */
     double lambda;   /* the current lambda */
     double size;     /* the last measured in-memory size, bytes */
     double plan;     /* the last planned size (in-memory part) */

@@ -66,7 +66,11 @@ double cn_ratectl_plan(const cn_ratectl *rc, long step)
 /* Gains, per measurement (every rc->every iterations), measured in docs/results.md. */
 #define PI_KP 1.0
 #define PI_KI 0.2
-#define DUAL_STEP 0.005
+#define DUAL_STEP 0.01
+/* The prediction: iterations ahead, and the weight of the newest slope in its average. */
+#define HORIZON 100
+#define HORIZON_MAX 500
+#define SLOPE_EMA 0.2
 /* lambda's floor and start, in lambda_unit. */
 #define LAMBDA_MIN 1e-4
 #define LAMBDA_START 1e-3
@@ -77,16 +81,27 @@ double cn_ratectl_update(cn_ratectl *rc, long step, double size)
         rc->first = size;
         rc->lambda = LAMBDA_START * rc->lambda_unit;
         rc->integral = 0;
+        rc->slope = 0;
+    } else if (rc->size > 0) {
+        rc->slope = (1 - SLOPE_EMA) * rc->slope + SLOPE_EMA * log(size / rc->size);
     }
     rc->size = size;
     rc->plan = cn_ratectl_plan(rc, step);
     const double lo = LAMBDA_MIN * rc->lambda_unit;
     if (rc->plan <= 0)
         return rc->lambda;
+    /* The size keeps moving for a while after lambda does (the latents follow it over tens
+     * to hundreds of iterations, and at a fixed lambda the rate still drifts down as the
+     * model trains), and near the end of the run it barely answers lambda any more: both
+     * controllers act on where the size is heading at its recent slope, at the end of the run
+     * but HORIZON to HORIZON_MAX iterations ahead, against the plan there. */
+    long h = rc->iters - step; /* to the end of the run, within [HORIZON, HORIZON_MAX] */
+    h = h > HORIZON_MAX ? HORIZON_MAX : h < HORIZON ? HORIZON : h;
+    const double ahead = cn_ratectl_plan(rc, step + h);
+    const double e = log(size / ahead) + rc->slope * (double)h / (double)rc->every;
     if (rc->scheme == CN_RC_DUAL) {
-        rc->lambda += DUAL_STEP * rc->lambda_unit * (size - rc->plan) / rc->plan;
+        rc->lambda += DUAL_STEP * rc->lambda_unit * (exp(e) - 1);
     } else {
-        const double e = log(size / rc->plan);
         /* Anti-windup: the integral stops growing while lambda sits on its floor. */
         const double l0 = log(LAMBDA_START * rc->lambda_unit);
         const double next = rc->integral + e;

@@ -459,9 +459,10 @@ int cn_checkpoint_save(const cn_trainer *t, const char *path, char *err, size_t 
         cn_buf_u32(&b, (uint32_t)rc->scheme);
         cn_buf_u32(&b, (uint32_t)rc->grid_done);
         put_u64(&b, (uint64_t)rc->start);
-        const double v[9] = {rc->target, rc->reserved, rc->lambda_unit, rc->first,
-                             rc->integral, rc->lambda, rc->size, rc->plan, rc->grid};
-        for (int i = 0; i < 9; i++)
+        const double v[10] = {rc->target, rc->reserved, rc->lambda_unit, rc->first,
+                              rc->integral, rc->lambda, rc->size, rc->plan, rc->grid,
+                              rc->slope};
+        for (int i = 0; i < 10; i++)
             put_f64(&b, v[i]);
     }
     cn_buf_u32(&b, cnerf_crc32(0, b.p, b.n));
@@ -566,6 +567,7 @@ int cn_checkpoint_resume(cn_trainer *t, const char *path, char *err, size_t errl
             r->size = c.rc[6];
             r->plan = c.rc[7];
             r->grid = c.rc[8];
+            r->slope = c.rc[9];
             t->opts.lambda = c.lambda;
         }
         /* A grid of the size the run asks for continues; any other is rebuilt from the

@@ -5,6 +5,8 @@
 # (evaluations left out of the clock). Writes OUT/psnr_time.csv, OUT/psnr_time.md (the table,
 # then the plateau: means of 5 evaluations and their gains) and, with gnuplot, OUT/psnr_time.png.
 #   scripts/psnr_time.sh [OUT] [ITERS] [EVAL_EVERY] [PRESETS]
+# TRAIN_OPTS="..." adds options to every `cnerf train` (e.g. "--lr 5e-4 --lr-decay 500000",
+# the schedule of the curves in docs/training.md).
 # Defaults: out/psnr_time, 4000 iterations, an evaluation every 250, "tiny small". A preset
 # written NAME:N trains to N iterations instead of ITERS (e.g. "tiny:60000 small:40000").
 # Run again on the same OUT with a larger ITERS to extend the curves: each preset resumes
@@ -34,7 +36,7 @@ for spec in $presets; do
   echo "psnr_time.sh: $p, to $n iterations${resume:+ (resumed)}" >&2
   echo "psnr_time.sh: run" >> "$log"
   "$cnerf" train "$data" -o "$out/$p.ckpt" --preset "$p" --downscale 4 --iters "$n" \
-    --eval-every "$every" --every 40 --log-every "$every" "${resume[@]}" >> "$log"
+    --eval-every "$every" --every 40 --log-every "$every" ${TRAIN_OPTS:-} "${resume[@]}" >> "$log"
   # Each run's clock starts at zero; a resumed run's times continue from the training time
   # that the runs before it report when they save ("saved ... at iteration N: S s, ..."), or
   # for a run that was killed, from its last evaluation (its last checkpoint is of that step).

@@ -4,7 +4,10 @@
 # (post-training uniform quantization of that float model to B bits, coded with the same
 # entropy coder). Writes OUT/rd.csv, OUT/rd.md (a table) and, with gnuplot, OUT/rd.png.
 #   scripts/rd.sh DATASET OUT [--downscale F] [--iters N] [--preset P] [--every N]
-#                 [--lambdas "L1 L2 ..."] [--bits "B1 B2 ..."] [--jobs J]
+#                 [--lambdas "L1 L2 ..."] [--bits "B1 B2 ..."] [--jobs J] [--lr X]
+#                 [--lr-decay N]
+# (--lr and --lr-decay go to every training run; the tables in docs/results.md before the
+# learning rate became 5e-3 over the run used --lr 5e-4 --lr-decay 500000.)
 # Each run uses one thread when --jobs is 2 (two runs side by side), else every core.
 # CNERF=path runs another cnerf binary than build/cnerf (a copy, so that rebuilding does
 # not change a sweep midway).
@@ -12,11 +15,12 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 data=${1:?dataset directory}; out=${2:?output directory}; shift 2
 downscale=4 iters=1000 preset=small every=40 jobs=1
-lambdas="1e-3 1 3 5 10" bits="4 5 6 8"
+lambdas="1e-3 1 3 5 10" bits="4 5 6 8" lr=()
 while [ $# -gt 0 ]; do
   case $1 in
     --downscale) downscale=$2 ;; --iters) iters=$2 ;; --preset) preset=$2 ;;
     --every) every=$2 ;; --lambdas) lambdas=$2 ;; --bits) bits=$2 ;; --jobs) jobs=$2 ;;
+    --lr|--lr-decay) lr+=("$1" "$2") ;;
     *) echo "rd.sh: unknown option $1" >&2; exit 2 ;;
   esac
   shift 2
@@ -25,7 +29,7 @@ cnerf=${CNERF:-build/cnerf}
 [ -x "$cnerf" ] || { echo "rd.sh: build first (scripts/test.sh or cmake --build build)" >&2; exit 1; }
 mkdir -p "$out/log"
 threads=$(( jobs > 1 ? 1 : $(nproc) ))
-common=(--preset "$preset" --iters "$iters" --downscale "$downscale" --threads "$threads")
+common=(--preset "$preset" --iters "$iters" --downscale "$downscale" --threads "$threads" ${lr[@]+"${lr[@]}"})
 
 # The mean test PSNR / SSIM line that eval and encode print.
 psnr_of() { sed -n 's/.*mean over .* psnr \([0-9.]*\) dB  ssim \([0-9.]*\).*/\1 \2/p; s/^test: .* psnr \([0-9.]*\) dB, ssim \([0-9.]*\),.*/\1 \2/p' "$1" | tail -1; }

@@ -225,7 +225,7 @@ static void test_reproducible(void **state)
  * checkpoint: lambda, its integral, the plan's start and the grid's reserved bytes). */
 static void rate_control(cn_trainer *t, int on)
 {
-    if (on) /* 20 kB, below the start: lambda moves at steps 0 and 10, the grid at 4 and 9 */
+    if (on) /* 20 kB, below the start: lambda moves at steps 0 and 10, the grid at 6 and 9 */
         cn_trainer_rate_control(t, 20000, 100, CN_RC_LOG_PI, 16, 1);
 }
 
