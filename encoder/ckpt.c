@@ -105,7 +105,8 @@ int cn_ckpt_parse(const char *path, const uint8_t *data, size_t len, cn_ckpt *c,
         c->seed |= (uint64_t)cn_rd_u32(&r) << 32;
         c->compressed = cn_rd_u32(&r);
         uint32_t hl = cn_rd_u32(&r);
-        if (version != CN_CKPT_VERSION && version != CN_CKPT_VERSION_NO_RC &&
+        if (version != CN_CKPT_VERSION && version != CN_CKPT_VERSION_NO_QUALITY &&
+            version != CN_CKPT_VERSION_NO_RC &&
             version != CN_CKPT_VERSION_NO_RUN &&
             version != CN_CKPT_VERSION_NO_GRIDS)
             why = "unsupported checkpoint version";
@@ -126,8 +127,16 @@ int cn_ckpt_parse(const char *path, const uint8_t *data, size_t len, cn_ckpt *c,
                     why = ckpt_read_grids(&r, c);
                 if (!why && version >= CN_CKPT_VERSION_NO_RC)
                     why = ckpt_read_run(&r, c);
-                if (!why && version == CN_CKPT_VERSION)
+                if (!why && version >= CN_CKPT_VERSION_NO_QUALITY)
                     why = ckpt_read_rc(&r, c);
+                if (!why && version == CN_CKPT_VERSION) {
+                    c->quality = rd_f64(&r);
+                    if (r.err)
+                        why = "truncated before the quality setting";
+                    else if (!isfinite(c->quality) || c->quality < 0 ||
+                             (c->quality > 0 && c->has_rc))
+                        why = "invalid quality setting";
+                }
                 if (!why && cn_rd_left(&r) != 0)
                     why = "unexpected bytes at the end";
             }

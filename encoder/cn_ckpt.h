@@ -17,7 +17,9 @@
  * Version 4 adds rate control (cnerf encode --size) after those: u32 1 when the run is
  * rate-controlled (else 0 and nothing more), then u32 scheme, u32 grid measurements made,
  * u64 first controlled step, and f64 target, reserved, lambda unit, first size, integral,
- * lambda, last size, last plan, grid bytes, slope (cn_ratectl.h). */
+ * lambda, last size, last plan, grid bytes, slope (cn_ratectl.h).
+ * Version 5 adds an f64 after that: the quality slope of cnerf encode --quality (0: none;
+ * cn_train_opts.quality_slope). Versions 3 and 4 load as runs without one. */
 #ifndef CNERF_ENC_CKPT_H
 #define CNERF_ENC_CKPT_H
 
@@ -27,7 +29,8 @@
 #include "cnerf/cnerf.h"
 
 #define CN_CKPT_MAGIC "CNCK"
-#define CN_CKPT_VERSION 4u
+#define CN_CKPT_VERSION 5u
+#define CN_CKPT_VERSION_NO_QUALITY 4u
 #define CN_CKPT_VERSION_NO_RC 3u
 #define CN_CKPT_VERSION_NO_RUN 2u
 #define CN_CKPT_VERSION_NO_GRIDS 1u
@@ -49,6 +52,7 @@ typedef struct cn_ckpt {
     uint64_t rc_start;
     double rc[10]; /* target, reserved, lambda unit, first, integral, lambda, size, plan,
                     * grid, slope */
+    double quality; /* version 5: the quality slope, 0 for none */
 } cn_ckpt;
 
 /* Parses a checkpoint's bytes (path names it in messages); c's pointers point into data.

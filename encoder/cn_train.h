@@ -36,6 +36,12 @@ typedef struct cn_train_opts {
      * channels (a batch estimates it scaled by pixels / rays), R = bits of all latents. */
     int compress;
     double lambda;
+    /* A quality setting instead of a fixed lambda (cnerf encode --quality): the objective
+     * becomes 10 log10(D) + k b, b the bits per latent, so that each step trades k dB of
+     * training PSNR for one bit per latent on every scene, whatever its pixel count, latent
+     * count or error level. Equivalently lambda = k ln(10)/10 (D / R-unit), set at each
+     * step from the batch's distortion (cn_quality_lambda). 0: off. */
+    double quality_slope;
     double levels;   /* initial latent spread in integer steps (a = Glorot limit / levels) */
     double lr_prior; /* learning rate of the priors */
     double lr_affine; /* learning rate of the affine decoders (a, b) */
@@ -103,6 +109,14 @@ double cn_trainer_pixels(const cn_trainer *t);
  * end of the run; reserved_bytes are the bytes the in-memory stream lacks (metadata). */
 void cn_trainer_rate_control(cn_trainer *t, double target_bytes, double reserved_bytes,
                              cn_rc_scheme scheme, int grid_g, int prune);
+/* --quality Q (0..100) as the slope k of cn_train_opts.quality_slope, in dB per bit per
+ * latent: 10 at Q = 50, halving with each 10 more (Q 100: 0.31, Q 0: 320). */
+double cn_quality_slope(double q);
+/* Its inverse, for messages. */
+double cn_quality_from_slope(double k);
+/* The lambda that quality slope k gives at a step whose networks' mean squared errors sum
+ * to mse_sum: k ln(10)/10 x mse_sum x 3 pixels / latents. */
+double cn_quality_lambda(const cn_trainer *t, double k, double mse_sum);
 /* Current learning rate. */
 double cn_trainer_lr(const cn_trainer *t);
 

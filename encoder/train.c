@@ -31,6 +31,7 @@ void cn_train_defaults(cn_train_opts *o)
     o->seed = 1;
     o->compress = 0;
     o->lambda = 0;
+    o->quality_slope = 0;
     o->levels = 8;
     o->latent_lr_weight_units = 1;
     /* The paper's 5e-5 leaves the priors where they started over a few thousand iterations:
@@ -301,6 +302,24 @@ void cn_trainer_rate_control(cn_trainer *t, double target_bytes, double reserved
     t->rc_prune = prune;
 }
 
+double cn_quality_slope(double q)
+{
+    return 10.0 * pow(2.0, (50.0 - q) / 10.0);
+}
+
+double cn_quality_from_slope(double k)
+{
+    return 50.0 - 10.0 * log2(k / 10.0);
+}
+
+/* The objective 10 log10(D) + k R / latents has the gradient of D + lambda R with
+ * lambda = k ln(10)/10 D / latents, and D = 3 pixels x the summed MSE. */
+double cn_quality_lambda(const cn_trainer *t, double k, double mse_sum)
+{
+    return k * log(10.0) / 10.0 * mse_sum * 3.0 * cn_trainer_pixels(t) /
+           (double)t->model.topo.n_params;
+}
+
 /* Rate control's work at this step: the grid's bytes once, and lambda every rc.every. */
 static int rate_control_step(cn_trainer *t)
 {
@@ -352,6 +371,8 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
     }
     cn_render_backward(m, &t->batch, R, t->dcolor);
     cn_model_kernels_backward(m);
+    if (m->compressed && t->opts.quality_slope > 0)
+        t->opts.lambda = cn_quality_lambda(t, t->opts.quality_slope, loss);
     double rate = 0;
     if (m->compressed && t->opts.lambda > 0)
         rate = cn_model_rate(m, seed ^ 0xA5A5A5A5ull, (float)t->opts.lambda);
@@ -465,6 +486,7 @@ int cn_checkpoint_save(const cn_trainer *t, const char *path, char *err, size_t 
         for (int i = 0; i < 10; i++)
             put_f64(&b, v[i]);
     }
+    put_f64(&b, t->opts.quality_slope);
     cn_buf_u32(&b, cnerf_crc32(0, b.p, b.n));
     int rc = b.oom ? -1 : cn_write_file_atomic(path, b.p, b.n, err, errlen);
     if (b.oom)
@@ -535,8 +557,11 @@ int cn_checkpoint_resume(cn_trainer *t, const char *path, char *err, size_t errl
                  "with that --downscale, or start a new run", path, c.w, c.h,
                  t->ds->train[0].w, t->ds->train[0].h);
         rc = -1;
-    } else if (c.has_rc != t->rate_control) {
-        if (c.has_rc)
+    } else if (c.quality != t->opts.quality_slope || c.has_rc != t->rate_control) {
+        if (c.quality > 0)
+            snprintf(err, errlen, "%s was encoded with --quality %.4g: resume with that "
+                     "quality, or start a new run", path, cn_quality_from_slope(c.quality));
+        else if (c.has_rc)
             snprintf(err, errlen, "%s was encoded with --size %.0f (rate control): resume with "
                      "that --size, or start a new run", path, c.rc[0]);
         else
@@ -547,13 +572,15 @@ int cn_checkpoint_resume(cn_trainer *t, const char *path, char *err, size_t errl
         snprintf(err, errlen, "%s was encoded with --size %.0f: resume with that size (this "
                  "run asks for %.0f), or start a new run", path, c.rc[0], t->rc.target);
         rc = -1;
-    } else if (c.has_run && !c.has_rc && c.lambda != t->opts.lambda) {
+    } else if (c.has_run && !c.has_rc && c.quality == 0 && c.lambda != t->opts.lambda) {
         snprintf(err, errlen, "%s was encoded with --lambda %g: resume with that lambda (this "
                  "run has %g), or start a new run", path, c.lambda, t->opts.lambda);
         rc = -1;
     } else {
         ckpt_fill(&c, &t->model);
         t->step = (long)c.step;
+        if (c.quality > 0) /* the last step's; the next step sets its own */
+            t->opts.lambda = c.lambda;
         if (c.has_rc) {
             cn_ratectl *r = &t->rc;
             r->scheme = (cn_rc_scheme)c.rc_scheme;

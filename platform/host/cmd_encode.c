@@ -18,7 +18,8 @@
 #include "cn_train.h"
 
 #define ENCODE_USAGE                                                                          \
-    "usage: cnerf encode DATASET -o scene.cnrf (--lambda L | --size BYTES | --bits-per-param X)\n" \
+    "usage: cnerf encode DATASET -o scene.cnrf\n"                                            \
+    "       (--lambda L | --quality Q | --size BYTES | --bits-per-param X)\n"               \
     "       [--preset tiny|small|paper] [--rate-control pi|dual] [--lr X] [--lr-decay N]\n"     \
     "       [--iters N] [--downscale F] [--threads T] [--seed S] [--resume CKPT]\n"          \
     "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N | --ckpt-secs S]\n" \
@@ -74,13 +75,14 @@ int cmd_encode(int argc, char **argv)
     long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 0, log_every = 100;
     double ckpt_secs = CLI_CKPT_SECS;
     long eval_every = 0, grid_g = -1;
-    double lambda = -1, levels = o.levels, size = 0, bpp = 0;
+    double lambda = -1, levels = o.levels, size = 0, bpp = 0, quality = -1;
     const char *scheme = "pi";
     uint64_t seed = o.seed;
     int black = 0, n_pos, grid_verbose = 0;
     const cli_opt opts[] = {
         {"-o", CLI_STR, &out, 0, 0},
         {"--lambda", CLI_DOUBLE, &lambda, 0, 1e3},
+        {"--quality", CLI_DOUBLE, &quality, 0, 100},
         {"--size", CLI_DOUBLE, &size, 1, 1e9},
         {"--bits-per-param", CLI_DOUBLE, &bpp, 1e-3, 32},
         {"--rate-control", CLI_STR, &scheme, 0, 0},
@@ -117,18 +119,20 @@ int cmd_encode(int argc, char **argv)
     if (cli_parse("encode", ENCODE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
                   &n_pos))
         return 2;
-    if (n_pos != 1 || !out || (lambda < 0 && size == 0 && bpp == 0))
+    if (n_pos != 1 || !out || (lambda < 0 && size == 0 && bpp == 0 && quality < 0))
         return cli_usage("encode", "need a dataset directory, -o FILE and one of --lambda L, "
-                         "--size BYTES or --bits-per-param X\n%s", ENCODE_USAGE);
-    if ((lambda >= 0) + (size > 0) + (bpp > 0) > 1)
-        return cli_usage("encode", "--lambda, --size and --bits-per-param each set the rate: "
-                         "give one of them");
+                         "--quality Q, --size BYTES or --bits-per-param X\n%s", ENCODE_USAGE);
+    if ((lambda >= 0) + (size > 0) + (bpp > 0) + (quality >= 0) > 1)
+        return cli_usage("encode", "--lambda, --quality, --size and --bits-per-param each set "
+                         "the rate: give one of them");
     if (strcmp(scheme, "pi") && strcmp(scheme, "dual"))
         return cli_usage("encode", "--rate-control takes pi (log-lambda PI control, the "
                          "default) or dual (dual ascent), not '%s'", scheme);
     const int controlled = size > 0 || bpp > 0;
-    if (controlled)
+    if (controlled || quality >= 0)
         lambda = 0;
+    if (quality >= 0)
+        o.quality_slope = cn_quality_slope(quality);
     if (grid_g > 0 && (grid_g < 16 || (grid_g & (grid_g - 1))))
         return cli_usage("encode", "--grid takes 16, 32, 64 or 128 cells per axis, or 0 for no "
                         "grid, not %ld", grid_g);
@@ -224,8 +228,12 @@ int cmd_encode(int argc, char **argv)
             rc = cli_resume("encode", &t, resume);
     }
     if (rc == 0) {
-        char lam[32];
-        snprintf(lam, sizeof lam, controlled ? "controlled" : "%g", lambda);
+        char lam[80];
+        if (quality >= 0)
+            snprintf(lam, sizeof lam, "from --quality %g (%.3g dB per bit per latent)", quality,
+                     o.quality_slope);
+        else
+            snprintf(lam, sizeof lam, controlled ? "controlled" : "%g", lambda);
         printf("encoding %s: %d train views %dx%d, lambda %s, %zu latents, checkpoint %s\n",
                pos[0], ds.n_train, ds.train[0].w, ds.train[0].h, lam,
                (size_t)t.model.topo.n_params, ckpt);
@@ -242,6 +250,8 @@ int cmd_encode(int argc, char **argv)
     char meta[1024], sizebuf[64] = "";
     if (t.rate_control)
         snprintf(sizebuf, sizeof sizebuf, "size=%.0f; ", t.rc.target);
+    else if (quality >= 0)
+        snprintf(sizebuf, sizeof sizebuf, "quality=%g; ", quality);
     snprintf(meta, sizeof meta,
              "encoder=cnerf %s; command=encode; dataset=%s; preset=%s; iters=%ld; %slambda=%g; "
              "downscale=%ld; seed=%llu; levels=%g; latent-lr=%s",
@@ -315,6 +325,10 @@ int cmd_encode(int argc, char **argv)
         }
         printf("tables: %d from the prior, %d from counts, %u constant layers\n", prior, counts,
                st.dec->info.n_layers - prior - counts);
+        if (quality >= 0)
+            printf("quality: %g (%.3g dB per bit per latent), final lambda %.4g = %.4g x 3 "
+                   "pixels / latents\n", quality, o.quality_slope, t.opts.lambda,
+                   t.opts.lambda * (double)t.model.topo.n_params / (3 * cn_trainer_pixels(&t)));
         if (t.rate_control) {
             const double dev = (double)st.len / t.rc.target - 1;
             printf("size: %zu bytes against the target %.0f (%+.2f%%), final lambda %.4g\n",

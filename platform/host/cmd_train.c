@@ -191,6 +191,9 @@ int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt
                      (t->rc.size + t->rc.reserved) / 1000.0,
                      (t->rc.plan + t->rc.reserved) / 1000.0, t->rc.target / 1000.0,
                      t->opts.lambda);
+        else if (t->model.compressed && t->opts.quality_slope > 0)
+            snprintf(extra, sizeof extra, "  rate %.1f kB, lambda %.3g", bits / 8000.0,
+                     t->opts.lambda);
         else if (t->model.compressed)
             snprintf(extra, sizeof extra, "  rate %.1f kB", bits / 8000.0);
         else if (t->occ[0].valid)

@@ -229,7 +229,7 @@ static void rate_control(cn_trainer *t, int on)
         cn_trainer_rate_control(t, 20000, 100, CN_RC_LOG_PI, 16, 1);
 }
 
-static void run_split(int mode) /* 0 plain, 1 compressed, 2 compressed with --size */
+static void run_split(int mode) /* 0 plain, 1 compressed, 2 with --size, 3 with --quality */
 {
     cn_train_opts o;
     small_opts(&o);
@@ -238,6 +238,7 @@ static void run_split(int mode) /* 0 plain, 1 compressed, 2 compressed with --si
     const int compress = mode > 0;
     o.compress = compress;
     o.lambda = mode == 1 ? 1.0 : 0.0;
+    o.quality_slope = mode == 3 ? cn_quality_slope(50) : 0.0;
     o.iters = 12; /* the controller's plan spans the run */
     enum { N = 12, HALF = 7 }; /* N = o.iters */
     char err[512], path[512];
@@ -254,6 +255,8 @@ static void run_split(int mode) /* 0 plain, 1 compressed, 2 compressed with --si
                       whole.rc.plan, whole.rc.reserved, whole.rc.grid_done);
         assert_true(whole.opts.lambda > 0 && whole.rc.grid_done == 2 && whole.rc.reserved > 100);
     }
+    if (mode == 3) /* lambda follows the batch's error */
+        assert_true(whole.opts.lambda > 0);
     assert_int_equal(cn_trainer_init(&first, &ds, &o, err, sizeof err), 0);
     rate_control(&first, mode == 2);
     for (int i = 0; i < HALF; i++)
@@ -275,6 +278,17 @@ static void run_split(int mode) /* 0 plain, 1 compressed, 2 compressed with --si
         print_message("# --size on a fixed lambda: %s\n", err);
         assert_non_null(strstr(err, "was encoded with a fixed --lambda 1"));
         second.rate_control = 0;
+    } else if (mode == 3) { /* refused: another quality, a fixed lambda */
+        second.opts.quality_slope = cn_quality_slope(60);
+        assert_int_equal(cn_checkpoint_resume(&second, path, err, sizeof err), -1);
+        print_message("# another quality: %s\n", err);
+        assert_non_null(strstr(err, "was encoded with --quality 50: resume with that"));
+        second.opts.quality_slope = 0;
+        second.opts.lambda = 1;
+        assert_int_equal(cn_checkpoint_resume(&second, path, err, sizeof err), -1);
+        assert_non_null(strstr(err, "was encoded with --quality 50"));
+        second.opts.quality_slope = o.quality_slope;
+        second.opts.lambda = 0;
     }
     rate_control(&second, mode == 2);
     assert_int_equal(cn_checkpoint_resume(&second, path, err, sizeof err), 0);
@@ -305,6 +319,7 @@ static void test_resume_continues_exactly(void **state)
     run_split(0);
     run_split(1);
     run_split(2);
+    run_split(3);
 }
 
 /* Writes bytes[0..n) followed by their CRC-32, as a checkpoint ends. */
@@ -328,7 +343,7 @@ static void put_le32(uint8_t *p, uint32_t v)
 
 /* The occupancy grids in a checkpoint: a version 1 file (no grids) still resumes, with its
  * grids rebuilt, as does a run with another grid size; a grid section that does not fit
- * the model is refused with its reason even when the CRC is right. A version 3 or 4 file
+ * the model is refused with its reason even when the CRC is right. A version 3, 4 or 5 file
  * refuses a run with another lambda; a version 2 file (no record of the run) resumes it. */
 static void test_checkpoint_grids(void **state)
 {
@@ -349,8 +364,9 @@ static void test_checkpoint_grids(void **state)
     assert_int_equal(cn_read_file(path, &v2, &len, err, sizeof err), 0);
     const size_t cells = (size_t)o.occ_grid * o.occ_grid * o.occ_grid;
     const size_t grids = 4 + t.model.topo.n_nets * (8 + 4 * cells);
-    /* lambda, views, width, height, poses hash; then version 4's rate-control flag (0) */
-    const size_t run = 8 + 3 * 4 + 8 + 4;
+    /* lambda, views, width, height, poses hash; then version 4's rate-control flag (0) and
+     * version 5's quality (0) */
+    const size_t run = 8 + 3 * 4 + 8 + 4 + 8;
     const size_t body = len - 4 - run - grids; /* up to the end of the Adam moments */
     uint8_t *buf = malloc(len + 4);
     assert_non_null(buf);
@@ -395,14 +411,18 @@ static void test_checkpoint_grids(void **state)
     assert_int_equal(cn_checkpoint_resume(&r, path, err, sizeof err), 0);
     assert_true(r.occ[0].valid && r.occ[1].valid);
     cn_trainer_free(&r);
-    /* Version 3 (the run's record, no rate-control flag) resumes and still checks lambda. */
-    memcpy(buf, v2, len - 8);
-    put_le32(buf + 4, 3);
-    write_with_crc(path, buf, len - 8);
-    assert_int_equal(cn_trainer_init(&r, &ds, &o, err, sizeof err), 0);
-    assert_int_equal(cn_checkpoint_resume(&r, path, err, sizeof err), 0);
-    assert_int_equal(r.step, 3);
-    cn_trainer_free(&r);
+    /* Versions 3 (the run's record, no rate-control flag) and 4 (no quality) resume and still
+     * check lambda. */
+    for (uint32_t v = 3; v <= 4; v++) {
+        const size_t n = len - 4 - (v == 3 ? 12 : 8);
+        memcpy(buf, v2, n);
+        put_le32(buf + 4, v);
+        write_with_crc(path, buf, n);
+        assert_int_equal(cn_trainer_init(&r, &ds, &o, err, sizeof err), 0);
+        assert_int_equal(cn_checkpoint_resume(&r, path, err, sizeof err), 0);
+        assert_int_equal(r.step, 3);
+        cn_trainer_free(&r);
+    }
     assert_int_equal(cn_trainer_init(&r, &ds, &ol, err, sizeof err), 0);
     assert_int_equal(cn_checkpoint_resume(&r, path, err, sizeof err), -1);
     assert_non_null(strstr(err, "was encoded with --lambda"));
@@ -413,19 +433,26 @@ static void test_checkpoint_grids(void **state)
         long cut;       /* bytes removed before the CRC (negative: added) */
         long count_ofs; /* when >= 0: the grid count becomes 1 */
         const char *message;
+        int negative_quality;
     } bad[] = {
-        {"one grid for two networks", 0, 1, "occupancy grids do not match the model"},
-        {"a grid cut short", (long)run + 4, -1, "occupancy grid truncated"},
-        {"the rate-control flag cut short", 4, -1, "invalid rate-control flag"},
-        {"the run's record cut short", 8, -1, "truncated after the occupancy grids"},
-        {"bytes after the run's record", -4, -1, "unexpected bytes at the end"},
-        {"no grid section", (long)(grids + run), -1, "grid"},
+        {"one grid for two networks", 0, 1, "occupancy grids do not match the model", 0},
+        {"a grid cut short", (long)run + 4, -1, "occupancy grid truncated", 0},
+        {"the quality cut short", 4, -1, "truncated before the quality setting", 0},
+        {"a negative quality", 0, -1, "invalid quality setting", 1},
+        {"the rate-control flag cut short", 10, -1, "invalid rate-control flag", 0},
+        {"the run's record cut short", 16, -1, "truncated after the occupancy grids", 0},
+        {"bytes after the run's record", -4, -1, "unexpected bytes at the end", 0},
+        {"no grid section", (long)(grids + run), -1, "grid", 0},
     };
     for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
         memcpy(buf, v2, len - 4);
         memset(buf + len - 4, 0, 4);
         if (bad[k].count_ofs >= 0)
             put_le32(buf + body, 1);
+        if (bad[k].negative_quality) { /* -1.0: f64 0xBFF0000000000000 */
+            put_le32(buf + len - 12, 0);
+            put_le32(buf + len - 8, 0xBFF00000u);
+        }
         write_with_crc(path, buf, (size_t)((long)len - 4 - bad[k].cut));
         err[0] = 0;
         cn_model refused;
