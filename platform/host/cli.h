@@ -19,6 +19,12 @@ int cmd_eval(int argc, char **argv);
 int cmd_encode(int argc, char **argv);
 int cmd_quantize(int argc, char **argv);
 int cmd_render(int argc, char **argv);
+int cmd_views(int argc, char **argv);
+
+/* cnerf train --train-images DIR: replaces the pixels of views[0..n) with DIR/0000.png ...
+ * (as `cnerf views` writes them, the same size), dropping their alpha. Returns 0, or 1 with
+ * the message printed (a missing, mis-sized or extra file). */
+int cli_replace_views(const char *cmd, struct cn_view *views, int n, const char *dir);
 
 /* Before any work: `path` can be created as a regular file (its directory exists and is
  * writable; an existing output must be a regular file, not a link, device or directory), is

@@ -20,7 +20,7 @@
     "       [--near X] [--far X] [--ckpt-every N | --ckpt-secs S] [--log-every N] [--occupancy G]\n"     \
     "       [--eval-every N] [--every K]\n"                                              \
     "       [--occupancy-start N] [--skip-saturated EPS] [--random-bg auto|on|off]\n"    \
-    "       [--group-penalty MU]"
+    "       [--group-penalty MU] [--train-images DIR]"
 
 /* Stopping a training: Ctrl-C (SIGINT), and SIGTERM and SIGHUP as schedulers, service
  * managers and closed terminals send them. The loop stops after the current iteration, saves
@@ -238,7 +238,7 @@ int cmd_train(int argc, char **argv)
 {
     cn_train_opts o;
     cn_train_defaults(&o);
-    const char *out = NULL, *pos[1], *random_bg = "auto";
+    const char *out = NULL, *pos[1], *random_bg = "auto", *train_images = NULL;
     long iters = o.iters, downscale = 1, threads = 0, batch = o.batch, depth = -1, width = -1;
     long coarse = -1, fine = -1, precrop = -1, ckpt_every = 0, log_every = 100;
     double ckpt_secs = CLI_CKPT_SECS;
@@ -276,6 +276,7 @@ int cmd_train(int argc, char **argv)
         {"--skip-saturated", CLI_DOUBLE, &o.sat_eps, 0, 1},
         {"--group-penalty", CLI_DOUBLE, &o.group, 0, 1000},
         {"--random-bg", CLI_STR, &random_bg, 0, 0},
+        {"--train-images", CLI_STR, &train_images, 0, 0},
     };
     if (cli_parse("train", TRAIN_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
                   &n_pos))
@@ -311,9 +312,17 @@ int cmd_train(int argc, char **argv)
         cli_unlock_output(lk, lock);
         return 1;
     }
+    if (train_images && cli_replace_views("train", ds.train, ds.n_train, train_images)) {
+        cn_dataset_free(&ds);
+        cli_unlock_output(lk, lock);
+        return 1;
+    }
     printf("dataset %s: %d train, %d val, %d test views, %dx%d, %s\n", pos[0], ds.n_train,
            ds.n_val, ds.n_test, ds.train[0].w, ds.train[0].h,
            ds.ndc ? "forward-facing (NDC)" : "360 degrees");
+    if (train_images)
+        printf("training views: the %d images in %s instead of the dataset's\n", ds.n_train,
+               train_images);
     char err[1024];
     cn_trainer t;
     if (cn_trainer_init(&t, &ds, &o, err, sizeof err)) {

@@ -55,6 +55,10 @@ static const struct {
      "                                  [--verify MD5] | --orbit N [--size PX]\n"
      "                                  fixed-point decoder render, checked against the float\n"
      "                                  reference and the ground truth"},
+    {"views", cmd_views,
+     "views DATASET -o DIR [--split train] [--downscale F]\n"
+     "                                  a split's views as trained on, as PNGs, and a path\n"
+     "                                  through them for a video coder"},
     {"synth", cmd_synth,
      "synth -o FILE.cnrf [--preset tiny|small|paper] [--seed S] [--spread X]\n"
      "                                  a random model of a preset's topology (tests, demos)"},

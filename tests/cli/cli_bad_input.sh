@@ -58,6 +58,21 @@ png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2,
        chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
 open(sys.argv[1], "wb").write(png)
 PY
+# Training views for --train-images: as written, one missing, one too many, one with alpha.
+"$cnerf" views "$data/lego" -o "$work/v" --downscale 16 > /dev/null || fail "fixture: views"
+for d in missing extra alpha; do cp -r "$work/v" "$work/v_$d"; done
+rm "$work/v_missing/0003.png"
+cp "$work/v/0000.png" "$work/v_extra/0100.png"
+python3 - "$work/v_alpha/0002.png" <<'PY'
+import struct, sys, zlib
+def chunk(t, d):
+    return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))
+w = h = 25
+raw = b"".join(b"\0" + bytes(4 * w) for _ in range(h))
+png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 6, 0, 0, 0)) +
+       chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+open(sys.argv[1], "wb").write(png)
+PY
 ln -s "$work/s.cnrf" "$work/link.cnrf"
 ln -s "$work/loop" "$work/loop"
 mkfifo "$work/fifo"
@@ -128,6 +143,13 @@ rows=(
   "2|--lr-decay: expected a number in [1, 1e+12]|train $D -o $work/x.ckpt --lr-decay 0"
   "2|--iters 0 trains nothing|train $D -o $work/x.ckpt --iters 0"
   "2|--iters 0 trains nothing|encode $D -o $work/x.cnrf --lambda 1 --iters 0"
+  "1|v_missing/0003.png|train $D -o $work/x.ckpt --train-images $work/v_missing ${T[*]}"
+  "1|v/0000.png is 25x25 and training view 0 (r_0) 50x50: give the same --downscale as to \`cnerf views\`|train $D -o $work/x.ckpt --train-images $work/v --preset tiny --downscale 8 --iters 100000"
+  "1|v_extra has more views than the dataset's 100 training views|train $D -o $work/x.ckpt --train-images $work/v_extra ${T[*]}"
+  "1|v_alpha/0002.png has an alpha channel|train $D -o $work/x.ckpt --train-images $work/v_alpha ${T[*]}"
+  "2|need a dataset directory and -o DIR|views $D"
+  "1|lies inside the dataset|views $D -o $D/v --downscale 16"
+  "1|unknown split 'x' (test, val, train)|views $D -o $work/vv --split x --downscale 16"
   "2|unknown command 'nope'|help nope"
   "2|unknown command 'nope'|nope"
 )
