@@ -110,7 +110,7 @@ double cn_trainer_pixels(const cn_trainer *t);
 void cn_trainer_rate_control(cn_trainer *t, double target_bytes, double reserved_bytes,
                              cn_rc_scheme scheme, int grid_g, int prune);
 /* --quality Q (0..100) as the slope k of cn_train_opts.quality_slope, in dB per bit per
- * latent: 10 at Q = 50, halving with each 10 more (Q 100: 0.31, Q 0: 320). */
+ * latent: 1 at Q = 50, halving with each 10 more (Q 100: 1/32, Q 0: 32). */
 double cn_quality_slope(double q);
 /* Its inverse, for messages. */
 double cn_quality_from_slope(double k);

@@ -304,12 +304,12 @@ void cn_trainer_rate_control(cn_trainer *t, double target_bytes, double reserved
 
 double cn_quality_slope(double q)
 {
-    return 10.0 * pow(2.0, (50.0 - q) / 10.0);
+    return pow(2.0, (50.0 - q) / 10.0);
 }
 
 double cn_quality_from_slope(double k)
 {
-    return 50.0 - 10.0 * log2(k / 10.0);
+    return 50.0 - 10.0 * log2(k);
 }
 
 /* The objective 10 log10(D) + k R / latents has the gradient of D + lambda R with
