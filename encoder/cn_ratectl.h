@@ -17,7 +17,7 @@
 
 /* Fractions of the run: where the planned size reaches the target, where the grid is
  * measured. */
-#define CN_RC_ARRIVE 0.8
+#define CN_RC_ARRIVE 0.7
 #define CN_RC_GRID_AT 0.5
 #define CN_RC_GRID_AGAIN 0.75
 

@@ -43,8 +43,10 @@ static void test_plan(void **state)
 }
 
 /* A check that both controllers converge and do not oscillate, not a model of training
- * (on real runs the size also drifts down at a fixed lambda, and the latents follow lambda
- * more slowly as the learning rate decays; docs/results.md has those runs).
+ * (on real runs the size also drifts down at a fixed lambda; docs/results.md has those
+ * runs). Targets 6,000 to 15,360 bytes, lags 0.05 to 0.2, constant or falling tenfold over
+ * the run: with the tail term and the plan arriving at 70% every file lands within 1.5%;
+ * arriving at 80% without it, 12 of the 36 ended more than 3% over (up to 10.2%).
  * A stand-in for training: the size the latents settle at falls steeply with lambda (from
  * 29 kB at lambda 0 towards the topology's 3 kB; tiny on Lego at 100x100 goes from 28.7 kB
  * to 15.6 kB at lambda = 0.1 units), and the stream's size approaches it by a fraction `lag`
@@ -55,7 +57,11 @@ static double settle(double lambda, double unit)
     return 3000 + 26000 / (1 + 100 * lambda / unit);
 }
 
-static double run_plant(cn_rc_scheme scheme, double target, double lag, double *overshoot)
+/* decay: the lag falls to this fraction at the end of the run, as the latents' learning
+ * rate does (tenfold in cnerf's default schedule), so that late in the run a larger lambda
+ * takes longer to bring the size down. */
+static double run_plant(cn_rc_scheme scheme, double target, double lag, double decay,
+                        double *overshoot)
 {
     const long iters = 3000;
     cn_ratectl rc = make(scheme, target, iters);
@@ -68,7 +74,7 @@ static double run_plant(cn_rc_scheme scheme, double target, double lag, double *
             const double below = 1 - size / rc.plan;
             *overshoot = below > *overshoot ? below : *overshoot;
         }
-        size += lag * (settle(lambda, rc.lambda_unit) - size);
+        size += lag * pow(decay, (double)step / iters) * (settle(lambda, rc.lambda_unit) - size);
     }
     return size / (target - rc.reserved) - 1;
 }
@@ -77,17 +83,20 @@ static void test_controllers_settle(void **state)
 {
     (void)state;
     const char *names[2] = {"log PI", "dual"};
+    int bad = 0;
     for (int s = 0; s < 2; s++)
-        for (double target = 8000; target <= 16000; target *= 2)
-            for (double lag = 0.1; lag <= 0.2; lag *= 2) {
-                double over;
-                const double miss = run_plant((cn_rc_scheme)s, target, lag, &over);
-                print_message("# %s, target %.0f, lag %.2f: final %+.2f%%, largest "
-                              "undershoot after arrival %.2f%%\n",
-                              names[s], target, lag, 100 * miss, 100 * over);
-                assert_true(fabs(miss) < 0.03);
-                assert_true(over < 0.1);
-            }
+        for (double target = 6000; target <= 16000; target *= 1.6)
+            for (double lag = 0.05; lag <= 0.2; lag *= 2)
+                for (double decay = 1; decay >= 0.1; decay /= 10) {
+                    double over;
+                    const double miss = run_plant((cn_rc_scheme)s, target, lag, decay, &over);
+                    print_message("# %s, target %.0f, lag %.2f to %.3f: final %+.2f%%, "
+                                  "largest undershoot after arrival %.2f%%\n", names[s],
+                                  target, lag, lag * decay, 100 * miss, 100 * over);
+                    bad += fabs(miss) >= 0.03;
+                    bad += over >= 0.1;
+                }
+    assert_int_equal(bad, 0);
 }
 
 /* A target above what the model needs: lambda sits on its floor, never below. */
