@@ -568,6 +568,11 @@ int cn_checkpoint_resume(cn_trainer *t, const char *path, char *err, size_t errl
             snprintf(err, errlen, "%s was encoded with a fixed --lambda %g: resume with that "
                      "lambda, or start a new run", path, c.lambda);
         rc = -1;
+    } else if (c.has_rc && c.rc_scheme != (uint32_t)t->rc.scheme) {
+        snprintf(err, errlen, "%s was encoded with --rate-control %s: resume with that "
+                 "controller, or start a new run", path,
+                 c.rc_scheme == CN_RC_DUAL ? "dual" : "pi");
+        rc = -1;
     } else if (c.has_rc && c.rc[0] != t->rc.target) {
         snprintf(err, errlen, "%s was encoded with --size %.0f: resume with that size (this "
                  "run asks for %.0f), or start a new run", path, c.rc[0], t->rc.target);

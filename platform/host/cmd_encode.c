@@ -20,7 +20,7 @@
 #define ENCODE_USAGE                                                                          \
     "usage: cnerf encode DATASET -o scene.cnrf\n"                                            \
     "       (--lambda L | --quality Q | --size BYTES | --bits-per-param X)\n"               \
-    "       [--preset tiny|small|paper] [--rate-control pi|dual] [--lr X] [--lr-decay N]\n"     \
+    "       [--preset tiny|small|paper] [--rate-control dual|pi] [--lr X] [--lr-decay N]\n"     \
     "       [--iters N] [--downscale F] [--threads T] [--seed S] [--resume CKPT]\n"          \
     "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N | --ckpt-secs S]\n" \
     "       [--log-every N] [--depth D] [--width W] [--coarse N] [--fine N]\n"                \
@@ -76,7 +76,7 @@ int cmd_encode(int argc, char **argv)
     double ckpt_secs = CLI_CKPT_SECS;
     long eval_every = 0, grid_g = -1;
     double lambda = -1, levels = o.levels, size = 0, bpp = 0, quality = -1;
-    const char *scheme = "pi";
+    const char *scheme = "dual";
     uint64_t seed = o.seed;
     int black = 0, n_pos, grid_verbose = 0;
     const cli_opt opts[] = {
@@ -126,8 +126,8 @@ int cmd_encode(int argc, char **argv)
         return cli_usage("encode", "--lambda, --quality, --size and --bits-per-param each set "
                          "the rate: give one of them");
     if (strcmp(scheme, "pi") && strcmp(scheme, "dual"))
-        return cli_usage("encode", "--rate-control takes pi (log-lambda PI control, the "
-                         "default) or dual (dual ascent), not '%s'", scheme);
+        return cli_usage("encode", "--rate-control takes dual (dual ascent, the default) or pi "
+                         "(log-lambda PI control), not '%s'", scheme);
     const int controlled = size > 0 || bpp > 0;
     if (controlled || quality >= 0)
         lambda = 0;

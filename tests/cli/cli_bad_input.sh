@@ -136,7 +136,7 @@ rows=(
   "2|--quality: expected a number in [0, 100]|encode $D -o $work/x.cnrf --quality nan"
   "2|--size: expected a number in [1, 1e+09]|encode $D -o $work/x.cnrf --size 0"
   "2|--bits-per-param: expected a number in [0.001, 32]|encode $D -o $work/x.cnrf --bits-per-param nan"
-  "2|--rate-control takes pi (log-lambda PI control, the default) or dual (dual ascent), not 'p'|encode $D -o $work/x.cnrf --size 9000 --rate-control p"
+  "2|--rate-control takes dual (dual ascent, the default) or pi (log-lambda PI control), not 'p'|encode $D -o $work/x.cnrf --size 9000 --rate-control p"
   "1|a 3000-byte file is too small for preset tiny on this scene: its headers, affine decoders and biases alone take|encode $D -o $work/x.cnrf --size 3000 ${T[*]}"
   "1|ask for at least|encode $D -o $work/x.cnrf --bits-per-param 0.05 ${T[*]}"
   "2|--lr: expected a number in [1e-08, 1]|encode $D -o $work/x.cnrf --lambda 1 --lr 0"

@@ -264,7 +264,7 @@ static void run_split(int mode) /* 0 plain, 1 compressed, 2 with --size, 3 with 
     assert_int_equal(cn_checkpoint_save(&first, path, err, sizeof err), 0);
     cn_trainer_free(&first);
     assert_int_equal(cn_trainer_init(&second, &ds, &o, err, sizeof err), 0);
-    if (mode == 2) { /* refused: a fixed lambda, another size */
+    if (mode == 2) { /* refused: a fixed lambda, another size, another controller */
         assert_int_equal(cn_checkpoint_resume(&second, path, err, sizeof err), -1);
         print_message("# a fixed lambda: %s\n", err);
         assert_non_null(strstr(err, "was encoded with --size 20000"));
@@ -272,6 +272,10 @@ static void run_split(int mode) /* 0 plain, 1 compressed, 2 with --size, 3 with 
         assert_int_equal(cn_checkpoint_resume(&second, path, err, sizeof err), -1);
         print_message("# another size: %s\n", err);
         assert_non_null(strstr(err, "resume with that size"));
+        cn_trainer_rate_control(&second, 20000, 100, CN_RC_DUAL, 16, 1);
+        assert_int_equal(cn_checkpoint_resume(&second, path, err, sizeof err), -1);
+        print_message("# another controller: %s\n", err);
+        assert_non_null(strstr(err, "was encoded with --rate-control pi: resume with that"));
     } else if (mode == 1) { /* refused: rate control on a fixed-lambda checkpoint */
         cn_trainer_rate_control(&second, 20000, 100, CN_RC_LOG_PI, 16, 1);
         assert_int_equal(cn_checkpoint_resume(&second, path, err, sizeof err), -1);
