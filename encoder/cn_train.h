@@ -105,6 +105,9 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits);
 double cn_sq_error(float *grad, const float *x, const float *y, size_t n, float gscale);
 /* Pixels in the training views (the distortion's scale). */
 double cn_trainer_pixels(const cn_trainer *t);
+/* lambda's scene-independent unit, 3 x training pixels / latents: the summed squared error
+ * is 3 pixels times the MSE, the rate latents times the bits per latent. */
+double cn_trainer_lambda_unit(const cn_trainer *t);
 /* Turns on rate control towards target_bytes (the whole file) from the current step to the
  * end of the run; reserved_bytes are the bytes the in-memory stream lacks (metadata). */
 void cn_trainer_rate_control(cn_trainer *t, double target_bytes, double reserved_bytes,

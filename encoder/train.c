@@ -294,12 +294,15 @@ void cn_trainer_rate_control(cn_trainer *t, double target_bytes, double reserved
     rc->every = 10;
     rc->start = t->step;
     rc->iters = t->opts.iters;
-    /* lambda in units of 3 pixels per latent: the summed squared error is 3 pixels times the
-     * MSE, and the rate is latents times the bits per latent. */
-    rc->lambda_unit = 3 * cn_trainer_pixels(t) / (double)t->model.topo.n_params;
+    rc->lambda_unit = cn_trainer_lambda_unit(t);
     t->rate_control = 1;
     t->rc_grid_g = grid_g;
     t->rc_prune = prune;
+}
+
+double cn_trainer_lambda_unit(const cn_trainer *t)
+{
+    return 3 * cn_trainer_pixels(t) / (double)t->model.topo.n_params;
 }
 
 double cn_quality_slope(double q)

@@ -62,7 +62,8 @@ for q in $qps; do
   d=$out/qp$q
   if [ ! -s "$d/${order[0]}" ]; then
     rm -rf "$d" "$d.seq"; mkdir -p "$d" "$d.seq"
-    read -r w h < <(file -L "$views/0000.png" | sed -E 's/.* ([0-9]+) x ([0-9]+).*/\1 \2/')
+    IFS=x read -r w h < <(ffprobe -v error -show_entries stream=width,height -of csv=p=0:s=x \
+                      "$views/0000.png")
     ffmpeg -hide_banner -loglevel error -y -i "$s" -vf "format=rgb24,crop=$w:$h:0:0" -pix_fmt rgb24 \
       "$d.seq/%04d.png"
     for k in "${!order[@]}"; do mv "$(printf '%s.seq/%04d.png' "$d" $((k + 1)))" "$d/${order[$k]}"; done

@@ -328,7 +328,7 @@ int cmd_encode(int argc, char **argv)
         if (quality >= 0)
             printf("quality: %g (%.3g dB per bit per latent), final lambda %.4g = %.4g x 3 "
                    "pixels / latents\n", quality, o.quality_slope, t.opts.lambda,
-                   t.opts.lambda * (double)t.model.topo.n_params / (3 * cn_trainer_pixels(&t)));
+                   t.opts.lambda / cn_trainer_lambda_unit(&t));
         if (t.rate_control) {
             const double dev = (double)st.len / t.rc.target - 1;
             printf("size: %zu bytes against the target %.0f (%+.2f%%), final lambda %.4g\n",
