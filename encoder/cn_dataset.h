@@ -18,7 +18,7 @@
  *   the origin and s = aabb_scale (default 1), near = max(0.05, min |c_i| - sqrt(3) s),
  *   far = max |c_i| + sqrt(3) s, over all usable frames.
  * LLFF: images from images_<8*downscale>/ if it exists, else images_8/ area-downscaled by
- *   `downscale` (sorted file names, PNG only, one per pose). NeRF's conventions: rotation
+ *   `downscale` (sorted file names, PNG or JPEG, one per pose). NeRF's conventions: rotation
  *   columns [down, right, back] become [right, up, back], translations and bounds scaled
  *   by 1 / (0.75 min bound), poses recentred on their average pose, ndc = 1,
  *   near = 0.9 min bound, far = max bound (after scaling), i.e. the scene's depth range;
@@ -26,6 +26,10 @@
  *   0, 8, 16, ... test, the rest train (no val).
  * Recentring and the near/far rules use every frame in the files, not just the views
  * that max_views keeps.
+ * Images: PNG or JPEG in any layout, read by cn_image_load (cn_image.h): downscaled as they
+ * decode, and turned upright by their EXIF orientation unless the camera file states an
+ * image size (instant-ngp's w, h) whose aspect says that its cameras were made on the
+ * stored pixels, as COLMAP makes them.
  */
 #ifndef CNERF_ENC_DATASET_H
 #define CNERF_ENC_DATASET_H
@@ -54,6 +58,7 @@ typedef struct cn_dataset {
     float bg[3];     /* background colour used for compositing */
     cn_view *train, *val, *test;
     int n_train, n_val, n_test;
+    int downscale;   /* the factor applied: the option's, or the one max_size chose */
 } cn_dataset;
 
 typedef struct cn_dataset_opts {
@@ -64,6 +69,8 @@ typedef struct cn_dataset_opts {
     int black_bg;     /* composite RGBA over black instead of white */
     double near, far; /* overrides when > 0 (else derived, see above) */
     int max_views;    /* 0 = all; else load at most this many views per split */
+    int max_size;     /* 0 = none; else the smallest downscale that brings the first image's
+                         longer side to at most this many pixels (downscale must be 0 or 1) */
 } cn_dataset_opts;
 
 /* Loads the dataset in `dir` (o may be NULL for the defaults). Returns 0, or -1 with a

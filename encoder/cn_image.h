@@ -1,5 +1,6 @@
 /*
- * Float images and PNG input/output for the encoder. Host C11, libpng.
+ * Float images, PNG and JPEG input, PNG output for the encoder. Host C11, libpng,
+ * libjpeg-turbo, libexif.
  */
 #ifndef CNERF_ENC_IMAGE_H
 #define CNERF_ENC_IMAGE_H
@@ -18,10 +19,45 @@ typedef struct cn_image {
  * before anything is allocated. */
 #define CN_IMAGE_MAX_PIXELS ((uint64_t)1 << 28)
 
-/* Reads a PNG of any bit depth (1 to 16) and colour type: grey and grey+alpha become RGB
- * and RGBA, palette images RGB (RGBA with a tRNS chunk), 16-bit samples keep their full
- * precision. Returns 0, or -1 with a message naming the file and the problem (missing,
- * not a PNG, truncated, corrupt) in err; *img is then empty. */
+/* What loading did to an image file. */
+typedef struct cn_image_info {
+    int file_w, file_h; /* the file's size, upright (after its EXIF orientation) */
+    int crop_x, crop_y; /* upright file pixels cropped on the left and top before downscaling */
+    int orientation;    /* the EXIF orientation applied: 1 (none) to 8 */
+    int exif;           /* the file's EXIF orientation, 1 when it has none */
+} cn_image_info;
+
+/* Reads a PNG or a JPEG (told apart by their signatures), upright and downscaled by an
+ * integer factor f >= 1, into RGB or RGBA floats:
+ * - PNG: any bit depth (1 to 16) and colour type: grey and grey+alpha become RGB and RGBA,
+ *   palette images RGB (RGBA with a tRNS chunk), 16-bit samples keep their full precision.
+ * - JPEG (libjpeg-turbo): baseline or progressive, grey or colour; CMYK is refused. An EXIF
+ *   orientation tag (APP1, libexif) is applied, so that the image comes out as a viewer
+ *   shows it, unless the caller's cameras were computed on the stored pixels: COLMAP, and
+ *   the tools built on it, read images as stored and ignore the tag. ref_aspect is the
+ *   width / height that the cameras refer to (NAN when the camera file does not say): a
+ *   quarter turn (orientations 5 to 8) is then applied only when it makes the image's
+ *   aspect match the cameras', and a mirror or half turn (2 to 4) never.
+ * Downscaling is cn_image_downscale_crop's, on the upright image: the result is the same,
+ * bit for bit when the file needs no rotation. The file is decoded once, row by row into the
+ * area sums of one output row, so that besides the compressed file only the output is held:
+ * a 12-megapixel photo at factor 8 takes about 0.7 MB, not 144 MB of floats (an interlaced
+ * PNG is the exception: libpng needs all its rows). Returns 0 and fills *info (may be NULL),
+ * or -1 with a message naming the file and the problem (missing, neither PNG nor JPEG,
+ * truncated, corrupt, CMYK, smaller than the factor) in err; *img is then empty. */
+int cn_image_load(const char *path, int f, double ref_aspect, cn_image *img,
+                  cn_image_info *info, char *err, size_t errlen);
+int cn_image_load_mem(const char *path, const uint8_t *data, size_t len, int f,
+                      double ref_aspect, cn_image *img, cn_image_info *info, char *err,
+                      size_t errlen);
+/* The size of a PNG or JPEG as cn_image_load would return it at factor 1, from its header,
+ * without decoding the pixels. */
+int cn_image_size(const char *path, double ref_aspect, int *w, int *h, char *err,
+                  size_t errlen);
+int cn_image_size_mem(const char *path, const uint8_t *data, size_t len, double ref_aspect,
+                      int *w, int *h, char *err, size_t errlen);
+
+/* cn_image_load of a PNG at factor 1; any other file is "not a PNG file". */
 int cn_png_read(const char *path, cn_image *img, char *err, size_t errlen);
 /* The same on a file's bytes in memory; `path` names it in messages. */
 int cn_png_read_mem(const char *path, const uint8_t *data, size_t len, cn_image *img, char *err,

@@ -247,31 +247,32 @@ static int cn_composite(const cn_image *im, const float bg[3], cn_view *v)
     return 0;
 }
 
-/* Reads one frame's image, downscales it by `factor` and composites it. */
+/* The width / height that a frame's intrinsics refer to, when its camera file says. */
+static double cn_ref_aspect(const cn_intr *in)
+{
+    return isnan(in->ref_w) || isnan(in->ref_h) ? NAN : in->ref_w / in->ref_h;
+}
+
+/* Reads one frame's image, upright and downscaled by `factor`, and composites it. */
 static int cn_frame_load(cn_frame *fr, int factor, const float bg[3], char *err, size_t errlen)
 {
-    cn_image full, small = {0};
-    if (cn_png_read(fr->path, &full, err, errlen) != 0)
-        return -1;
-    fr->file_w = full.w;
-    fr->file_h = full.h;
-    fr->crop_x = fr->crop_y = 0;
+    cn_image im;
+    cn_image_info info;
     fr->factor = factor > 1 ? factor : 1;
-    const cn_image *im = &full;
-    if (factor > 1) {
-        char why[256];
-        if (cn_image_downscale_crop(&full, factor, &small, &fr->crop_x, &fr->crop_y, why,
-                                    sizeof why) != 0) {
-            cn_image_free(&full);
-            return cn_fail(err, errlen, "%s: %s (downscale %d)", fr->path, why, factor);
-        }
-        im = &small;
+    if (cn_image_load(fr->path, fr->factor, cn_ref_aspect(&fr->in), &im, &info, err,
+                      errlen) != 0) {
+        if (fr->factor > 1 && strstr(err, "smaller than the factor"))
+            snprintf(err + strlen(err), errlen - strlen(err), " (downscale %d)", fr->factor);
+        return -1;
     }
-    fr->v.w = im->w;
-    fr->v.h = im->h;
-    const int oom = cn_composite(im, bg, &fr->v);
-    cn_image_free(&full);
-    cn_image_free(&small);
+    fr->file_w = info.file_w;
+    fr->file_h = info.file_h;
+    fr->crop_x = info.crop_x;
+    fr->crop_y = info.crop_y;
+    fr->v.w = im.w;
+    fr->v.h = im.h;
+    const int oom = cn_composite(&im, bg, &fr->v);
+    cn_image_free(&im);
     if (oom)
         return cn_fail(err, errlen, "%s: out of memory", fr->path);
     return 0;
@@ -1033,23 +1034,22 @@ static void cn_free_names(char **names, int n)
     free(names);
 }
 
-/* The PNG files of a directory, sorted by name. */
-static int cn_list_pngs(const char *dir, char ***names, int *n, char *err, size_t errlen)
+/* The PNG and JPEG files of a directory, sorted by name. */
+static int cn_list_images(const char *dir, char ***names, int *n, char *err, size_t errlen)
 {
     *names = NULL;
     *n = 0;
     DIR *d = opendir(dir);
     if (!d)
         return cn_fail(err, errlen, "%s: cannot open the directory", dir);
-    int cap = 0, others = 0, rc = 0;
+    int cap = 0, rc = 0;
     struct dirent *e;
     while (rc == 0 && (e = readdir(d)) != NULL) {
         if (e->d_name[0] == '.')
             continue;
-        if (!cn_has_ext(e->d_name, ".png")) {
-            others += cn_has_ext(e->d_name, ".jpg") || cn_has_ext(e->d_name, ".jpeg");
+        if (!cn_has_ext(e->d_name, ".png") && !cn_has_ext(e->d_name, ".jpg") &&
+            !cn_has_ext(e->d_name, ".jpeg"))
             continue;
-        }
         if (*n == cap) {
             cap = cap ? 2 * cap : 64;
             char **p = realloc(*names, sizeof *p * (size_t)cap);
@@ -1065,9 +1065,7 @@ static int cn_list_pngs(const char *dir, char ***names, int *n, char *err, size_
             (*n)++;
     }
     closedir(d);
-    if (rc == 0 && *n == 0 && others)
-        rc = cn_fail(err, errlen, "%s: holds JPEG images; only PNG images are supported", dir);
-    else if (rc != 0)
+    if (rc != 0)
         cn_fail(err, errlen, "%s: out of memory", dir);
     if (rc != 0) {
         cn_free_names(*names, *n);
@@ -1109,11 +1107,12 @@ static int cn_llff_frames(const char *dir, const char *file, const cn_llff_cam *
     char **names;
     int nimg;
     if (cn_llff_image_dir(dir, L->factor, imgdir, &L->factor, err, errlen) != 0 ||
-        cn_list_pngs(imgdir, &names, &nimg, err, errlen) != 0)
+        cn_list_images(imgdir, &names, &nimg, err, errlen) != 0)
         return -1;
     int rc = 0;
     if (nimg != n)
-        rc = cn_fail(err, errlen, "%s: %d PNG images for %d poses in %s", imgdir, nimg, n, file);
+        rc = cn_fail(err, errlen, "%s: %d images (PNG, JPEG) for %d poses in %s", imgdir, nimg, n,
+                     file);
     for (int i = 0; rc == 0 && i < n; i++) {
         int split = i % CN_LLFF_HOLD == 0 ? CN_TEST : CN_TRAIN;
         rc = cn_join(path, imgdir, names[i], "", err, errlen);
@@ -1200,6 +1199,19 @@ static int cn_apply_bounds(cn_dataset *ds, const cn_dataset_opts *o, const char 
     return 0;
 }
 
+/* The layout's cameras and image paths into L (no pixels yet), on an emptied *ds. */
+static int cn_load_layout(const char *dir, int kind, const cn_dataset_opts *o, cn_dataset *ds,
+                          cn_frames *L, char *err, size_t errlen)
+{
+    memset(ds, 0, sizeof *ds);
+    ds->kind = kind;
+    for (int k = 0; k < 3; k++)
+        ds->bg[k] = o->black_bg ? 0.0f : 1.0f;
+    return kind == CN_DS_BLENDER ? cn_load_blender(dir, ds, L, err, errlen)
+           : kind == CN_DS_NGP   ? cn_load_ngp(dir, ds, L, err, errlen)
+                                 : cn_load_llff(dir, ds, L, err, errlen);
+}
+
 int cn_dataset_load(const char *dir, const cn_dataset_opts *o, cn_dataset *ds, char *err,
                     size_t errlen)
 {
@@ -1212,16 +1224,28 @@ int cn_dataset_load(const char *dir, const cn_dataset_opts *o, cn_dataset *ds, c
         return cn_fail(err, errlen, "downscale %d: must be an integer >= 1", o->downscale);
     if (o->max_views < 0)
         return cn_fail(err, errlen, "max_views %d: must be >= 0", o->max_views);
+    if (o->max_size < 0 || (o->max_size > 0 && f > 1))
+        return cn_fail(err, errlen, "max size %d: must be >= 1, and not given with a downscale",
+                       o->max_size);
     int kind = cn_detect(dir, err, errlen);
     if (kind < 0)
         return -1;
-    ds->kind = kind;
-    for (int k = 0; k < 3; k++)
-        ds->bg[k] = o->black_bg ? 0.0f : 1.0f;
     cn_frames L = {.max_views = o->max_views, .factor = f};
-    int rc = kind == CN_DS_BLENDER ? cn_load_blender(dir, ds, &L, err, errlen)
-             : kind == CN_DS_NGP   ? cn_load_ngp(dir, ds, &L, err, errlen)
-                                   : cn_load_llff(dir, ds, &L, err, errlen);
+    int rc = cn_load_layout(dir, kind, o, ds, &L, err, errlen);
+    if (rc == 0 && o->max_size > 0 && L.n > 0) {
+        /* The factor from the first image's upright size; then the frames again at it (an
+         * LLFF scene may hold images already reduced by it). */
+        int w, h;
+        rc = cn_image_size(L.f[0].path, cn_ref_aspect(&L.f[0].in), &w, &h, err, errlen);
+        const int big = w > h ? w : h;
+        f = (big + o->max_size - 1) / o->max_size;
+        if (rc == 0 && f > 1) {
+            cn_frames_free(&L);
+            L = (cn_frames){.max_views = o->max_views, .factor = f};
+            rc = cn_load_layout(dir, kind, o, ds, &L, err, errlen);
+        }
+    }
+    ds->downscale = f;
     if (rc == 0 && L.count[CN_TRAIN] == 0)
         rc = cn_fail(err, errlen, "%s: no training views (no usable training frames)", dir);
     if (rc == 0)

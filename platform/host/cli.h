@@ -66,7 +66,8 @@ int cli_eval_views(const struct cn_model *m, const struct cn_view *views, int n,
                    double *mean_ssim, double *secs);
 
 /* Loads a dataset with the shared options; prints the error and returns 1 on failure. */
-int cli_load_dataset(const char *cmd, const char *dir, long downscale, int black, double near,
+int cli_load_dataset(const char *cmd, const char *dir, long downscale, long max_size, int black,
+                     double near,
                      double far, struct cn_dataset *ds);
 /* --random-bg auto|on|off into cn_train_opts.random_bg (-1, 1, 0); prints the error and
  * returns 1 for another word. */

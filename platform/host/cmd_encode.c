@@ -21,7 +21,7 @@
     "usage: cnerf encode DATASET -o scene.cnrf\n"                                            \
     "       (--lambda L | --quality Q | --size BYTES | --bits-per-param X)\n"               \
     "       [--preset tiny|small|paper] [--rate-control dual|pi] [--lr X] [--lr-decay N]\n"     \
-    "       [--iters N] [--downscale F] [--threads T] [--seed S] [--resume CKPT]\n"          \
+    "       [--iters N] [--downscale F|--max-size N] [--threads T] [--seed S] [--resume CKPT]\n"          \
     "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N | --ckpt-secs S]\n" \
     "       [--log-every N] [--depth D] [--width W] [--coarse N] [--fine N]\n"                \
     "       [--latent-lr latent|weight]\n"                                                   \
@@ -71,7 +71,7 @@ int cmd_encode(int argc, char **argv)
     o.compress = 1;
     const char *out = NULL, *resume = NULL, *pos[1], *latent_lr = "weight";
     const char *random_bg = "auto", *prune = "on";
-    long iters = o.iters, downscale = 1, threads = 0, batch = o.batch, every = 1;
+    long iters = o.iters, downscale = 1, max_size = 0, threads = 0, batch = o.batch, every = 1;
     long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 0, log_every = 100;
     double ckpt_secs = CLI_CKPT_SECS;
     long eval_every = 0, grid_g = -1;
@@ -89,6 +89,7 @@ int cmd_encode(int argc, char **argv)
         {"--preset", CLI_STR, &o.preset, 0, 0},
         {"--iters", CLI_LONG, &iters, 0, 1e9},
         {"--downscale", CLI_LONG, &downscale, 1, 64},
+        {"--max-size", CLI_LONG, &max_size, 1, 1 << 20},
         {"--threads", CLI_LONG, &threads, 1, 256},
         {"--seed", CLI_U64, &seed, 0, 0},
         {"--resume", CLI_STR, &resume, 0, 0},
@@ -171,7 +172,7 @@ int cmd_encode(int argc, char **argv)
     if (lk < 0)
         return 1;
     cn_dataset ds;
-    if (cli_load_dataset("encode", pos[0], downscale, black, 0, 0, &ds)) {
+    if (cli_load_dataset("encode", pos[0], downscale, max_size, black, 0, 0, &ds)) {
         cli_unlock_output(lk, lock);
         return 1;
     }
@@ -213,7 +214,7 @@ int cmd_encode(int argc, char **argv)
                                   "encoder=cnerf %s; command=encode; dataset=%s; preset=%s; "
                                   "iters=%ld; size=%.0f; lambda=%g; downscale=%ld; seed=%llu; "
                                   "levels=%g; latent-lr=%s", CNERF_VERSION_STRING, pos[0],
-                                  o.preset, iters, target, 1.0, downscale,
+                                  o.preset, iters, target, 1.0, (long)ds.downscale,
                                   (unsigned long long)seed, levels, latent_lr);
         cn_trainer_rate_control(&t, target, mlen + 16, strcmp(scheme, "dual") ? CN_RC_LOG_PI
                                                                                 : CN_RC_DUAL,
@@ -255,7 +256,8 @@ int cmd_encode(int argc, char **argv)
     snprintf(meta, sizeof meta,
              "encoder=cnerf %s; command=encode; dataset=%s; preset=%s; iters=%ld; %slambda=%g; "
              "downscale=%ld; seed=%llu; levels=%g; latent-lr=%s",
-             CNERF_VERSION_STRING, pos[0], o.preset, t.step, sizebuf, t.opts.lambda, downscale,
+             CNERF_VERSION_STRING, pos[0], o.preset, t.step, sizebuf, t.opts.lambda,
+             (long)ds.downscale,
              (unsigned long long)seed, levels, latent_lr);
     if (rc == 0 && (cn_model_snap(&t.model, err, sizeof err) ||
                     cn_export_compressed(&t.model, meta, &e, err, sizeof err)))

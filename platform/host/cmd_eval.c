@@ -14,7 +14,7 @@
 #include "progress.h"
 
 #define EVAL_USAGE                                                                          \
-    "usage: cnerf eval model.ckpt|scene.cnrf DATASET [--split test|val|train] [--downscale F]\n"      \
+    "usage: cnerf eval model.ckpt|scene.cnrf DATASET [--split test|val|train] [--downscale F|--max-size N]\n"      \
     "       [--every N] [-o DIR] [--threads T] [--black] [--chunk R]"
 
 /* Writes rgb floats in [0, 1] as an 8-bit PNG. */
@@ -118,12 +118,13 @@ static int is_stream(const char *path)
 int cmd_eval(int argc, char **argv)
 {
     const char *outdir = NULL, *split = "test", *pos[2];
-    long downscale = 1, every = 1, threads = 0, chunk = 4096;
+    long downscale = 1, max_size = 0, every = 1, threads = 0, chunk = 4096;
     int black = 0, n_pos;
     const cli_opt opts[] = {
         {"-o", CLI_STR, &outdir, 0, 0},
         {"--split", CLI_STR, &split, 0, 0},
         {"--downscale", CLI_LONG, &downscale, 1, 64},
+        {"--max-size", CLI_LONG, &max_size, 1, 1 << 20},
         {"--every", CLI_LONG, &every, 1, 1e6},
         {"--threads", CLI_LONG, &threads, 1, 256},
         {"--black", CLI_FLAG, &black, 0, 0},
@@ -148,7 +149,7 @@ int cmd_eval(int argc, char **argv)
     } else if (cn_checkpoint_load_model(pos[0], &m, &step, err, sizeof err))
         return cli_fail("eval", "%s", err);
     cn_dataset ds;
-    if (cli_load_dataset("eval", pos[1], downscale, black, 0, 0, &ds)) {
+    if (cli_load_dataset("eval", pos[1], downscale, max_size, black, 0, 0, &ds)) {
         cn_model_free(&m);
         return 1;
     }

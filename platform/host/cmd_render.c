@@ -20,7 +20,7 @@
 #include "progress.h"
 
 #define RENDER_USAGE                                                                          \
-    "usage: cnerf render scene.cnrf [--dataset DIR [--split test|val|train] [--downscale F]\n" \
+    "usage: cnerf render scene.cnrf [--dataset DIR [--split test|val|train] [--downscale F|--max-size N]\n" \
     "       [--every N]] [--orbit N [--size PX] [--radius R] [--elevation DEG] [--fov DEG]]\n" \
     "       [-o DIR] [--float] [--verify MD5] [--coarse N] [--fine N] [--t-stop X]\n"        \
     "       [--tile PX] [--threads T] [--save-cameras FILE] [--no-skip]"
@@ -158,7 +158,7 @@ int cmd_render(int argc, char **argv)
 {
     const char *dataset = NULL, *split = "test", *outdir = NULL, *verify = NULL, *pos[1];
     const char *cam_path = NULL;
-    long downscale = 1, every = 1, threads = 0, orbit = 0, size = 100, coarse = -1, fine = -1;
+    long downscale = 1, max_size = 0, every = 1, threads = 0, orbit = 0, size = 100, coarse = -1, fine = -1;
     long tile = 32;
     double radius = 4.0, elev = 30.0, fov = 40.0, t_stop = -1;
     int use_float = 0, no_skip = 0, n_pos;
@@ -166,6 +166,7 @@ int cmd_render(int argc, char **argv)
         {"--dataset", CLI_STR, &dataset, 0, 0},
         {"--split", CLI_STR, &split, 0, 0},
         {"--downscale", CLI_LONG, &downscale, 1, 64},
+        {"--max-size", CLI_LONG, &max_size, 1, 1 << 20},
         {"--every", CLI_LONG, &every, 1, 1e6},
         {"--orbit", CLI_LONG, &orbit, 1, 10000},
         {"--size", CLI_LONG, &size, 1, 65535},
@@ -231,7 +232,7 @@ int cmd_render(int argc, char **argv)
     int n = orbit ? (int)orbit : 0;
     const int black = I->background[0] == 0 && I->background[1] == 0 && I->background[2] == 0;
     if (rc == 0 && dataset) {
-        if (cli_load_dataset("render", dataset, downscale, black, 0, 0, &ds))
+        if (cli_load_dataset("render", dataset, downscale, max_size, black, 0, 0, &ds))
             rc = 1;
         else
             rc = cli_split_views("render", &ds, dataset, split, &views, &n);

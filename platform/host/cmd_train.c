@@ -15,7 +15,7 @@
 
 #define TRAIN_USAGE                                                                            \
     "usage: cnerf train DATASET -o model.ckpt [--preset tiny|small|paper] [--iters N]\n"       \
-    "       [--downscale F] [--threads T] [--seed S] [--resume] [--batch R] [--depth D]\n"     \
+    "       [--downscale F|--max-size N] [--threads T] [--seed S] [--resume] [--batch R] [--depth D]\n"     \
     "       [--width W] [--coarse N] [--fine N] [--lr X] [--precrop-iters N] [--black]\n"     \
     "       [--near X] [--far X] [--ckpt-every N | --ckpt-secs S] [--log-every N] [--occupancy G]\n"     \
     "       [--eval-every N] [--every K]\n"                                              \
@@ -91,18 +91,26 @@ const char *cli_signal_name(int sig)
     return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : sig == SIGHUP ? "SIGHUP" : "a signal";
 }
 
-int cli_load_dataset(const char *cmd, const char *dir, long downscale, int black, double near,
-                     double far, cn_dataset *ds)
+int cli_load_dataset(const char *cmd, const char *dir, long downscale, long max_size, int black,
+                     double near, double far, cn_dataset *ds)
 {
+    if (max_size > 0 && downscale > 1)
+        return cli_fail(cmd, "give --downscale or --max-size, not both");
     cn_dataset_opts o;
     memset(&o, 0, sizeof o);
     o.downscale = (int)downscale;
+    o.max_size = (int)max_size;
     o.black_bg = black;
     o.near = near;
     o.far = far;
     char err[1024];
     if (cn_dataset_load(dir, &o, ds, err, sizeof err))
         return cli_fail(cmd, "%s", err);
+    if (max_size > 0) {
+        const cn_view *v = ds->n_train ? ds->train : ds->n_test ? ds->test : ds->val;
+        printf("--max-size %ld: downscale %d, views %dx%d\n", max_size, ds->downscale,
+               v ? v->w : 0, v ? v->h : 0);
+    }
     return 0;
 }
 
@@ -239,7 +247,7 @@ int cmd_train(int argc, char **argv)
     cn_train_opts o;
     cn_train_defaults(&o);
     const char *out = NULL, *pos[1], *random_bg = "auto", *train_images = NULL;
-    long iters = o.iters, downscale = 1, threads = 0, batch = o.batch, depth = -1, width = -1;
+    long iters = o.iters, downscale = 1, max_size = 0, threads = 0, batch = o.batch, depth = -1, width = -1;
     long coarse = -1, fine = -1, precrop = -1, ckpt_every = 0, log_every = 100;
     double ckpt_secs = CLI_CKPT_SECS;
     long eval_every = 0, every = 1;
@@ -252,6 +260,7 @@ int cmd_train(int argc, char **argv)
         {"--preset", CLI_STR, &o.preset, 0, 0},
         {"--iters", CLI_LONG, &iters, 0, 1e9},
         {"--downscale", CLI_LONG, &downscale, 1, 64},
+        {"--max-size", CLI_LONG, &max_size, 1, 1 << 20},
         {"--threads", CLI_LONG, &threads, 1, 256},
         {"--seed", CLI_U64, &seed, 0, 0},
         {"--resume", CLI_FLAG, &resume, 0, 0},
@@ -308,7 +317,7 @@ int cmd_train(int argc, char **argv)
     if (lk < 0)
         return 1;
     cn_dataset ds;
-    if (cli_load_dataset("train", pos[0], downscale, black, near, far, &ds)) {
+    if (cli_load_dataset("train", pos[0], downscale, max_size, black, near, far, &ds)) {
         cli_unlock_output(lk, lock);
         return 1;
     }

@@ -13,7 +13,7 @@
 #include "cn_image.h"
 
 #define VIEWS_USAGE                                                                         \
-    "usage: cnerf views DATASET -o DIR [--split train|val|test] [--downscale F] [--black]"
+    "usage: cnerf views DATASET -o DIR [--split train|val|test] [--downscale F|--max-size N] [--black]"
 
 static void view_path(char *path, size_t len, const char *dir, int i)
 {
@@ -72,12 +72,13 @@ static void snake_order(const cn_view *v, int n, int *order)
 int cmd_views(int argc, char **argv)
 {
     const char *outdir = NULL, *split = "train", *pos[1];
-    long downscale = 1;
+    long downscale = 1, max_size = 0;
     int black = 0, n_pos;
     const cli_opt opts[] = {
         {"-o", CLI_STR, &outdir, 0, 0},
         {"--split", CLI_STR, &split, 0, 0},
         {"--downscale", CLI_LONG, &downscale, 1, 64},
+        {"--max-size", CLI_LONG, &max_size, 1, 1 << 20},
         {"--black", CLI_FLAG, &black, 0, 0},
     };
     if (cli_parse("views", VIEWS_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
@@ -88,7 +89,7 @@ int cmd_views(int argc, char **argv)
     if (cli_check_output_dir("views", outdir, pos[0]))
         return 1;
     cn_dataset ds;
-    if (cli_load_dataset("views", pos[0], downscale, black, 0, 0, &ds))
+    if (cli_load_dataset("views", pos[0], downscale, max_size, black, 0, 0, &ds))
         return 1;
     const cn_view *views = NULL;
     int n = 0, rc = cli_split_views("views", &ds, pos[0], split, &views, &n);

@@ -866,7 +866,7 @@ static void test_blender_errors(void **state)
     make_blender(dir, "bl/not_png", json);
     join(path, dir, "train");
     write_text(path, "r_0.png", "GIF89a, not a PNG at all");
-    EXPECT_FAIL(dir, o, "train/r_0.png: not a PNG");
+    EXPECT_FAIL(dir, o, "train/r_0.png: neither a PNG nor a JPEG");
     make_blender(dir, "bl/sizes", json);
     uint8_t *small = calloc(200 * 200, 3);
     assert_non_null(small);
@@ -1080,7 +1080,7 @@ static void test_llff_errors(void **state)
     char sub[PATH_LEN];
     join(sub, dir, "images_8");
     copy_file(FERN "/images_8/image002.png", sub, "c.png", SIZE_MAX);
-    EXPECT_FAIL(dir, o, "images_8: 3 PNG images for 2 poses");
+    EXPECT_FAIL(dir, o, "images_8: 3 images (PNG, JPEG) for 2 poses");
     rm_tree(sub);
     EXPECT_FAIL(dir, o, "no image directory", "images_8/");
     /* One pose: it is the test view; nothing to train on. */
