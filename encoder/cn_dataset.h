@@ -12,8 +12,15 @@
  * instant-ngp: one transforms.json with fl_x, fl_y, cx, cy, w, h (fl_x/fl_y may be given
  *   as camera_angle_x/camera_angle_y instead; fl_y defaults to fl_x, cx/cy to the image
  *   centre, w/h to the image file's size; the intrinsics refer to a w x h image and are
- *   rescaled to the loaded size). Frames whose image is missing are skipped with a
- *   warning. Split: of the usable frames in file order, indices 0, 8, 16, ... are test
+ *   rescaled to the loaded size). Lens distortion: k1, k2, k3, p1, p2 (OpenCV's model) or,
+ *   with is_fisheye true or nerfstudio's camera_model OPENCV_FISHEYE, k1..k4 on the angle;
+ *   camera_model may also be PINHOLE or SIMPLE_PINHOLE (no coefficients) or OPENCV. A
+ *   distorted view is resampled at load into a pinhole view (cn_undistort.h) with the same
+ *   size and principal point and the focal lengths scaled until no border pixel is blank.
+ *   nerfstudio's per-frame keys (any of the above in a frame) replace the file's for that
+ *   frame; its applied_transform is not read: the poses are used as the file gives them,
+ *   which is how nerfstudio itself reads them. Frames whose image is missing are skipped
+ *   with a warning. Split: of the usable frames in file order, indices 0, 8, 16, ... are test
  *   views, the rest train (no val). near/far: with camera centres c_i, the scene centred at
  *   the origin and s = aabb_scale (default 1), near = max(0.05, min |c_i| - sqrt(3) s),
  *   far = max |c_i| + sqrt(3) s, over all usable frames.

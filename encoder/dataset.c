@@ -14,6 +14,7 @@
 
 #include "cn_dataset.h"
 #include "cn_image.h"
+#include "cn_undistort.h"
 #include "cn_stream.h"
 
 #define CN_PATH_MAX 4096
@@ -122,9 +123,22 @@ typedef struct cn_intr {
     double ref_w, ref_h;     /* image size the values refer to; NAN: the image file's size */
     double fx, fy, cx, cy;   /* pixels at the reference size; NAN: derived */
     double angle_x, angle_y; /* fields of view (radians) for fx / fy when those are NAN */
+    double k[4], p[2];       /* lens distortion coefficients k1..k4, p1, p2 */
+    int model;               /* CN_LENS_*, or -1: OPENCV, or FISHEYE when fisheye is 1 */
+    int fisheye;             /* instant-ngp's is_fisheye; -1 unset */
 } cn_intr;
 
-static const cn_intr cn_intr_none = {NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
+static const cn_intr cn_intr_none = {NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN,
+                                     {0, 0, 0, 0}, {0, 0}, -1, -1};
+
+/* The lens of resolved intrinsics (checked when they were read). */
+static cn_lens cn_intr_lens(const cn_intr *in)
+{
+    const int model = in->model >= 0 ? in->model
+                      : in->fisheye == 1 ? CN_LENS_FISHEYE
+                                         : CN_LENS_OPENCV;
+    return (cn_lens){model, in->k[0], in->k[1], in->k[2], in->k[3], in->p[0], in->p[1]};
+}
 
 /* Intrinsics of view v (v->w, v->h set) loaded from an image file of file_w x file_h.
  * Missing focal lengths come from the fields of view (fy: else fx, square pixels),
@@ -271,6 +285,22 @@ static int cn_frame_load(cn_frame *fr, int factor, const float bg[3], char *err,
     fr->crop_y = info.crop_y;
     fr->v.w = im.w;
     fr->v.h = im.h;
+    cn_intr_resolve(&fr->in, fr->file_w, fr->file_h, fr->crop_x, fr->crop_y, fr->factor, &fr->v);
+    const cn_lens lens = cn_intr_lens(&fr->in);
+    if (cn_lens_distorts(&lens)) {
+        /* Resampled into a pinhole image: everything after the loader sees pinhole cameras. */
+        cn_image flat;
+        double s;
+        char why[256];
+        const int bad = cn_undistort(&im, &lens, fr->v.fx, fr->v.fy, fr->v.cx, fr->v.cy, &flat,
+                                     &s, why, sizeof why);
+        cn_image_free(&im);
+        if (bad)
+            return cn_fail(err, errlen, "%s: %s", fr->path, why);
+        im = flat;
+        fr->v.fx *= s;
+        fr->v.fy *= s;
+    }
     const int oom = cn_composite(&im, bg, &fr->v);
     cn_image_free(&im);
     if (oom)
@@ -312,9 +342,6 @@ static int cn_frames_load_images(cn_frames *L, const float bg[3], char *err, siz
             return cn_fail(err, errlen, "images differ in size: %s is %dx%d but %s is %dx%d",
                            a->path, a->file_w, a->file_h, b->path, b->file_w, b->file_h);
     }
-    for (int i = 0; i < L->n; i++)
-        cn_intr_resolve(&L->f[i].in, L->f[i].file_w, L->f[i].file_h, L->f[i].crop_x,
-                        L->f[i].crop_y, L->f[i].factor, &L->f[i].v);
     return 0;
 }
 
@@ -572,7 +599,22 @@ typedef struct cn_frame_rule {
     int split;        /* fixed split, or -1: every CN_LLFF_HOLD-th usable frame is a test
                          view, the others train */
     int skip_missing; /* 1: skip frames without an image (warning); 0: error */
+    int frame_camera; /* 1: a frame's own camera keys replace the file's (cn_json_camera) */
 } cn_frame_rule;
+
+static int cn_json_camera(const cJSON *obj, const cn_jloc *l, cn_intr *in, char *err,
+                          size_t errlen);
+static int cn_intr_check(const cn_intr *in, const cn_jloc *l, char *err, size_t errlen);
+
+/* One frame's intrinsics: the file's, with the frame's own keys when the layout has them. */
+static int cn_frame_intr(const cJSON *fr, const cn_jloc *l, const cn_frame_rule *rule,
+                         const cn_intr *file_in, cn_intr *in, char *err, size_t errlen)
+{
+    *in = *file_in;
+    if (rule->frame_camera && cn_json_camera(fr, l, in, err, errlen) != 0)
+        return -1;
+    return cn_intr_check(in, l, err, errlen);
+}
 
 /* Adds every frame of a transforms file's "frames" array to L. */
 static int cn_json_add_frames(const cJSON *root, const char *file, const char *dir,
@@ -590,7 +632,9 @@ static int cn_json_add_frames(const cJSON *root, const char *file, const char *d
         const char *file_path = NULL;
         double c2w[3][4];
         char path[CN_PATH_MAX];
-        if (cn_json_frame(fr, &l, &file_path, c2w, err, errlen) != 0)
+        cn_intr fin;
+        if (cn_json_frame(fr, &l, &file_path, c2w, err, errlen) != 0 ||
+            cn_frame_intr(fr, &l, rule, in, &fin, err, errlen) != 0)
             return -1;
         int found = cn_find_image(dir, file_path, path, err, errlen);
         if (found < 0)
@@ -607,7 +651,7 @@ static int cn_json_add_frames(const cJSON *root, const char *file, const char *d
                     : usable % CN_LLFF_HOLD == 0 ? CN_TEST
                                                  : CN_TRAIN;
         usable++;
-        if (cn_frames_add(L, path, split, (const double(*)[4])c2w, in, err, errlen) != 0)
+        if (cn_frames_add(L, path, split, (const double(*)[4])c2w, &fin, err, errlen) != 0)
             return -1;
     }
     return 0;
@@ -633,7 +677,7 @@ static int cn_load_blender_split(const char *dir, int split, cn_frames *L, char 
         return -1;
     cn_jloc l = {file, -1};
     cn_intr in = cn_intr_none;
-    cn_frame_rule rule = {split, 0};
+    cn_frame_rule rule = {split, 0, 0};
     int rc = cn_json_angle(root, "camera_angle_x", 1, &l, &in.angle_x, err, errlen);
     if (rc == 0)
         rc = cn_json_add_frames(root, file, dir, &rule, &in, L, err, errlen);
@@ -654,32 +698,82 @@ static int cn_load_blender(const char *dir, cn_dataset *ds, cn_frames *L, char *
 
 /* ---- instant-ngp transforms.json ---- */
 
+/* The camera keys of instant-ngp's and nerfstudio's transforms.json, at the top level or in
+ * one frame: each key present replaces *in's value. camera_model (nerfstudio) is PINHOLE,
+ * SIMPLE_PINHOLE, OPENCV or OPENCV_FISHEYE; is_fisheye (instant-ngp) picks the fisheye
+ * model when camera_model is absent. */
+static int cn_json_camera(const cJSON *obj, const cn_jloc *l, cn_intr *in, char *err,
+                          size_t errlen)
+{
+    if (cn_json_positive(obj, "w", l, &in->ref_w, err, errlen) ||
+        cn_json_positive(obj, "h", l, &in->ref_h, err, errlen) ||
+        cn_json_positive(obj, "fl_x", l, &in->fx, err, errlen) ||
+        cn_json_positive(obj, "fl_y", l, &in->fy, err, errlen) ||
+        cn_json_angle(obj, "camera_angle_x", 0, l, &in->angle_x, err, errlen) ||
+        cn_json_angle(obj, "camera_angle_y", 0, l, &in->angle_y, err, errlen) ||
+        cn_json_num(obj, "cx", 0, l, &in->cx, err, errlen) < 0 ||
+        cn_json_num(obj, "cy", 0, l, &in->cy, err, errlen) < 0)
+        return -1;
+    static const char *coef[6] = {"k1", "k2", "k3", "k4", "p1", "p2"};
+    for (int i = 0; i < 6; i++)
+        if (cn_json_num(obj, coef[i], 0, l, i < 4 ? &in->k[i] : &in->p[i - 4], err, errlen) < 0)
+            return -1;
+    const cJSON *fe = cJSON_GetObjectItemCaseSensitive(obj, "is_fisheye");
+    if (fe && !cJSON_IsBool(fe))
+        return cn_jfail(l, "is_fisheye", err, errlen, "expected true or false");
+    if (fe)
+        in->fisheye = cJSON_IsTrue(fe);
+    const cJSON *cm = cJSON_GetObjectItemCaseSensitive(obj, "camera_model");
+    if (cm) {
+        static const struct {
+            const char *name;
+            int model;
+        } models[] = {{"PINHOLE", CN_LENS_PINHOLE}, {"SIMPLE_PINHOLE", CN_LENS_PINHOLE},
+                      {"OPENCV", CN_LENS_OPENCV}, {"OPENCV_FISHEYE", CN_LENS_FISHEYE}};
+        if (!cJSON_IsString(cm))
+            return cn_jfail(l, "camera_model", err, errlen, "expected a string");
+        in->model = -2;
+        for (size_t i = 0; i < sizeof models / sizeof models[0]; i++)
+            if (!strcmp(cm->valuestring, models[i].name))
+                in->model = models[i].model;
+        if (in->model == -2)
+            return cn_jfail(l, "camera_model", err, errlen, "'%s' is not supported (PINHOLE, "
+                            "SIMPLE_PINHOLE, OPENCV, OPENCV_FISHEYE)", cm->valuestring);
+    }
+    return 0;
+}
+
+/* Complete intrinsics: a focal length, and coefficients that the lens model uses. */
+static int cn_intr_check(const cn_intr *in, const cn_jloc *l, char *err, size_t errlen)
+{
+    if (isnan(in->fx) && isnan(in->angle_x))
+        return cn_jfail(l, "fl_x", err, errlen, "missing (and no camera_angle_x either)");
+    const cn_lens lens = cn_intr_lens(in);
+    const char *model = lens.model == CN_LENS_PINHOLE ? "PINHOLE"
+                        : lens.model == CN_LENS_FISHEYE ? "OPENCV_FISHEYE"
+                                                        : "OPENCV";
+    static const char *coef[6] = {"k1", "k2", "k3", "k4", "p1", "p2"};
+    for (int i = 0; i < 6; i++) {
+        const double c = i < 4 ? in->k[i] : in->p[i - 4];
+        const int used = lens.model == CN_LENS_OPENCV    ? i != 3
+                         : lens.model == CN_LENS_FISHEYE ? i < 4
+                                                         : 0;
+        if (c != 0 && !used)
+            return cn_jfail(l, coef[i], err, errlen, "is %g, but the %s lens model has no %s",
+                            c, model, coef[i]);
+    }
+    return 0;
+}
+
 /* Camera intrinsics and aabb_scale of a transforms.json. */
 static int cn_ngp_intrinsics(const cJSON *root, const cn_jloc *l, cn_intr *in, double *aabb,
                              char *err, size_t errlen)
 {
     *in = cn_intr_none;
     *aabb = 1.0;
-    if (cn_json_positive(root, "w", l, &in->ref_w, err, errlen) ||
-        cn_json_positive(root, "h", l, &in->ref_h, err, errlen) ||
-        cn_json_positive(root, "fl_x", l, &in->fx, err, errlen) ||
-        cn_json_positive(root, "fl_y", l, &in->fy, err, errlen) ||
-        cn_json_angle(root, "camera_angle_x", 0, l, &in->angle_x, err, errlen) ||
-        cn_json_angle(root, "camera_angle_y", 0, l, &in->angle_y, err, errlen) ||
-        cn_json_num(root, "cx", 0, l, &in->cx, err, errlen) < 0 ||
-        cn_json_num(root, "cy", 0, l, &in->cy, err, errlen) < 0 ||
+    if (cn_json_camera(root, l, in, err, errlen) ||
         cn_json_positive(root, "aabb_scale", l, aabb, err, errlen))
         return -1;
-    if (isnan(in->fx) && isnan(in->angle_x))
-        return cn_jfail(l, "fl_x", err, errlen, "missing (and no camera_angle_x either)");
-    static const char *dist[] = {"k1", "k2", "k3", "k4", "p1", "p2"};
-    for (size_t i = 0; i < sizeof dist / sizeof dist[0]; i++) {
-        const cJSON *k = cJSON_GetObjectItemCaseSensitive(root, dist[i]);
-        if (cJSON_IsNumber(k) && k->valuedouble != 0) {
-            fprintf(stderr, "warning: %s: lens distortion (%s) is ignored\n", l->file, dist[i]);
-            break;
-        }
-    }
     return 0;
 }
 
@@ -693,7 +787,7 @@ static int cn_load_ngp(const char *dir, cn_dataset *ds, cn_frames *L, char *err,
     cn_jloc l = {file, -1};
     cn_intr in;
     double s;
-    cn_frame_rule rule = {-1, 1};
+    cn_frame_rule rule = {-1, 1, 1};
     int rc = cn_ngp_intrinsics(root, &l, &in, &s, err, errlen);
     if (rc == 0)
         rc = cn_json_add_frames(root, file, dir, &rule, &in, L, err, errlen);
@@ -1314,7 +1408,10 @@ int cn_dataset_parse_meta(int kind, const uint8_t *data, size_t len, char *err, 
             cn_jloc lf = {file, i++};
             const char *file_path = NULL;
             double c2w[3][4];
-            if ((rc = cn_json_frame(fr, &lf, &file_path, c2w, err, errlen)) != 0)
+            const cn_frame_rule rule = {0, 0, kind == 1};
+            cn_intr fin;
+            if ((rc = cn_json_frame(fr, &lf, &file_path, c2w, err, errlen)) != 0 ||
+                (rc = cn_frame_intr(fr, &lf, &rule, &in, &fin, err, errlen)) != 0)
                 break;
         }
     cJSON_Delete(root);

@@ -893,8 +893,28 @@ static void test_ngp_errors(void **state)
     char dir[PATH_LEN];
     const cn_dataset_opts *o = &(cn_dataset_opts){.max_views = 0};
     fresh_dir(dir, "ngp_bad");
-    write_text(dir, "transforms.json", "{\"w\": 400, \"frames\": []}");
-    EXPECT_FAIL(dir, o, "transforms.json: fl_x: missing", "camera_angle_x");
+    write_text(dir, "transforms.json",
+               "{\"w\": 400, \"frames\": [{\"file_path\": \"a.png\", \"transform_matrix\": "
+               M_OK "}]}");
+    EXPECT_FAIL(dir, o, "transforms.json: frames[0].fl_x: missing", "camera_angle_x");
+    /* Lens models (nerfstudio's camera_model, instant-ngp's is_fisheye) and their keys. */
+    write_text(dir, "transforms.json", "{\"fl_x\": 300, \"camera_model\": \"EQUIRECTANGULAR\", "
+               "\"frames\": []}");
+    EXPECT_FAIL(dir, o, "transforms.json: camera_model: 'EQUIRECTANGULAR' is not supported");
+    write_text(dir, "transforms.json", "{\"fl_x\": 300, \"is_fisheye\": 1, \"frames\": []}");
+    EXPECT_FAIL(dir, o, "transforms.json: is_fisheye: expected true or false");
+    write_text(dir, "transforms.json",
+               "{\"fl_x\": 300, \"k4\": 0.1, \"frames\": [{\"file_path\": \"a.png\", "
+               "\"transform_matrix\": " M_OK "}]}");
+    EXPECT_FAIL(dir, o, "transforms.json: frames[0].k4: is 0.1, but the OPENCV lens model has no k4");
+    write_text(dir, "transforms.json",
+               "{\"fl_x\": 300, \"frames\": [{\"file_path\": \"a.png\", \"camera_model\": "
+               "\"PINHOLE\", \"k1\": -0.1, \"transform_matrix\": " M_OK "}]}");
+    EXPECT_FAIL(dir, o, "transforms.json: frames[0].k1: is -0.1, but the PINHOLE lens model has no k1");
+    write_text(dir, "transforms.json",
+               "{\"fl_x\": 300, \"frames\": [{\"file_path\": \"a.png\", \"p2\": \"x\", "
+               "\"transform_matrix\": " M_OK "}]}");
+    EXPECT_FAIL(dir, o, "transforms.json: frames[0].p2: expected a number");
     write_text(dir, "transforms.json", "{\"fl_x\": -3, \"frames\": []}");
     EXPECT_FAIL(dir, o, "transforms.json: fl_x: must be positive");
     write_text(dir, "transforms.json", "{\"fl_x\": 300, \"cx\": \"200\", \"frames\": []}");

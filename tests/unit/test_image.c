@@ -323,7 +323,7 @@ static void test_jpeg_errors(void **state)
 }
 
 /* An instant-ngp scene of JPEGs stored 64 x 48 with orientation 6 (upright 48 x 64). */
-static void make_ngp_jpegs(const char *dir, const char *size)
+static void make_ngp_jpegs(const char *dir, const char *size, const char *frame1)
 {
     char cmd[600], path[600], err[256];
     snprintf(cmd, sizeof cmd, "rm -rf %s && mkdir -p %s", dir, dir);
@@ -333,8 +333,9 @@ static void make_ngp_jpegs(const char *dir, const char *size)
     assert_non_null(f);
     fprintf(f, "{\"fl_x\": 40, \"cx\": 30, %s \"frames\": [", size);
     for (int i = 0; i < 3; i++)
-        fprintf(f, "%s{\"file_path\": \"im%d.jpg\", \"transform_matrix\": [[1,0,0,0],"
-                   "[0,1,0,0],[0,0,1,%d],[0,0,0,1]]}", i ? "," : "", i, 3 + i);
+        fprintf(f, "%s{%s\"file_path\": \"im%d.jpg\", \"transform_matrix\": [[1,0,0,0],"
+                   "[0,1,0,0],[0,0,1,%d],[0,0,0,1]]}", i ? "," : "", i == 1 ? frame1 : "", i,
+                3 + i);
     fprintf(f, "]}\n");
     fclose(f);
     uint8_t px[64 * 48 * 3];
@@ -356,7 +357,7 @@ static void test_ngp_jpeg_scene(void **state)
     char err[512];
     cn_dataset ds;
     const char *dir = TMP "/ngp_jpeg";
-    make_ngp_jpegs(dir, "\"w\": 64, \"h\": 48,");
+    make_ngp_jpegs(dir, "\"w\": 64, \"h\": 48,", "");
     assert_int_equal(cn_dataset_load(dir, &(cn_dataset_opts){.max_size = 20}, &ds, err,
                                      sizeof err), 0);
     assert_int_equal(ds.downscale, 4);
@@ -368,7 +369,7 @@ static void test_ngp_jpeg_scene(void **state)
     assert_true(fabsf(ds.train[0].rgb[0] - 90 / 255.0f) < 3 / 255.0f);
     cn_dataset_free(&ds);
     /* Without a stated size the tag applies: upright 48 x 64, longer side 64 again. */
-    make_ngp_jpegs(dir, "");
+    make_ngp_jpegs(dir, "", "");
     assert_int_equal(cn_dataset_load(dir, &(cn_dataset_opts){.max_size = 20}, &ds, err,
                                      sizeof err), 0);
     assert_int_equal(ds.downscale, 4);
@@ -378,6 +379,29 @@ static void test_ngp_jpeg_scene(void **state)
     assert_int_equal(cn_dataset_load(dir, &(cn_dataset_opts){.max_size = 20, .downscale = 2},
                                      &ds, err, sizeof err), -1);
     assert_non_null(strstr(err, "not given with a downscale"));
+}
+
+/* nerfstudio's per-frame cameras replace the file's; a distorted lens is resampled into a
+ * pinhole view whose focal length says how (cn_undistort). Frames 0 and 2 are train views
+ * (0 is the test view). */
+static void test_ngp_frame_cameras(void **state)
+{
+    (void)state;
+    char err[512];
+    cn_dataset ds;
+    const char *dir = TMP "/ngp_frames";
+    make_ngp_jpegs(dir, "\"w\": 64, \"h\": 48, \"k1\": -0.2, \"p1\": 0.01,",
+                   "\"fl_x\": 80, \"camera_model\": \"PINHOLE\", \"k1\": 0, \"p1\": 0, ");
+    assert_int_equal(cn_dataset_load(dir, NULL, &ds, err, sizeof err), 0);
+    assert_int_equal(ds.n_train, 2);
+    assert_int_equal(ds.train[0].w, 64);
+    assert_true(fabs(ds.train[0].fx - 80) < 1e-9); /* frame 1: its own pinhole camera */
+    const double s = ds.train[1].fx / 40;         /* frame 2: the file's distorted lens */
+    print_message("# k1 -0.2, p1 0.01 on 64x48: focal scale %.4f\n", s);
+    assert_true(s < 0.99 && s > 0.8);
+    assert_true(fabs(ds.train[1].fy - 40 * s) < 1e-9);
+    assert_true(fabs(ds.train[1].cx - 30) < 1e-9);
+    cn_dataset_free(&ds);
 }
 
 int main(void)
@@ -390,6 +414,7 @@ int main(void)
         cmocka_unit_test(test_jpeg_grey_and_size),
         cmocka_unit_test(test_jpeg_errors),
         cmocka_unit_test(test_ngp_jpeg_scene),
+        cmocka_unit_test(test_ngp_frame_cameras),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
