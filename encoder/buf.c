@@ -61,6 +61,19 @@ void cn_buf_u16(cn_buf *b, uint32_t v) { put_le(b, v, 2); }
 void cn_buf_u24(cn_buf *b, uint32_t v) { put_le(b, v, 3); }
 void cn_buf_u32(cn_buf *b, uint32_t v) { put_le(b, v, 4); }
 
+void cn_buf_u64(cn_buf *b, uint64_t v)
+{
+    put_le(b, (uint32_t)v, 4);
+    put_le(b, (uint32_t)(v >> 32), 4);
+}
+
+void cn_buf_f64(cn_buf *b, double v)
+{
+    uint64_t u;
+    memcpy(&u, &v, sizeof u);
+    cn_buf_u64(b, u);
+}
+
 void cn_bitw_init(cn_bitw *w, cn_buf *out)
 {
     w->out = out;

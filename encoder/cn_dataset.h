@@ -3,7 +3,8 @@
  * transforms.json, and LLFF (poses_bounds.npy). Host C11 (cJSON, libpng, OpenMP).
  *
  * Layout detection, in this order: transforms_train.json -> Blender; transforms.json ->
- * instant-ngp; poses_bounds.npy -> LLFF; anything else is an error.
+ * instant-ngp (and nerfstudio); poses_bounds.npy -> LLFF; a COLMAP model -> COLMAP;
+ * anything else is an error.
  *
  * Blender: transforms_{train,val,test}.json, each with camera_angle_x and
  *   frames[].{file_path, transform_matrix}; file_path may omit ".png". A missing val or
@@ -31,6 +32,20 @@
  *   near = 0.9 min bound, far = max bound (after scaling), i.e. the scene's depth range;
  *   an NDC renderer itself starts its rays at the plane z = -1 (near 1.0). Split: views
  *   0, 8, 16, ... test, the rest train (no val).
+ * COLMAP (when none of the above is present): a sparse model in sparse/0/, sparse/ or
+ *   colmap/sparse/0/ (cameras, images and optionally points3D, .bin or .txt, cn_colmap.h),
+ *   images in images/ (images_<downscale>/ when it exists, read as they are). Cameras
+ *   SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV and OPENCV_FISHEYE (distorted
+ *   views are resampled as for instant-ngp). Poses: COLMAP's world-to-camera quaternion and
+ *   translation in OpenCV axes become camera-to-world in NeRF's axes. Views in image-name
+ *   order, every 8th (from the first) a test view. Normalisation:
+ *   - forward-facing (the mean of the viewing directions longer than 0.9): LLFF's rules
+ *     above, with each view's depth bounds the 1st and 99th percentiles of the depths of
+ *     the sparse points inside its image (ndc = 1);
+ *   - otherwise: up (the mean of the cameras' up axes) becomes +z, the point nearest to all
+ *     optical axes (least squares; the mean camera centre if they are near parallel) the
+ *     origin, and the mean camera distance 4; near = 0.9 x and far = 1.1 x the extreme
+ *     point-depth percentiles (without points: 0.05 and twice the farthest camera).
  * Recentring and the near/far rules use every frame in the files, not just the views
  * that max_views keeps.
  * Images: PNG or JPEG in any layout, read by cn_image_load (cn_image.h): downscaled as they
@@ -44,7 +59,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-enum { CN_DS_BLENDER = 1, CN_DS_NGP = 2, CN_DS_LLFF = 3 };
+enum { CN_DS_BLENDER = 1, CN_DS_NGP = 2, CN_DS_LLFF = 3, CN_DS_COLMAP = 4 };
 
 typedef struct cn_view {
     char name[64];         /* view name: file stem, e.g. "r_40" or "image008" */

@@ -24,6 +24,8 @@ void cn_buf_u8(cn_buf *b, uint32_t v);
 void cn_buf_u16(cn_buf *b, uint32_t v);
 void cn_buf_u24(cn_buf *b, uint32_t v);
 void cn_buf_u32(cn_buf *b, uint32_t v);
+void cn_buf_u64(cn_buf *b, uint64_t v);
+void cn_buf_f64(cn_buf *b, double v); /* IEEE 754 bits, little-endian */
 
 /* ---- bit writer: MSB-first into a cn_buf, zero-padded to a byte on flush ---- */
 typedef struct cn_bitw {

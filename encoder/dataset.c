@@ -13,6 +13,7 @@
 #include <cjson/cJSON.h>
 
 #include "cn_dataset.h"
+#include "cn_colmap.h"
 #include "cn_image.h"
 #include "cn_undistort.h"
 #include "cn_stream.h"
@@ -1234,6 +1235,312 @@ static int cn_load_llff(const char *dir, cn_dataset *ds, cn_frames *L, char *err
     return rc;
 }
 
+/* ---- COLMAP sparse models ---- */
+
+/* The sparse model's directory: sparse/0/, sparse/ or colmap/sparse/0/ (nerfstudio). */
+static int cn_colmap_dir(const char *dir, char out[CN_PATH_MAX])
+{
+    static const char *subs[] = {"sparse/0", "sparse", "colmap/sparse/0"};
+    for (size_t i = 0; i < sizeof subs / sizeof subs[0]; i++) {
+        char f[CN_PATH_MAX], e[64];
+        if (cn_join(out, dir, subs[i], "", e, sizeof e) != 0)
+            return 0;
+        if ((cn_join(f, out, "cameras.bin", "", e, sizeof e) == 0 && cn_is_file(f)) ||
+            (cn_join(f, out, "cameras.txt", "", e, sizeof e) == 0 && cn_is_file(f)))
+            return 1;
+    }
+    return 0;
+}
+
+/* A camera's intrinsics; -1 for a model that cnerf does not read. */
+static int cn_colmap_intr(const cn_colmap_camera *c, cn_intr *in)
+{
+    const double *p = c->params;
+    *in = cn_intr_none;
+    in->ref_w = (double)c->w;
+    in->ref_h = (double)c->h;
+    in->model = CN_LENS_OPENCV;
+    switch (c->model) {
+    case CN_COLMAP_SIMPLE_PINHOLE:
+    case CN_COLMAP_SIMPLE_RADIAL:
+    case CN_COLMAP_RADIAL:
+        in->fx = in->fy = p[0];
+        in->cx = p[1];
+        in->cy = p[2];
+        in->k[0] = c->model == CN_COLMAP_SIMPLE_PINHOLE ? 0 : p[3];
+        in->k[1] = c->model == CN_COLMAP_RADIAL ? p[4] : 0;
+        break;
+    case CN_COLMAP_PINHOLE:
+    case CN_COLMAP_OPENCV:
+    case CN_COLMAP_OPENCV_FISHEYE:
+        in->fx = p[0];
+        in->fy = p[1];
+        in->cx = p[2];
+        in->cy = p[3];
+        if (c->model == CN_COLMAP_OPENCV) {
+            in->k[0] = p[4];
+            in->k[1] = p[5];
+            in->p[0] = p[6];
+            in->p[1] = p[7];
+        } else if (c->model == CN_COLMAP_OPENCV_FISHEYE) {
+            in->model = CN_LENS_FISHEYE;
+            for (int k = 0; k < 4; k++)
+                in->k[k] = p[4 + k];
+        }
+        break;
+    default:
+        return -1;
+    }
+    return in->fx > 0 && in->fy > 0 && c->w > 0 && c->h > 0 ? 0 : -2;
+}
+
+/* Camera-to-world in NeRF's axes (x right, y up, z back) from COLMAP's world-to-camera
+ * quaternion (w, x, y, z) and translation in OpenCV's axes (x right, y down, z forward). */
+static void cn_colmap_c2w(const cn_colmap_image *im, double c2w[3][4])
+{
+    double q[4] = {im->q[0], im->q[1], im->q[2], im->q[3]};
+    const double n = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    for (int i = 0; i < 4; i++)
+        q[i] /= n;
+    const double w = q[0], x = q[1], y = q[2], z = q[3];
+    const double R[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)},
+                            {2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)},
+                            {2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)}};
+    for (int i = 0; i < 3; i++) {
+        /* column j of R^T is row j of R; y and z flip to NeRF's axes */
+        c2w[i][0] = R[0][i];
+        c2w[i][1] = -R[1][i];
+        c2w[i][2] = -R[2][i];
+        c2w[i][3] = -(R[0][i] * im->t[0] + R[1][i] * im->t[1] + R[2][i] * im->t[2]);
+    }
+}
+
+static int cn_cmp_double(const void *a, const void *b)
+{
+    const double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* Depth bounds of the sparse points that camera k sees (in front, inside its image): the
+ * 1st and 99th percentiles. 0 when fewer than 10 points are seen. */
+static int cn_colmap_bounds(const cn_colmap *m, const cn_llff_cam *cam, double *dep,
+                            double *bnear, double *bfar)
+{
+    size_t n = 0;
+    const size_t step = m->n_points > 200000 ? m->n_points / 200000 : 1;
+    for (size_t i = 0; i < m->n_points; i += step) {
+        const double *p = m->xyz + 3 * i;
+        double v[3];
+        for (int r = 0; r < 3; r++)
+            v[r] = p[r] - cam->c2w[r][3];
+        double c[3] = {0, 0, 0}; /* camera axes: right, up, back */
+        for (int a = 0; a < 3; a++)
+            for (int r = 0; r < 3; r++)
+                c[a] += cam->c2w[r][a] * v[r];
+        const double z = -c[2];
+        if (!(z > 0))
+            continue;
+        const double u = cam->in.fx * c[0] / z + cam->in.cx, w = -cam->in.fy * c[1] / z + cam->in.cy;
+        if (u < 0 || w < 0 || u > cam->in.ref_w || w > cam->in.ref_h)
+            continue;
+        dep[n++] = z;
+    }
+    if (n < 10)
+        return 0;
+    qsort(dep, n, sizeof *dep, cn_cmp_double);
+    *bnear = dep[n / 100];
+    *bfar = dep[n - 1 - n / 100];
+    return 1;
+}
+
+/* A capture whose cameras all look the same way (the mean of their viewing directions is
+ * longer than this) is forward-facing and takes LLFF's conventions (NDC). */
+#define CN_COLMAP_FORWARD 0.9
+
+/* An inward capture: up (the mean of the cameras' up axes) becomes +z, the point nearest to
+ * every optical axis (least squares; the mean camera centre when the axes are close to
+ * parallel) the origin, and the mean camera distance 4, as for Blender's scenes. */
+static int cn_colmap_orient(cn_llff_cam *cams, int n, const char *file, double *scale,
+                            char *err, size_t errlen)
+{
+    double up[3] = {0, 0, 0}, A[3][3] = {{0}}, b[3] = {0, 0, 0}, mean[3] = {0, 0, 0};
+    for (int k = 0; k < n; k++) {
+        double d[3] = {-cams[k].c2w[0][2], -cams[k].c2w[1][2], -cams[k].c2w[2][2]};
+        for (int i = 0; i < 3; i++) {
+            up[i] += cams[k].c2w[i][1];
+            mean[i] += cams[k].c2w[i][3] / n;
+            for (int j = 0; j < 3; j++) {
+                const double a = (i == j) - d[i] * d[j];
+                A[i][j] += a;
+                b[i] += a * cams[k].c2w[j][3];
+            }
+        }
+    }
+    if (cn_normalize3(up) < 1e-9)
+        return cn_fail(err, errlen, "%s: the cameras' up directions cancel out", file);
+    /* centre: solve A c = b by Cramer's rule when A is well conditioned */
+    const double det = A[0][0] * (A[1][1] * A[2][2] - A[1][2] * A[2][1]) -
+                       A[0][1] * (A[1][0] * A[2][2] - A[1][2] * A[2][0]) +
+                       A[0][2] * (A[1][0] * A[2][1] - A[1][1] * A[2][0]);
+    const double tr = A[0][0] + A[1][1] + A[2][2];
+    double c[3] = {mean[0], mean[1], mean[2]};
+    if (det > 1e-3 * (tr / 3) * (tr / 3) * (tr / 3)) {
+        for (int col = 0; col < 3; col++) {
+            double M[3][3];
+            memcpy(M, A, sizeof M);
+            for (int r = 0; r < 3; r++)
+                M[r][col] = b[r];
+            c[col] = (M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) -
+                      M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
+                      M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0])) /
+                     det;
+        }
+    }
+    /* rotation taking up to +z: x' = normalize(e x up) with e the axis least like up */
+    double e[3] = {0, 0, 0}, x[3], y[3];
+    const int least = fabs(up[0]) < fabs(up[1]) ? (fabs(up[0]) < fabs(up[2]) ? 0 : 2)
+                                                : (fabs(up[1]) < fabs(up[2]) ? 1 : 2);
+    e[least] = 1;
+    cn_cross3(e, up, x);
+    cn_normalize3(x);
+    cn_cross3(up, x, y);
+    const double *rows[3] = {x, y, up};
+    double dist = 0;
+    for (int k = 0; k < n; k++) {
+        double t[3];
+        for (int i = 0; i < 3; i++)
+            t[i] = cams[k].c2w[i][3] - c[i];
+        dist += sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]) / n;
+    }
+    if (!(dist > 1e-12))
+        return cn_fail(err, errlen, "%s: every camera is at the same place", file);
+    *scale = 4.0 / dist;
+    for (int k = 0; k < n; k++) {
+        double mm[3][4];
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 4; j++) {
+                double s = 0;
+                for (int l = 0; l < 3; l++)
+                    s += rows[i][l] * (cams[k].c2w[l][j] - (j == 3 ? c[l] : 0.0));
+                mm[i][j] = j == 3 ? s * *scale : s;
+            }
+        memcpy(cams[k].c2w, mm, sizeof mm);
+    }
+    return 0;
+}
+
+static int cn_cmp_image_name(const void *a, const void *b)
+{
+    return strcmp(((const cn_colmap_image *)a)->name, ((const cn_colmap_image *)b)->name);
+}
+
+static int cn_load_colmap(const char *dir, cn_dataset *ds, cn_frames *L, char *err,
+                          size_t errlen)
+{
+    char sparse[CN_PATH_MAX], imgdir[CN_PATH_MAX], path[CN_PATH_MAX], name[32];
+    if (!cn_colmap_dir(dir, sparse))
+        return cn_fail(err, errlen, "%s: no COLMAP model", dir);
+    cn_colmap m;
+    if (cn_colmap_read(sparse, &m, err, errlen) != 0)
+        return -1;
+    int rc = 0;
+    const int n = m.n_imgs;
+    if (n == 0)
+        rc = cn_fail(err, errlen, "%s: no registered images", sparse);
+    /* images_F/ when it exists holds the images already reduced by F */
+    snprintf(name, sizeof name, "images_%d", L->factor);
+    if (rc == 0)
+        rc = cn_join(imgdir, dir, L->factor > 1 ? name : "images", "", err, errlen);
+    if (rc == 0 && L->factor > 1 && cn_is_dir(imgdir))
+        L->factor = 1;
+    else if (rc == 0)
+        rc = cn_join(imgdir, dir, "images", "", err, errlen);
+    if (rc == 0 && !cn_is_dir(imgdir))
+        rc = cn_fail(err, errlen, "%s: no images/ directory beside the COLMAP model %s", dir,
+                     sparse);
+    cn_llff_cam *cams = rc == 0 ? calloc((size_t)n, sizeof *cams) : NULL;
+    double *dep = rc == 0 ? malloc(sizeof(double) * (m.n_points < 200000 ? m.n_points + 1
+                                                                          : 400001))
+                          : NULL;
+    if (rc == 0 && (!cams || !dep))
+        rc = cn_fail(err, errlen, "%s: out of memory", sparse);
+    if (rc == 0)
+        qsort(m.imgs, (size_t)n, sizeof *m.imgs, cn_cmp_image_name);
+    double fwd[3] = {0, 0, 0}, bmin = INFINITY, bmax = 0;
+    int bounded = 0;
+    for (int i = 0; rc == 0 && i < n; i++) {
+        const cn_colmap_image *im = &m.imgs[i];
+        const cn_colmap_camera *c = NULL;
+        for (int k = 0; k < m.n_cams && !c; k++)
+            c = m.cams[k].id == im->camera_id ? &m.cams[k] : NULL;
+        const int r = cn_colmap_intr(c, &cams[i].in);
+        if (r == -1)
+            rc = cn_fail(err, errlen, "%s: image %s: camera %u is a %s camera, which cnerf does "
+                         "not read (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, "
+                         "OPENCV_FISHEYE)", sparse, im->name, c->id,
+                         cn_colmap_model_name(c->model));
+        else if (r == -2)
+            rc = cn_fail(err, errlen, "%s: image %s: camera %u has a size or focal length that "
+                         "is not positive", sparse, im->name, c->id);
+        if (rc)
+            break;
+        cn_colmap_c2w(im, cams[i].c2w);
+        char why[256];
+        if (cn_pose_check((const double(*)[4])cams[i].c2w, why, sizeof why) != 0)
+            rc = cn_fail(err, errlen, "%s: image %s: %s", sparse, im->name, why);
+        for (int a = 0; a < 3; a++)
+            fwd[a] -= cams[i].c2w[a][2] / n;
+        if (cn_colmap_bounds(&m, &cams[i], dep, &cams[i].bnear, &cams[i].bfar)) {
+            bounded++;
+            bmin = fmin(bmin, cams[i].bnear);
+            bmax = fmax(bmax, cams[i].bfar);
+        }
+    }
+    const int forward = cn_normalize3(fwd) > CN_COLMAP_FORWARD;
+    if (rc == 0 && forward) {
+        /* LLFF's conventions, on bounds from the sparse points */
+        if (!bounded)
+            rc = cn_fail(err, errlen, "%s: a forward-facing capture needs the sparse points "
+                         "(points3D) for its depth bounds, and none are seen", sparse);
+        const double sc = rc == 0 ? 1.0 / (bmin * 0.75) : 1;
+        for (int i = 0; rc == 0 && i < n; i++)
+            for (int r = 0; r < 3; r++)
+                cams[i].c2w[r][3] *= sc;
+        ds->ndc = 1;
+        ds->near = bmin * sc * 0.9;
+        ds->far = bmax * sc;
+        if (rc == 0)
+            rc = cn_llff_recentre(cams, n, sparse, err, errlen);
+    } else if (rc == 0) {
+        double sc = 1;
+        rc = cn_colmap_orient(cams, n, sparse, &sc, err, errlen);
+        double rmin = INFINITY, rmax = 0;
+        for (int i = 0; i < n; i++) {
+            const double r = sqrt(cams[i].c2w[0][3] * cams[i].c2w[0][3] +
+                                  cams[i].c2w[1][3] * cams[i].c2w[1][3] +
+                                  cams[i].c2w[2][3] * cams[i].c2w[2][3]);
+            rmin = fmin(rmin, r);
+            rmax = fmax(rmax, r);
+        }
+        /* Without points: from next to the nearest camera to twice the farthest. */
+        ds->near = bounded ? fmax(0.01, 0.9 * bmin * sc) : 0.05;
+        ds->far = bounded ? 1.1 * bmax * sc : 2 * rmax;
+    }
+    for (int i = 0; rc == 0 && i < n; i++) {
+        rc = cn_join(path, imgdir, m.imgs[i].name, "", err, errlen);
+        if (rc == 0 && !cn_is_file(path))
+            rc = cn_fail(err, errlen, "%s: %s (listed as image %u in the COLMAP model %s)",
+                         path, cn_not_file_why(path), m.imgs[i].id, sparse);
+        if (rc == 0)
+            rc = cn_frames_add(L, path, i % CN_LLFF_HOLD == 0 ? CN_TEST : CN_TRAIN,
+                               (const double(*)[4])cams[i].c2w, &cams[i].in, err, errlen);
+    }
+    free(dep);
+    free(cams);
+    cn_colmap_free(&m);
+    return rc;
+}
+
 /* ---- the dataset ---- */
 
 static int cn_detect(const char *dir, char *err, size_t errlen)
@@ -1257,9 +1564,13 @@ static int cn_detect(const char *dir, char *err, size_t errlen)
         if (cn_is_file(path))
             return probes[i].kind;
     }
+    if (cn_colmap_dir(dir, path))
+        return CN_DS_COLMAP;
     return cn_fail(err, errlen,
                    "%s: unknown dataset layout: looked for transforms_train.json (Blender), "
-                   "transforms.json (instant-ngp) and poses_bounds.npy (LLFF)",
+                   "transforms.json (instant-ngp, nerfstudio), poses_bounds.npy (LLFF) and a "
+                   "COLMAP model (sparse/0/, sparse/ or colmap/sparse/0/ with cameras.bin or "
+                   "cameras.txt)",
                    dir);
 }
 
@@ -1303,7 +1614,8 @@ static int cn_load_layout(const char *dir, int kind, const cn_dataset_opts *o, c
         ds->bg[k] = o->black_bg ? 0.0f : 1.0f;
     return kind == CN_DS_BLENDER ? cn_load_blender(dir, ds, L, err, errlen)
            : kind == CN_DS_NGP   ? cn_load_ngp(dir, ds, L, err, errlen)
-                                 : cn_load_llff(dir, ds, L, err, errlen);
+           : kind == CN_DS_LLFF  ? cn_load_llff(dir, ds, L, err, errlen)
+                                 : cn_load_colmap(dir, ds, L, err, errlen);
 }
 
 int cn_dataset_load(const char *dir, const cn_dataset_opts *o, cn_dataset *ds, char *err,

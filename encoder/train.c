@@ -435,32 +435,19 @@ static void put_floats(cn_buf *b, const float *x, size_t n)
     }
 }
 
-static void put_u64(cn_buf *b, uint64_t v)
-{
-    cn_buf_u32(b, (uint32_t)v);
-    cn_buf_u32(b, (uint32_t)(v >> 32));
-}
-
-static void put_f64(cn_buf *b, double v)
-{
-    uint64_t u;
-    memcpy(&u, &v, 8);
-    put_u64(b, u);
-}
-
 int cn_checkpoint_save(const cn_trainer *t, const char *path, char *err, size_t errlen)
 {
     cn_buf b = {0}, h = {0};
     cn_buf_put(&b, CN_CKPT_MAGIC, 4);
     cn_buf_u32(&b, CN_CKPT_VERSION);
-    put_u64(&b, (uint64_t)t->step);
-    put_u64(&b, t->opts.seed);
+    cn_buf_u64(&b, (uint64_t)t->step);
+    cn_buf_u64(&b, t->opts.seed);
     cn_buf_u32(&b, (uint32_t)t->model.compressed);
     cn_put_head(&h, &t->model.topo);
     cn_buf_u32(&b, (uint32_t)h.n);
     cn_buf_put(&b, h.p, h.n);
     cn_buf_free(&h);
-    put_u64(&b, t->model.n_params);
+    cn_buf_u64(&b, t->model.n_params);
     put_floats(&b, t->model.params, t->model.n_params);
     put_floats(&b, t->model.adam_m, t->model.n_params);
     put_floats(&b, t->model.adam_v, t->model.n_params);
@@ -472,24 +459,24 @@ int cn_checkpoint_save(const cn_trainer *t, const char *path, char *err, size_t 
         if (o->g && o->valid)
             put_floats(&b, o->density, (size_t)o->g * o->g * o->g);
     }
-    put_f64(&b, t->opts.lambda);
+    cn_buf_f64(&b, t->opts.lambda);
     cn_buf_u32(&b, (uint32_t)t->ds->n_train);
     cn_buf_u32(&b, t->ds->n_train ? (uint32_t)t->ds->train[0].w : 0u);
     cn_buf_u32(&b, t->ds->n_train ? (uint32_t)t->ds->train[0].h : 0u);
-    put_u64(&b, poses_hash(t->ds));
+    cn_buf_u64(&b, poses_hash(t->ds));
     cn_buf_u32(&b, (uint32_t)t->rate_control);
     if (t->rate_control) {
         const cn_ratectl *rc = &t->rc;
         cn_buf_u32(&b, (uint32_t)rc->scheme);
         cn_buf_u32(&b, (uint32_t)rc->grid_done);
-        put_u64(&b, (uint64_t)rc->start);
+        cn_buf_u64(&b, (uint64_t)rc->start);
         const double v[10] = {rc->target, rc->reserved, rc->lambda_unit, rc->first,
                               rc->integral, rc->lambda, rc->size, rc->plan, rc->grid,
                               rc->slope};
         for (int i = 0; i < 10; i++)
-            put_f64(&b, v[i]);
+            cn_buf_f64(&b, v[i]);
     }
-    put_f64(&b, t->opts.quality_slope);
+    cn_buf_f64(&b, t->opts.quality_slope);
     cn_buf_u32(&b, cnerf_crc32(0, b.p, b.n));
     int rc = b.oom ? -1 : cn_write_file_atomic(path, b.p, b.n, err, errlen);
     if (b.oom)

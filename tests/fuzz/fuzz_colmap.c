@@ -1,0 +1,21 @@
+/* libFuzzer harness for the COLMAP sparse-model parsers (cn_colmap.h): the first byte picks
+ * the file (cameras, images or points3D; .bin or .txt), the rest is its bytes. A refusal is
+ * a normal outcome; a crash, a leak or a sanitizer report is a finding. */
+#include <stdint.h>
+#include <string.h>
+
+#include "cn_colmap.h"
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    if (size < 1)
+        return 0;
+    static const char *names[6] = {"cameras.bin", "images.bin", "points3D.bin",
+                                   "cameras.txt", "images.txt", "points3D.txt"};
+    cn_colmap m;
+    memset(&m, 0, sizeof m);
+    char err[512];
+    (void)cn_colmap_parse(names[data[0] % 6], data + 1, size - 1, &m, err, sizeof err);
+    cn_colmap_free(&m);
+    return 0;
+}
