@@ -127,10 +127,13 @@ typedef struct cn_intr {
     double k[4], p[2];       /* lens distortion coefficients k1..k4, p1, p2 */
     int model;               /* CN_LENS_*, or -1: OPENCV, or FISHEYE when fisheye is 1 */
     int fisheye;             /* instant-ngp's is_fisheye; -1 unset */
+    int sized;               /* 1: ref_w x ref_h is the shape of this camera's images (COLMAP,
+                                instant-ngp's w and h); 0: only a scale for the intrinsics,
+                                and every image of the dataset has the same size */
 } cn_intr;
 
 static const cn_intr cn_intr_none = {NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN,
-                                     {0, 0, 0, 0}, {0, 0}, -1, -1};
+                                     {0, 0, 0, 0}, {0, 0}, -1, -1, 0};
 
 /* The lens of resolved intrinsics (checked when they were read). */
 static cn_lens cn_intr_lens(const cn_intr *in)
@@ -336,12 +339,25 @@ static int cn_frames_load_images(cn_frames *L, const float bg[3], char *err, siz
     free(rc);
     if (bad >= 0)
         return -1;
-    const cn_frame *a = &L->f[0];
-    for (int i = 1; i < L->n; i++) {
+    /* Frames whose camera states the image size it is for (COLMAP, instant-ngp's and
+     * nerfstudio's w, h) may differ in size, as long as each file has its camera's aspect;
+     * the others must all have the same size. */
+    const cn_frame *a = NULL;
+    for (int i = 0; i < L->n; i++) {
         const cn_frame *b = &L->f[i];
-        if (b->file_w != a->file_w || b->file_h != a->file_h)
-            return cn_fail(err, errlen, "images differ in size: %s is %dx%d but %s is %dx%d",
+        const double rw = b->in.ref_w, rh = b->in.ref_h;
+        if (b->in.sized && !isnan(rw) && !isnan(rh)) {
+            if (fabs((double)b->file_w * rh / ((double)b->file_h * rw) - 1) > 0.01)
+                return cn_fail(err, errlen, "%s is %dx%d, but its camera is for %gx%g images "
+                               "(another shape): give the frame its own w, h and intrinsics",
+                               b->path, b->file_w, b->file_h, rw, rh);
+        } else if (!a) {
+            a = b;
+        } else if (b->file_w != a->file_w || b->file_h != a->file_h) {
+            return cn_fail(err, errlen, "images differ in size: %s is %dx%d but %s is %dx%d "
+                           "(and their cameras do not say which size they are for)",
                            a->path, a->file_w, a->file_h, b->path, b->file_w, b->file_h);
+        }
     }
     return 0;
 }
@@ -719,6 +735,7 @@ static int cn_json_camera(const cJSON *obj, const cn_jloc *l, cn_intr *in, char 
     for (int i = 0; i < 6; i++)
         if (cn_json_num(obj, coef[i], 0, l, i < 4 ? &in->k[i] : &in->p[i - 4], err, errlen) < 0)
             return -1;
+    in->sized = !isnan(in->ref_w) && !isnan(in->ref_h);
     const cJSON *fe = cJSON_GetObjectItemCaseSensitive(obj, "is_fisheye");
     if (fe && !cJSON_IsBool(fe))
         return cn_jfail(l, "is_fisheye", err, errlen, "expected true or false");
@@ -1259,6 +1276,7 @@ static int cn_colmap_intr(const cn_colmap_camera *c, cn_intr *in)
     *in = cn_intr_none;
     in->ref_w = (double)c->w;
     in->ref_h = (double)c->h;
+    in->sized = 1;
     in->model = CN_LENS_OPENCV;
     switch (c->model) {
     case CN_COLMAP_SIMPLE_PINHOLE:

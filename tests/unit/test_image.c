@@ -402,6 +402,17 @@ static void test_ngp_frame_cameras(void **state)
     assert_true(fabs(ds.train[1].fy - 40 * s) < 1e-9);
     assert_true(fabs(ds.train[1].cx - 30) < 1e-9);
     cn_dataset_free(&ds);
+    /* A file of another shape than the camera's stated size: refused by name. */
+    uint8_t px[48 * 48 * 3];
+    memset(px, 90, sizeof px);
+    cn_buf b;
+    write_jpeg(&b, px, 48, 48, 3, 0);
+    char path[600];
+    snprintf(path, sizeof path, "%s/im2.jpg", dir);
+    assert_int_equal(cn_write_file_atomic(path, b.p, b.n, err, sizeof err), 0);
+    cn_buf_free(&b);
+    assert_int_equal(cn_dataset_load(dir, NULL, &ds, err, sizeof err), -1);
+    assert_non_null(strstr(err, "im2.jpg is 48x48, but its camera is for 64x48 images"));
 }
 
 int main(void)
