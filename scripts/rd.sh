@@ -4,8 +4,10 @@
 # (post-training uniform quantization of that float model to B bits, coded with the same
 # entropy coder). Writes OUT/rd.csv, OUT/rd.md (a table) and, with gnuplot, OUT/rd.png.
 #   scripts/rd.sh DATASET OUT [--downscale F] [--iters N] [--preset P] [--every N]
-#                 [--lambdas "L1 L2 ..."] [--bits "B1 B2 ..."] [--jobs J] [--lr X]
-#                 [--lr-decay N]
+#                 [--lambdas "L1 L2 ..."] [--sizes "S1 S2 ..."] [--bits "B1 B2 ..."]
+#                 [--jobs J] [--lr X] [--lr-decay N]
+# --sizes adds cnerf points encoded to a file size with rate control (--size S) instead of
+# a lambda (--lambdas "" leaves the lambda sweep out).
 # (--lr and --lr-decay go to every training run; the tables in docs/results.md before the
 # learning rate became 5e-3 over the run used --lr 5e-4 --lr-decay 500000.)
 # Each run uses one thread when --jobs is 2 (two runs side by side), else every core.
@@ -15,11 +17,12 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 data=${1:?dataset directory}; out=${2:?output directory}; shift 2
 downscale=4 iters=1000 preset=small every=40 jobs=1
-lambdas="1e-3 1 3 5 10" bits="4 5 6 8" lr=()
+lambdas="1e-3 1 3 5 10" sizes="" bits="4 5 6 8" lr=()
 while [ $# -gt 0 ]; do
   case $1 in
     --downscale) downscale=$2 ;; --iters) iters=$2 ;; --preset) preset=$2 ;;
-    --every) every=$2 ;; --lambdas) lambdas=$2 ;; --bits) bits=$2 ;; --jobs) jobs=$2 ;;
+    --every) every=$2 ;; --lambdas) lambdas=$2 ;; --sizes) sizes=$2 ;; --bits) bits=$2 ;;
+    --jobs) jobs=$2 ;;
     --lr|--lr-decay) lr+=("$1" "$2") ;;
     *) echo "rd.sh: unknown option $1" >&2; exit 2 ;;
   esac
@@ -39,19 +42,24 @@ bytes_of() { stat -c %s "$1"; }
 # picks up where it stopped; delete OUT to start over.
 done_run() { [ -s "$1" ] && [ -n "$(psnr_of "$2")" ]; }
 
-run_lambda() {
-  local l=$1
-  if done_run "$out/lambda-$l.cnrf" "$out/log/lambda-$l.log"; then return 0; fi
+# run_encode NAME OPTION VALUE: one cnerf point, OUT/NAME.cnrf.
+run_encode() {
+  local name=$1
+  if done_run "$out/$name.cnrf" "$out/log/$name.log"; then return 0; fi
   local resume=()  # an interrupted encode continues from its last checkpoint
-  [ -s "$out/lambda-$l.cnrf.ckpt" ] && resume=(--resume "$out/lambda-$l.cnrf.ckpt")
-  $cnerf encode "$data" -o "$out/lambda-$l.cnrf" --lambda "$l" "${common[@]}" --every "$every" \
-    --log-every 250 "${resume[@]}" > "$out/log/lambda-$l.log" 2>&1
-  rm -f "$out/lambda-$l.cnrf.ckpt"
+  [ -s "$out/$name.cnrf.ckpt" ] && resume=(--resume "$out/$name.cnrf.ckpt")
+  $cnerf encode "$data" -o "$out/$name.cnrf" "$2" "$3" "${common[@]}" --every "$every" \
+    --log-every 250 "${resume[@]}" >> "$out/log/$name.log" 2>&1 ||
+    echo "rd.sh: $name: cnerf encode failed (see $out/log/$name.log)" >&2
+  rm -f "$out/$name.cnrf.ckpt"
 }
 run_float() {
   if ! done_run "$out/float.ckpt" "$out/log/float.log"; then
-    $cnerf train "$data" -o "$out/float.ckpt" "${common[@]}" --log-every 250 \
-      > "$out/log/float.log" 2>&1
+    # an interrupted training continues from its checkpoint (train writes it to -o)
+    local resume=()
+    [ -s "$out/float.ckpt" ] && resume=(--resume)
+    $cnerf train "$data" -o "$out/float.ckpt" "${common[@]}" --log-every 250 "${resume[@]}" \
+      >> "$out/log/float.log" 2>&1
     $cnerf eval "$out/float.ckpt" "$data" --downscale "$downscale" --every "$every" \
       --threads "$threads" >> "$out/log/float.log" 2>&1
   fi
@@ -66,11 +74,13 @@ run_float() {
 # Jobs: the float model (and its quantized copies) first, then the lambdas, J at a time.
 tasks=(float)
 for l in $lambdas; do tasks+=("lambda:$l"); done
+for b in $sizes; do tasks+=("size:$b"); done
 running=0
 for t in "${tasks[@]}"; do
   case $t in
     float) run_float & ;;
-    lambda:*) run_lambda "${t#lambda:}" & ;;
+    lambda:*) run_encode "lambda-${t#lambda:}" --lambda "${t#lambda:}" & ;;
+    size:*) run_encode "size-${t#size:}" --size "${t#size:}" & ;;
   esac
   echo "rd.sh: started $t"
   running=$((running + 1))
@@ -90,6 +100,10 @@ done
 for l in $lambdas; do
   read -r p s <<< "$(psnr_of "$out/log/lambda-$l.log")"
   echo "cnerf,lambda $l,$(bytes_of "$out/lambda-$l.cnrf"),$p,$s" >> "$csv"
+done
+for b in $sizes; do
+  read -r p s <<< "$(psnr_of "$out/log/size-$b.log")"
+  echo "cnerf,size $b,$(bytes_of "$out/size-$b.cnrf"),$p,$s" >> "$csv"
 done
 cat "$csv"
 # The same as a table, with each file's size and PSNR against the float32 model's.
@@ -111,7 +125,7 @@ set ylabel "test PSNR (dB)"
 set key bottom right
 set grid
 set title "$(basename "$data"), preset $preset, $iters iterations, downscale $downscale"
-plot "< grep '^cnerf,' $csv" using 3:4 with linespoints lw 2 pt 7 title "cnerf (lambda sweep)", \
+plot "< grep '^cnerf,' $csv | sort -t, -k3 -n" using 3:4 with linespoints lw 2 pt 7 title "cnerf", \
      "< grep '^uniform,' $csv" using 3:4 with linespoints lw 2 pt 5 title "uniform quantization (4-8 bits) + same entropy coder", \
      "< grep '^float32,' $csv" using 3:4 with points pt 9 ps 2 title "float32"
 GP
