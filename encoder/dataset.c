@@ -186,6 +186,7 @@ typedef struct cn_frames {
     int max_views;     /* per split, 0 = all */
     int factor;        /* downscale applied to every image file */
     int offered;       /* frames offered to cn_frames_add, kept or not */
+    int quiet;         /* 1: no warnings (a listing that only measures the first image) */
     double rmin, rmax; /* range of their camera distances from the origin */
 } cn_frames;
 
@@ -661,7 +662,9 @@ static int cn_json_add_frames(const cJSON *root, const char *file, const char *d
                            cn_not_file_why(path), l.frame,
                            file);
         if (!found) {
-            fprintf(stderr, "warning: %s: %s, frame skipped\n", path, cn_not_file_why(path));
+            if (!L->quiet)
+                fprintf(stderr, "warning: %s: %s, frame skipped\n", path,
+                        cn_not_file_why(path));
             continue;
         }
         int split = rule->split >= 0 ? rule->split
@@ -1654,16 +1657,16 @@ int cn_dataset_load(const char *dir, const cn_dataset_opts *o, cn_dataset *ds, c
     int kind = cn_detect(dir, err, errlen);
     if (kind < 0)
         return -1;
-    cn_frames L = {.max_views = o->max_views, .factor = f};
+    cn_frames L = {.max_views = o->max_views, .factor = f, .quiet = o->max_size > 0};
     int rc = cn_load_layout(dir, kind, o, ds, &L, err, errlen);
     if (rc == 0 && o->max_size > 0 && L.n > 0) {
         /* The factor from the first image's upright size; then the frames again at it (an
-         * LLFF scene may hold images already reduced by it). */
+         * LLFF scene may hold images already reduced by it), this time with warnings. */
         int w, h;
         rc = cn_image_size(L.f[0].path, cn_ref_aspect(&L.f[0].in), &w, &h, err, errlen);
         const int big = w > h ? w : h;
         f = (big + o->max_size - 1) / o->max_size;
-        if (rc == 0 && f > 1) {
+        if (rc == 0) {
             cn_frames_free(&L);
             L = (cn_frames){.max_views = o->max_views, .factor = f};
             rc = cn_load_layout(dir, kind, o, ds, &L, err, errlen);

@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include <jpeglib.h>
 #include <png.h>
@@ -381,6 +382,41 @@ static void test_ngp_jpeg_scene(void **state)
     assert_non_null(strstr(err, "not given with a downscale"));
 }
 
+/* A frame whose image is missing is skipped with one warning, also when --max-size lists
+ * the frames twice (once to measure the first image). */
+static void test_missing_frame_warned_once(void **state)
+{
+    (void)state;
+    char err[512], path[600];
+    const char *dir = TMP "/ngp_missing";
+    make_ngp_jpegs(dir, "\"w\": 64, \"h\": 48,", "");
+    snprintf(path, sizeof path, "%s/im2.jpg", dir);
+    assert_int_equal(remove(path), 0);
+    snprintf(path, sizeof path, "%s/stderr.txt", TMP);
+    fflush(stderr);
+    const int saved = dup(2);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    assert_true(dup2(fileno(f), 2) >= 0);
+    cn_dataset ds;
+    const int rc = cn_dataset_load(dir, &(cn_dataset_opts){.max_size = 20}, &ds, err, sizeof err);
+    fflush(stderr);
+    dup2(saved, 2);
+    close(saved);
+    fclose(f);
+    assert_int_equal(rc, 0);
+    assert_int_equal(ds.n_train + ds.n_test, 2);
+    cn_dataset_free(&ds);
+    uint8_t *txt;
+    size_t len;
+    assert_int_equal(cn_read_file(path, &txt, &len, err, sizeof err), 0);
+    int warnings = 0;
+    for (size_t i = 0; i + 13 <= len; i++)
+        warnings += !memcmp(txt + i, "frame skipped", 13);
+    free(txt);
+    assert_int_equal(warnings, 1);
+}
+
 /* nerfstudio's per-frame cameras replace the file's; a distorted lens is resampled into a
  * pinhole view whose focal length says how (cn_undistort). Frames 0 and 2 are train views
  * (0 is the test view). */
@@ -426,6 +462,7 @@ int main(void)
         cmocka_unit_test(test_jpeg_errors),
         cmocka_unit_test(test_ngp_jpeg_scene),
         cmocka_unit_test(test_ngp_frame_cameras),
+        cmocka_unit_test(test_missing_frame_warned_once),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
