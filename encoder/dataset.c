@@ -1342,13 +1342,20 @@ static int cn_cmp_double(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
+/* Every step-th sparse point is used for the depth bounds: at most about 200,000. */
+static size_t cn_colmap_step(const cn_colmap *m)
+{
+    return m->n_points > 200000 ? m->n_points / 200000 : 1;
+}
+
 /* Depth bounds of the sparse points that camera k sees (in front, inside its image): the
- * 1st and 99th percentiles. 0 when fewer than 10 points are seen. */
+ * 1st and 99th percentiles. 0 when fewer than 10 points are seen. dep holds one depth per
+ * point used. */
 static int cn_colmap_bounds(const cn_colmap *m, const cn_llff_cam *cam, double *dep,
                             double *bnear, double *bfar)
 {
     size_t n = 0;
-    const size_t step = m->n_points > 200000 ? m->n_points / 200000 : 1;
+    const size_t step = cn_colmap_step(m);
     for (size_t i = 0; i < m->n_points; i += step) {
         const double *p = m->xyz + 3 * i;
         double v[3];
@@ -1480,9 +1487,8 @@ static int cn_load_colmap(const char *dir, cn_dataset *ds, cn_frames *L, char *e
         rc = cn_fail(err, errlen, "%s: no images/ directory beside the COLMAP model %s", dir,
                      sparse);
     cn_llff_cam *cams = rc == 0 ? calloc((size_t)n, sizeof *cams) : NULL;
-    double *dep = rc == 0 ? malloc(sizeof(double) * (m.n_points < 200000 ? m.n_points + 1
-                                                                          : 400001))
-                          : NULL;
+    const size_t used = (m.n_points + cn_colmap_step(&m) - 1) / cn_colmap_step(&m);
+    double *dep = rc == 0 ? malloc(sizeof(double) * (used + 1)) : NULL;
     if (rc == 0 && (!cams || !dep))
         rc = cn_fail(err, errlen, "%s: out of memory", sparse);
     if (rc == 0)
@@ -1532,21 +1538,10 @@ static int cn_load_colmap(const char *dir, cn_dataset *ds, cn_frames *L, char *e
         ds->far = bmax * sc;
         if (rc == 0)
             rc = cn_llff_recentre(cams, n, sparse, err, errlen);
-    } else if (rc == 0) {
-        double sc = 1;
-        rc = cn_colmap_orient(cams, n, sparse, &sc, err, errlen);
-        double rmin = INFINITY, rmax = 0;
-        for (int i = 0; i < n; i++) {
-            const double r = sqrt(cams[i].c2w[0][3] * cams[i].c2w[0][3] +
-                                  cams[i].c2w[1][3] * cams[i].c2w[1][3] +
-                                  cams[i].c2w[2][3] * cams[i].c2w[2][3]);
-            rmin = fmin(rmin, r);
-            rmax = fmax(rmax, r);
-        }
-        /* Without points: from next to the nearest camera to twice the farthest. */
-        ds->near = bounded ? fmax(0.01, 0.9 * bmin * sc) : 0.05;
-        ds->far = bounded ? 1.1 * bmax * sc : 2 * rmax;
     }
+    double sc = 1;
+    if (rc == 0 && !forward)
+        rc = cn_colmap_orient(cams, n, sparse, &sc, err, errlen);
     for (int i = 0; rc == 0 && i < n; i++) {
         rc = cn_join(path, imgdir, m.imgs[i].name, "", err, errlen);
         if (rc == 0 && !cn_is_file(path))
@@ -1555,6 +1550,11 @@ static int cn_load_colmap(const char *dir, cn_dataset *ds, cn_frames *L, char *e
         if (rc == 0)
             rc = cn_frames_add(L, path, i % CN_LLFF_HOLD == 0 ? CN_TEST : CN_TRAIN,
                                (const double(*)[4])cams[i].c2w, &cams[i].in, err, errlen);
+    }
+    if (rc == 0 && !forward) {
+        /* From the points; without them, 0.05 to twice the farthest camera's distance. */
+        ds->near = bounded ? fmax(0.01, 0.9 * bmin * sc) : 0.05;
+        ds->far = bounded ? 1.1 * bmax * sc : 2 * L->rmax;
     }
     free(dep);
     free(cams);

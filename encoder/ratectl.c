@@ -100,7 +100,7 @@ double cn_ratectl_update(cn_ratectl *rc, long step, double size)
     h = h > HORIZON_MAX ? HORIZON_MAX : h < HORIZON ? HORIZON : h;
     /* No further ahead than the run has been watched: early on, the slope is the model's
      * warm-up (its size grows 7% in the first 20 iterations on Fern), and fifty measurements'
-     * worth of it drove lambda to 0.076 units in 50 iterations and the size 26% under the
+     * worth of it drove lambda to 0.075 units in 50 iterations and the size 26% under the
      * plan, where it stayed with lambda on its floor (tests/unit/test_ratectl.c). */
     if (h > step - rc->start)
         h = step - rc->start > rc->every ? step - rc->start : rc->every;

@@ -318,6 +318,12 @@ static void test_inward_capture(void **state)
     }
     cn_dataset_free(&ds[0]);
     cn_dataset_free(&ds[1]);
+    /* Without points3D: near 0.05, far twice the farthest camera (mean distance 4). */
+    assert_int_equal(remove(TMP "/ring/sparse/0/points3D.bin"), 0);
+    assert_int_equal(cn_dataset_load(TMP "/ring", NULL, &ds[0], err, sizeof err), 0);
+    assert_true(ds[0].near == 0.05);
+    assert_true(ds[0].far >= 8 && ds[0].far < 12);
+    cn_dataset_free(&ds[0]);
 }
 
 /* Cameras that all look one way take LLFF's conventions: NDC, bounds from the points. */
@@ -333,6 +339,10 @@ static void test_forward_capture(void **state)
     const double X[3] = {1.3, -1.8, 0.2};
     assert_true(rays_meet(&ds, 1, X) < 1e-6);
     cn_dataset_free(&ds);
+    /* NDC needs depth bounds, which only the points give. */
+    assert_int_equal(remove(TMP "/front/sparse/0/points3D.bin"), 0);
+    assert_int_equal(cn_dataset_load(TMP "/front", NULL, &ds, err, sizeof err), -1);
+    assert_non_null(strstr(err, "a forward-facing capture needs the sparse points"));
 }
 
 /* images_2/ holds the images at half size: --downscale 2 reads them as they are. */

@@ -114,7 +114,7 @@ static void test_controllers_settle(void **state)
 
 /* A model whose size grows while it warms up: the controller must not take that first slope
  * for where the size is heading. Extrapolated fifty measurements ahead, it raised lambda
- * to 0.076 units within 50 iterations on Fern at 1/4 size (target 20,000 bytes), and the
+ * to 0.075 units within 50 iterations on Fern at 1/4 size (target 20,000 bytes), and the
  * stream fell 26% under the plan and stayed there with lambda on its floor. Here, with a
  * gain of 30, the plant's stream fell up to 5.2% under the plan that way. */
 static void test_warm_up(void **state)
