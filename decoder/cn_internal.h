@@ -191,8 +191,9 @@ static inline uint32_t cn_grid_cell(uint64_t s, uint64_t r, uint32_t g)
 /* Parses a HEAD payload of clen bytes into info (render parameters, expanded topology). */
 cnerf_status cn_parse_head(const uint8_t *p, uint32_t clen, cnerf_info *info);
 
-/* Parses the whole stream into `info`; used by cnerf_peek and cnerf_open. */
-cnerf_status cn_parse(const uint8_t *buf, size_t len, cnerf_info *info);
+/* Parses the whole stream into `info`, describing scene `scene` (CNERF_E_ARG after a
+ * complete walk when the stream has fewer scenes); used by cnerf_peek and cnerf_open. */
+cnerf_status cn_parse(const uint8_t *buf, size_t len, uint32_t scene, cnerf_info *info);
 
 /* 1 for the layers whose outputs leave the networks (density and colour): the renderer
  * writes them by output index, every other layer's outputs in its stored row order. */

@@ -112,24 +112,74 @@ cnerf_status cnerf_expand_topology(cnerf_info *info)
     return CNERF_OK;
 }
 
+/* A HEAD's render parameters: the fields before the topology (and n_nets). */
+typedef struct head_render {
+    uint8_t coord, background[3], n_nets;
+    int32_t near_q16, far_q16, aabb_q16[6];
+    uint16_t n_coarse, n_fine;
+} head_render;
+
+static void read_render(cn_reader *r, head_render *h, uint8_t topo[3])
+{
+    h->coord = (uint8_t)cn_rd_u8(r);
+    for (int i = 0; i < 3; i++)
+        topo[i] = (uint8_t)cn_rd_u8(r); /* l_pos, l_dir, pe_flags */
+    h->near_q16 = cn_rd_i32(r);
+    h->far_q16 = cn_rd_i32(r);
+    for (int i = 0; i < 6; i++)
+        h->aabb_q16[i] = cn_rd_i32(r);
+    for (int i = 0; i < 3; i++)
+        h->background[i] = (uint8_t)cn_rd_u8(r);
+    h->n_coarse = (uint16_t)cn_rd_u16(r);
+    h->n_fine = (uint16_t)cn_rd_u16(r);
+    h->n_nets = (uint8_t)cn_rd_u8(r);
+}
+
+/* The rules on the render parameters, in the order the errors are reported. */
+static cnerf_status check_render(const head_render *h)
+{
+    if (h->coord > CNERF_COORD_NDC)
+        return CNERF_E_HEADER;
+    if (h->n_coarse < 1u || h->n_coarse > CNERF_MAX_SAMPLES || h->n_fine > CNERF_MAX_SAMPLES)
+        return CNERF_E_LIMIT;
+    if (h->n_nets != (h->n_fine ? 2u : 1u))
+        return CNERF_E_HEADER;
+    if (h->near_q16 < 0 || h->far_q16 <= h->near_q16)
+        return CNERF_E_HEADER;
+    if (h->coord == CNERF_COORD_NDC && (h->near_q16 != 0 || h->far_q16 != CNERF_Q16_ONE))
+        return CNERF_E_HEADER;
+    for (int i = 0; i < 3; i++)
+        if (h->aabb_q16[i] >= h->aabb_q16[i + 3])
+            return CNERF_E_HEADER;
+    return CNERF_OK;
+}
+
+static void set_render(cnerf_info *info, const head_render *h)
+{
+    info->coord = h->coord;
+    info->near_q16 = h->near_q16;
+    info->far_q16 = h->far_q16;
+    for (int i = 0; i < 6; i++)
+        info->aabb_q16[i] = h->aabb_q16[i];
+    for (int i = 0; i < 3; i++)
+        info->background[i] = h->background[i];
+    info->n_coarse = h->n_coarse;
+    info->n_fine = h->n_fine;
+    info->n_nets = h->n_nets;
+}
+
 cnerf_status cn_parse_head(const uint8_t *p, uint32_t clen, cnerf_info *info)
 {
     cn_reader rd;
     cn_reader *r = &rd;
     cn_rd_init(r, p, clen);
-    info->coord = (uint8_t)cn_rd_u8(r);
-    info->l_pos = (uint8_t)cn_rd_u8(r);
-    info->l_dir = (uint8_t)cn_rd_u8(r);
-    info->pe_flags = (uint8_t)cn_rd_u8(r);
-    info->near_q16 = cn_rd_i32(r);
-    info->far_q16 = cn_rd_i32(r);
-    for (int i = 0; i < 6; i++)
-        info->aabb_q16[i] = cn_rd_i32(r);
-    for (int i = 0; i < 3; i++)
-        info->background[i] = (uint8_t)cn_rd_u8(r);
-    info->n_coarse = (uint16_t)cn_rd_u16(r);
-    info->n_fine = (uint16_t)cn_rd_u16(r);
-    info->n_nets = (uint8_t)cn_rd_u8(r);
+    head_render h;
+    uint8_t topo[3];
+    read_render(r, &h, topo);
+    set_render(info, &h);
+    info->l_pos = topo[0];
+    info->l_dir = topo[1];
+    info->pe_flags = topo[2];
     if (r->err)
         return CNERF_E_CHUNK;
     if (info->n_nets < 1u || info->n_nets > CNERF_MAX_NETS)
@@ -145,25 +195,82 @@ cnerf_status cn_parse_head(const uint8_t *p, uint32_t clen, cnerf_info *info)
     }
     if (r->err)
         return CNERF_E_CHUNK;
-    if (info->coord > CNERF_COORD_NDC)
-        return CNERF_E_HEADER;
-    if (info->n_coarse < 1u || info->n_coarse > CNERF_MAX_SAMPLES ||
-        info->n_fine > CNERF_MAX_SAMPLES)
+    const cnerf_status st = check_render(&h);
+    return st != CNERF_OK ? st : cnerf_expand_topology(info);
+}
+
+/* A later scene's HEAD (payload p, clen bytes) against the first one's (p0, len0): the same
+ * length and topology bytes (CNERF_E_HEADER otherwise), and valid render parameters, which
+ * go into info when `record`. */
+static cnerf_status parse_scene_head(const uint8_t *p, uint32_t clen, const uint8_t *p0,
+                                     uint32_t len0, cnerf_info *info, int record)
+{
+    cn_reader r;
+    cn_rd_init(&r, p, clen);
+    head_render h;
+    uint8_t topo[3];
+    read_render(&r, &h, topo);
+    if (r.err)
+        return CNERF_E_CHUNK;
+    if (h.n_nets < 1u || h.n_nets > CNERF_MAX_NETS)
         return CNERF_E_LIMIT;
-    if (info->n_nets != (info->n_fine ? 2u : 1u))
-        return CNERF_E_HEADER;
-    if (info->near_q16 < 0 || info->far_q16 <= info->near_q16)
-        return CNERF_E_HEADER;
-    if (info->coord == CNERF_COORD_NDC &&
-        (info->near_q16 != 0 || info->far_q16 != CNERF_Q16_ONE))
-        return CNERF_E_HEADER;
-    for (int i = 0; i < 3; i++)
-        if (info->aabb_q16[i] >= info->aabb_q16[i + 3])
-            return CNERF_E_HEADER;
-    return cnerf_expand_topology(info);
+    if (clen != CNERF_HEAD_FIXED_BYTES + CNERF_HEAD_NET_BYTES * (uint32_t)h.n_nets)
+        return CNERF_E_CHUNK;
+    if (clen != len0)
+        return CNERF_E_HEADER; /* another network count: another topology */
+    for (uint32_t i = 1; i < clen; i++)
+        if ((i < 4u || i >= CNERF_HEAD_FIXED_BYTES - 1u) && p[i] != p0[i])
+            return CNERF_E_HEADER; /* l_pos, l_dir, pe_flags, n_nets and the networks */
+    const cnerf_status st = check_render(&h);
+    if (st == CNERF_OK && record)
+        set_render(info, &h);
+    return st;
 }
 
 static int exp_ok(int32_t e) { return e >= CNERF_EXP_MIN && e <= CNERF_EXP_MAX; }
+
+/* Where a coded matrix (latents or shifts) lies in its chunk. */
+typedef struct coded_at {
+    uint8_t prec, order;
+    uint32_t table_bytes; /* the range, and prec, order and the table when coded */
+    uint32_t table_offset, payload_offset, payload_bytes;
+} coded_at;
+
+/* The rest of a chunk [off, off + clen) after a coded matrix's range lo..hi, which the
+ * reader r has just read: nothing for a constant matrix, else prec, order, the table and
+ * the rANS payload (at least 4 bytes). */
+static cnerf_status parse_coded(cn_reader *r, const uint8_t *buf, uint32_t off, uint32_t clen,
+                                int32_t lo, int32_t hi, coded_at *c)
+{
+    c->prec = c->order = 0;
+    c->table_bytes = 4u;
+    if (lo == hi) {
+        /* A constant matrix codes nothing. */
+        c->table_offset = c->payload_offset = off + clen;
+        c->payload_bytes = 0;
+        return cn_rd_left(r) != 0u ? CNERF_E_CHUNK : CNERF_OK;
+    }
+    uint32_t prec = cn_rd_u8(r), k = cn_rd_u8(r);
+    if (r->err)
+        return CNERF_E_TABLE;
+    if (prec < 1u || prec > CNERF_MAX_PREC || k > CNERF_MAX_EG_ORDER)
+        return CNERF_E_TABLE;
+    c->prec = (uint8_t)prec;
+    c->order = (uint8_t)k;
+    c->table_offset = off + (uint32_t)(r->p - (buf + off));
+    cn_bits b;
+    cn_bits_init(&b, r->p, cn_rd_left(r));
+    /* hi - lo + 1 <= 65535 by the range check. */
+    cnerf_status st = cn_table_read(&b, (uint32_t)(hi - lo) + 1u, prec, k, (uint32_t *)0);
+    if (st != CNERF_OK)
+        return st;
+    uint32_t tbytes = (uint32_t)cn_bits_used(&b, r->p);
+    c->table_bytes = 6u + tbytes;
+    r->p += tbytes;
+    c->payload_offset = off + (uint32_t)(r->p - (buf + off));
+    c->payload_bytes = (uint32_t)cn_rd_left(r);
+    return c->payload_bytes < 4u ? CNERF_E_PAYLOAD : CNERF_OK;
+}
 
 /* Parses one LAYR payload [p, p+clen) at absolute offset `off` of the stream. */
 static cnerf_status parse_layer(const uint8_t *buf, uint32_t off, uint32_t clen,
@@ -213,43 +320,63 @@ static cnerf_status parse_layer(const uint8_t *buf, uint32_t off, uint32_t clen,
     L->header_bytes = 7u;
     L->affine_bytes = 8u;
     L->bias_bytes = 2u + bias_packed;
-    L->table_bytes = 4u;
-    L->prec = 0;
-    L->eg_order = 0;
-    if (kmin == kmax) {
-        /* A constant layer codes nothing. */
-        if (cn_rd_left(&r) != 0u)
-            return CNERF_E_CHUNK;
-        L->table_offset = L->payload_offset = off + clen;
-        L->payload_bytes = 0;
-        return CNERF_OK;
-    }
-    uint32_t prec = cn_rd_u8(&r), k = cn_rd_u8(&r);
-    if (r.err)
-        return CNERF_E_TABLE;
-    if (prec < 1u || prec > CNERF_MAX_PREC || k > CNERF_MAX_EG_ORDER)
-        return CNERF_E_TABLE;
-    L->prec = (uint8_t)prec;
-    L->eg_order = (uint8_t)k;
-    L->table_offset = off + (uint32_t)(r.p - (buf + off));
-    cn_bits b;
-    cn_bits_init(&b, r.p, cn_rd_left(&r));
-    /* kmax - kmin + 1 <= 65535 by the range check. */
-    cnerf_status st = cn_table_read(&b, (uint32_t)(kmax - kmin) + 1u, prec, k, (uint32_t *)0);
-    if (st != CNERF_OK)
-        return st;
-    uint32_t tbytes = (uint32_t)cn_bits_used(&b, r.p);
-    L->table_bytes = 6u + tbytes;
-    r.p += tbytes;
-    L->payload_offset = off + (uint32_t)(r.p - (buf + off));
-    L->payload_bytes = (uint32_t)cn_rd_left(&r);
-    if (L->payload_bytes < 4u)
-        return CNERF_E_PAYLOAD;
-    return CNERF_OK;
+    coded_at c;
+    const cnerf_status st = parse_coded(&r, buf, off, clen, kmin, kmax, &c);
+    L->prec = c.prec;
+    L->eg_order = c.order;
+    L->table_bytes = c.table_bytes;
+    L->table_offset = c.table_offset;
+    L->payload_offset = c.payload_offset;
+    L->payload_bytes = c.payload_bytes;
+    return st;
 }
 
-/* Parses a GRID payload [off, off + clen) of the stream into info. */
-static cnerf_status parse_grid(const uint8_t *buf, uint32_t off, uint32_t clen, cnerf_info *info)
+/* Parses one SHFT payload [off, off + clen) for layer L into S. */
+static cnerf_status parse_shift(const uint8_t *buf, uint32_t off, uint32_t clen,
+                                const cnerf_layer_info *L, cnerf_shift_info *S)
+{
+    cn_reader r;
+    cn_rd_init(&r, buf + off, clen);
+    const uint32_t net = cn_rd_u8(&r), index = cn_rd_u8(&r);
+    const uint32_t n_in = cn_rd_u16(&r), n_out = cn_rd_u16(&r);
+    const int32_t g_m = cn_rd_i24(&r), g_e = cn_rd_i8(&r);
+    const int32_t smin = cn_rd_i16(&r), smax = cn_rd_i16(&r);
+    if (r.err)
+        return CNERF_E_CHUNK;
+    if (net != L->net || index != L->index)
+        return CNERF_E_CHUNK_ORDER;
+    if (n_in != L->n_in || n_out != L->n_out)
+        return CNERF_E_LAYER;
+    if (g_m < -CNERF_M24_ABS_MAX || !exp_ok(g_e))
+        return CNERF_E_FORMAT;
+    if (smin < -CNERF_MAX_ABS_K || smax < -CNERF_MAX_ABS_K || smin > smax)
+        return CNERF_E_RANGE;
+    S->g_m = g_m;
+    S->g_e = (int8_t)g_e;
+    S->smin = smin;
+    S->smax = smax;
+    coded_at c;
+    const cnerf_status st = parse_coded(&r, buf, off, clen, smin, smax, &c);
+    S->prec = c.prec;
+    S->eg_order = c.order;
+    S->table_offset = c.table_offset;
+    S->payload_offset = c.payload_offset;
+    S->payload_bytes = c.payload_bytes;
+    return st;
+}
+
+/* 1 when the layer's kernel has a shift term (not every shift 0). */
+static int has_shift(const cnerf_shift_info *S) { return S->smin != 0 || S->smax != 0; }
+
+/* A GRID chunk's fields (cnerf_info's grid_* fields). */
+typedef struct grid_fields {
+    uint8_t g, prec;
+    uint16_t f1[CNERF_GRID_CONTEXTS];
+    uint32_t payload_offset, payload_bytes;
+} grid_fields;
+
+/* Parses a GRID payload [off, off + clen) of the stream into gf. */
+static cnerf_status parse_grid(const uint8_t *buf, uint32_t off, uint32_t clen, grid_fields *gf)
 {
     cn_reader r;
     cn_rd_init(&r, buf + off, clen);
@@ -266,13 +393,13 @@ static cnerf_status parse_grid(const uint8_t *buf, uint32_t off, uint32_t clen, 
     for (unsigned c = 0; c < CNERF_GRID_CONTEXTS; c++) {
         if (f1[c] < 1u || f1[c] >= ((uint32_t)1u << prec))
             return CNERF_E_TABLE; /* both symbols need a frequency of at least 1 */
-        info->grid_f1[c] = (uint16_t)f1[c];
+        gf->f1[c] = (uint16_t)f1[c];
     }
-    info->grid_g = (uint8_t)g;
-    info->grid_prec = (uint8_t)prec;
-    info->grid_payload_offset = off + CNERF_GRID_FIXED_BYTES;
-    info->grid_payload_bytes = clen - CNERF_GRID_FIXED_BYTES;
-    return info->grid_payload_bytes < 4u ? CNERF_E_PAYLOAD : CNERF_OK;
+    gf->g = (uint8_t)g;
+    gf->prec = (uint8_t)prec;
+    gf->payload_offset = off + CNERF_GRID_FIXED_BYTES;
+    gf->payload_bytes = clen - CNERF_GRID_FIXED_BYTES;
+    return gf->payload_bytes < 4u ? CNERF_E_PAYLOAD : CNERF_OK;
 }
 
 /* Parses a UNIT payload: per network, the units of each trunk layer, then of the view
@@ -311,7 +438,7 @@ static int tag_ok(uint32_t tag)
     return 1;
 }
 
-cnerf_status cn_parse(const uint8_t *buf, size_t len, cnerf_info *info)
+cnerf_status cn_parse(const uint8_t *buf, size_t len, uint32_t want, cnerf_info *info)
 {
     cn_memzero(info, sizeof *info);
     static const uint8_t magic[4] = {CNERF_MAGIC_0, CNERF_MAGIC_1, CNERF_MAGIC_2, CNERF_MAGIC_3};
@@ -333,8 +460,13 @@ cnerf_status cn_parse(const uint8_t *buf, size_t len, cnerf_info *info)
     if (info->version_major != CNERF_VERSION_MAJOR)
         return CNERF_E_VERSION;
     info->signature_bytes = CNERF_SIGNATURE_BYTES;
-    int seen_head = 0;
-    uint32_t next_layer = 0;
+    info->n_scenes = 1;
+    /* The walk: the first HEAD, then SCNS (several scenes), UNIT, one SHFT per layer; then
+     * per scene its HEAD (not for scene 0), GRID and layers; DONE. `scene` is the scene whose
+     * chunks are being read; only the wanted one's go into info, the others are checked the
+     * same way into scratch fields. */
+    int seen_head = 0, grid_seen = 0;
+    uint32_t next_layer = 0, next_shift = 0, scene = 0, head0_off = 0, head0_len = 0;
     for (;;) {
         const uint32_t off = (uint32_t)(r.p - buf);
         if (cn_rd_left(&r) < 8u)
@@ -358,47 +490,115 @@ cnerf_status cn_parse(const uint8_t *buf, size_t len, cnerf_info *info)
             return CNERF_E_CHUNK;
         const int critical = (tag & 0xFFu) >= 'A' && (tag & 0xFFu) <= 'Z';
         const uint32_t cbytes = clen + CNERF_CHUNK_OVERHEAD;
+        const int record = scene == want;
+        const int shared_done = info->n_scenes == 1u || next_shift == info->n_layers;
         cnerf_status st;
         if (!seen_head && tag != CNERF_TAG_HEAD)
             return CNERF_E_CHUNK_ORDER;
-        if (tag == CNERF_TAG_HEAD) {
-            if (seen_head)
-                return CNERF_E_CHUNK_ORDER;
+        if (tag == CNERF_TAG_HEAD && !seen_head) {
             if ((st = cn_parse_head(buf + poff, clen, info)) != CNERF_OK)
                 return st;
             seen_head = 1;
-            info->head_bytes = cbytes;
-        } else if (tag == CNERF_TAG_LAYR) {
-            if (next_layer >= info->n_layers)
+            head0_off = poff;
+            head0_len = clen;
+            if (record) {
+                info->head_bytes = cbytes;
+                info->scene_bytes += cbytes;
+            }
+        } else if (tag == CNERF_TAG_HEAD) {
+            /* The next scene: after every layer of this one, within the scene count. */
+            if (scene + 1u >= info->n_scenes || next_layer != info->n_layers)
                 return CNERF_E_CHUNK_ORDER;
-            cnerf_layer_info *L = &info->layer[next_layer];
+            scene++;
+            next_layer = 0;
+            grid_seen = 0;
+            if ((st = parse_scene_head(buf + poff, clen, buf + head0_off, head0_len, info,
+                                       scene == want)) != CNERF_OK)
+                return st;
+            if (scene == want) {
+                info->head_bytes = cbytes;
+                info->scene_bytes += cbytes;
+            }
+        } else if (tag == CNERF_TAG_SCNS) {
+            /* Right after the first HEAD (ancillary chunks aside), at most once. */
+            if (info->n_scenes != 1u || info->unit_bytes || grid_seen || next_layer > 0u)
+                return CNERF_E_CHUNK_ORDER;
+            if (clen != 1u)
+                return CNERF_E_CHUNK;
+            const uint32_t n = buf[poff];
+            if (n < 2u || n > CNERF_MAX_SCENES)
+                return CNERF_E_LIMIT;
+            info->n_scenes = (uint8_t)n;
+            info->shared_bytes += cbytes;
+        } else if (tag == CNERF_TAG_SHFT) {
+            /* One per layer, in order, after SCNS and UNIT, before scene 0's grid and layers. */
+            if (info->n_scenes == 1u || scene > 0u || grid_seen || next_layer > 0u ||
+                next_shift >= info->n_layers)
+                return CNERF_E_CHUNK_ORDER;
+            cnerf_shift_info *S = &info->shift[next_shift];
+            if ((st = parse_shift(buf, poff, clen, &info->layer[next_shift], S)) != CNERF_OK)
+                return st;
+            S->chunk_offset = off;
+            S->chunk_bytes = cbytes;
+            if (has_shift(S))
+                info->n_shift_params +=
+                    (uint32_t)info->layer[next_shift].n_in * info->layer[next_shift].n_out;
+            info->shared_bytes += cbytes;
+            next_shift++;
+        } else if (tag == CNERF_TAG_LAYR) {
+            if (next_layer >= info->n_layers || !shared_done)
+                return CNERF_E_CHUNK_ORDER;
+            cnerf_layer_info other, *L = &info->layer[next_layer];
+            if (!record) { /* another scene's layer: checked against the same shape */
+                other = *L;
+                L = &other;
+            }
             if ((st = parse_layer(buf, poff, clen, L)) != CNERF_OK)
                 return st;
             L->chunk_offset = off;
             L->chunk_bytes = cbytes;
+            if (record)
+                info->scene_bytes += cbytes;
             next_layer++;
         } else if (tag == CNERF_TAG_UNIT) {
-            /* At most one, before the grid and the first layer. */
-            if (info->unit_bytes || info->grid_g || next_layer > 0u)
+            /* At most one, before the shifts, the grid and the first layer. */
+            if (info->unit_bytes || grid_seen || next_layer > 0u || next_shift > 0u ||
+                scene > 0u)
                 return CNERF_E_CHUNK_ORDER;
             if ((st = parse_units(buf + poff, clen, info)) != CNERF_OK)
                 return st;
             info->unit_bytes = cbytes;
         } else if (tag == CNERF_TAG_GRID) {
-            /* At most one, before the first layer. */
-            if (info->grid_g || next_layer > 0u)
+            /* At most one per scene, before its first layer (and after the shifts). */
+            if (grid_seen || next_layer > 0u || !shared_done)
                 return CNERF_E_CHUNK_ORDER;
-            if ((st = parse_grid(buf, poff, clen, info)) != CNERF_OK)
+            grid_fields gf;
+            if ((st = parse_grid(buf, poff, clen, &gf)) != CNERF_OK)
                 return st;
-            info->grid_bytes = cbytes;
+            grid_seen = 1;
+            if (record) {
+                info->grid_g = gf.g;
+                info->grid_prec = gf.prec;
+                for (unsigned c = 0; c < CNERF_GRID_CONTEXTS; c++)
+                    info->grid_f1[c] = gf.f1[c];
+                info->grid_payload_offset = gf.payload_offset;
+                info->grid_payload_bytes = gf.payload_bytes;
+                info->grid_bytes = cbytes;
+                info->scene_bytes += cbytes;
+            }
         } else if (tag == CNERF_TAG_DONE) {
             if (clen != 0u)
                 return CNERF_E_CHUNK;
-            if (next_layer != info->n_layers)
+            if (next_layer != info->n_layers || scene + 1u != info->n_scenes || !shared_done)
                 return CNERF_E_CHUNK_ORDER;
             info->done_bytes = cbytes;
             info->file_bytes = off + cbytes;
-            return cn_rd_left(&r) ? CNERF_E_TRAILING : CNERF_OK;
+            if (cn_rd_left(&r))
+                return CNERF_E_TRAILING;
+            if (want >= info->n_scenes)
+                return CNERF_E_ARG;
+            info->scene = (uint8_t)want;
+            return CNERF_OK;
         } else if (critical) {
             return CNERF_E_UNKNOWN_CHUNK;
         } else {
@@ -411,11 +611,16 @@ cnerf_status cn_parse(const uint8_t *buf, size_t len, cnerf_info *info)
     }
 }
 
-cnerf_status cnerf_peek(const uint8_t *buf, size_t len, cnerf_info *info)
+cnerf_status cnerf_peek_scene(const uint8_t *buf, size_t len, uint32_t scene, cnerf_info *info)
 {
     if (!info || (!buf && len))
         return CNERF_E_NULL;
-    return cn_parse(buf ? buf : (const uint8_t *)"", len, info);
+    return cn_parse(buf ? buf : (const uint8_t *)"", len, scene, info);
+}
+
+cnerf_status cnerf_peek(const uint8_t *buf, size_t len, cnerf_info *info)
+{
+    return cnerf_peek_scene(buf, len, 0, info);
 }
 
 static size_t align8(size_t n) { return (n + 7u) & ~(size_t)7u; }
@@ -437,17 +642,22 @@ size_t cnerf_workspace_size(const cnerf_info *info)
     if (!info || info->n_layers > CNERF_MAX_LAYERS)
         return 0;
     /* Every term is bounded by the limits (see CNERF_WORKSPACE_BOUND), and the total is
-     * below 2^28 bytes, so size_t arithmetic cannot overflow even where it is 32 bits. */
+     * below 2^29 bytes, so size_t arithmetic cannot overflow even where it is 32 bits. */
     size_t total = 0, scratch = 0;
     for (uint32_t l = 0; l < info->n_layers; l++) {
         const cnerf_layer_info *L = &info->layer[l];
+        const cnerf_shift_info *S = &info->shift[l];
         total += align8((size_t)in_pad(L) * L->n_out * 2u); /* packed int16 latents */
+        if (has_shift(S))
+            total += align8((size_t)in_pad(L) * L->n_out * 2u); /* packed int16 shifts */
         total += 2u * align8((size_t)L->n_out * 4u);          /* bias mantissas, bias_q16 */
         total += align8((size_t)L->n_out * 2u);               /* row order */
         /* open's scratch: the frequency table, or four rows while packing them */
         const size_t cum = alphabet(L) ? ((size_t)alphabet(L) + 1u) * 4u : 0u;
+        const size_t scum = S->smin < S->smax ? ((size_t)(S->smax - S->smin) + 2u) * 4u : 0u;
         const size_t rows4 = (size_t)in_pad(L) * 4u * 2u;
         scratch = cum > scratch ? cum : scratch;
+        scratch = scum > scratch ? scum : scratch;
         scratch = rows4 > scratch ? rows4 : scratch;
     }
     if (info->grid_g)
@@ -470,24 +680,44 @@ static cnerf_status read_biases(const uint8_t *buf, const cnerf_layer_info *L, i
     return b.err ? CNERF_E_CHUNK : CNERF_OK; /* cannot fail after cn_parse */
 }
 
-/* Decodes the layer's latents row-major into lat, rows of in_pad(L) int16 with a zero
- * in the pad column. */
-static cnerf_status decode_layer(const uint8_t *buf, const cnerf_layer_info *L, int16_t *lat,
-                                 uint32_t *cum)
+/* A coded integer matrix: a layer's latents or its shifts. */
+typedef struct coded {
+    uint32_t n_in, n_out;
+    int32_t lo, hi; /* range; lo == hi codes nothing */
+    uint32_t prec, order, table_offset, payload_offset, payload_bytes;
+} coded;
+
+static coded coded_latents(const cnerf_layer_info *L)
 {
-    const uint32_t n_in = L->n_in, n_out = L->n_out, pad = in_pad(L);
+    coded c = {L->n_in, L->n_out, L->kmin, L->kmax, L->prec, L->eg_order, L->table_offset,
+               L->payload_offset, L->payload_bytes};
+    return c;
+}
+
+static coded coded_shifts(const cnerf_layer_info *L, const cnerf_shift_info *S)
+{
+    coded c = {L->n_in, L->n_out, S->smin, S->smax, S->prec, S->eg_order, S->table_offset,
+               S->payload_offset, S->payload_bytes};
+    return c;
+}
+
+/* Decodes a coded matrix row-major into lat, rows of in_pad int16 with a zero in the pad
+ * column. */
+static cnerf_status decode_matrix(const uint8_t *buf, const coded *C, int16_t *lat, uint32_t *cum)
+{
+    const uint32_t n_in = C->n_in, n_out = C->n_out, pad = (n_in + 1u) & ~1u;
     const uint32_t count = n_in * n_out;
-    if (L->kmin == L->kmax) {
+    if (C->lo == C->hi) {
         for (uint32_t i = 0; i < count; i++)
-            lat[i] = (int16_t)L->kmin;
+            lat[i] = (int16_t)C->lo;
     } else {
-        const uint32_t n = alphabet(L);
+        const uint32_t n = (uint32_t)(C->hi - C->lo) + 1u;
         cn_bits b;
-        cn_bits_init(&b, buf + L->table_offset, L->payload_offset - L->table_offset);
-        cnerf_status st = cn_table_read(&b, n, L->prec, L->eg_order, cum);
+        cn_bits_init(&b, buf + C->table_offset, C->payload_offset - C->table_offset);
+        cnerf_status st = cn_table_read(&b, n, C->prec, C->order, cum);
         if (st == CNERF_OK)
-            st = cn_rans_decode(buf + L->payload_offset, L->payload_bytes, cum, n, L->prec,
-                                L->kmin, lat, 2u, count);
+            st = cn_rans_decode(buf + C->payload_offset, C->payload_bytes, cum, n, C->prec,
+                                C->lo, lat, 2u, count);
         if (st != CNERF_OK)
             return st;
     }
@@ -512,31 +742,48 @@ static size_t packed_index(uint32_t j, uint32_t i, uint32_t live, uint32_t pairs
     return (size_t)b * 8u * pairs + (size_t)(i >> 1) * 8u + 2u * q + (i & 1u);
 }
 
-/* Orders the layer's rows (live ones first, in increasing output order; rows[] gets each
- * stored row's output index, the all-zero rows last), puts the largest sum |k| of a row
- * into *maxsum, and packs the live rows into blocks of four, using `tmp` (4 padded rows).
- * A block's rows come from row slots at or after its own (a live row's output index is at
- * least its rank), so writing block b overwrites only slots that were copied to tmp,
- * belong to earlier blocks or hold zeros. Returns the live rows. */
-static uint16_t pack_rows(const cnerf_layer_info *L, int16_t *lat, uint16_t *rows, int16_t *tmp,
-                          uint32_t *maxsum)
+/* Sum |v| of row o of a padded matrix (<= 1124 * 32767 < 2^26). */
+static uint32_t row_abs_sum(const int16_t *m, uint32_t o, uint32_t pad)
+{
+    const int16_t *row = m + (size_t)o * pad;
+    uint32_t sum = 0;
+    for (uint32_t i = 0; i < pad; i++) {
+        const int32_t k = row[i];
+        sum += (uint32_t)(k < 0 ? -k : k);
+    }
+    return sum;
+}
+
+/* Orders the layer's rows: live ones (a non-zero latent, or a non-zero shift when `sh` is
+ * not NULL) first, in increasing output order; rows[] gets each stored row's output index,
+ * the all-zero rows last. Puts the largest sum |k| of a row into *maxsum and the largest
+ * sum |s| into *maxshift. Returns the live rows. */
+static uint16_t order_rows(const cnerf_layer_info *L, const int16_t *lat, const int16_t *sh,
+                           uint16_t *rows, uint32_t *maxsum, uint32_t *maxshift)
 {
     const uint32_t pad = in_pad(L), n_out = L->n_out;
     uint32_t live = 0, dead = n_out;
-    *maxsum = 0;
+    *maxsum = *maxshift = 0;
     for (uint32_t o = 0; o < n_out; o++) {
-        const int16_t *row = lat + (size_t)o * pad;
-        uint32_t sum = 0; /* <= 1124 * 32767 < 2^26 */
-        for (uint32_t i = 0; i < pad; i++) {
-            const int32_t k = row[i];
-            sum += (uint32_t)(k < 0 ? -k : k);
-        }
+        const uint32_t sum = row_abs_sum(lat, o, pad), ss = sh ? row_abs_sum(sh, o, pad) : 0u;
         *maxsum = sum > *maxsum ? sum : *maxsum;
-        if (sum)
+        *maxshift = ss > *maxshift ? ss : *maxshift;
+        if (sum || ss)
             rows[live++] = (uint16_t)o;
         else
             rows[--dead] = (uint16_t)o; /* fills from the end, in decreasing order */
     }
+    return (uint16_t)live;
+}
+
+/* Packs the live rows of lat (in the order of rows[]) into blocks of four, using `tmp`
+ * (4 padded rows), and zeroes the rest. A block's rows come from row slots at or after its
+ * own (a live row's output index is at least its rank), so writing block b overwrites only
+ * slots that were copied to tmp, belong to earlier blocks or hold zeros. */
+static void pack_rows(const cnerf_layer_info *L, int16_t *lat, const uint16_t *rows,
+                      uint32_t live, int16_t *tmp)
+{
+    const uint32_t pad = in_pad(L), n_out = L->n_out;
     for (uint32_t b = 0; 4u * b < live; b++) {
         const uint32_t rb = live - 4u * b < 4u ? live - 4u * b : 4u;
         int16_t *blk = lat + (size_t)b * 4u * pad;
@@ -554,7 +801,6 @@ static uint16_t pack_rows(const cnerf_layer_info *L, int16_t *lat, uint16_t *row
     }
     for (size_t i = (size_t)live * pad; i < (size_t)n_out * pad; i++)
         lat[i] = 0;
-    return (uint16_t)live;
 }
 
 /* The layer whose outputs feed layer l's inputs from column *off on (the renderer keeps
@@ -622,15 +868,17 @@ static int32_t q16_bias(int32_t m, int e)
  * 2^15 S, S its sum |k|; with every row's S <= 65535 it is below 2^31 (an int32 sum). The
  * rescale round(acc a_m 2^-n) of such a sum needs no saturation when 2^15 max S |a_m| <
  * 2^(30+n): it stays below 2^30 in magnitude. */
-static void prove_layer(cnerf_decoder *dec, uint32_t l, uint32_t maxsum)
+static void prove_layer(cnerf_decoder *dec, uint32_t l, uint32_t maxsum, uint32_t maxshift)
 {
     const cnerf_layer_info *L = &dec->info.layer[l];
     dec->wide[l] = maxsum > 65535u;
+    dec->shift_wide[l] = maxshift > 65535u; /* the same bound for the sums s x_q */
     const int n = -((int)L->a_e + 16 - (int)L->f_in);
     const uint64_t am = (uint64_t)(L->a_m < 0 ? -L->a_m : L->a_m); /* < 2^23 */
     const uint64_t bound = ((uint64_t)maxsum << 15) * am;           /* < 2^16 2^15 2^23 */
     dec->a_shift[l] = 0;
-    if (!dec->wide[l] && n >= 1 && n <= 62 && (bound >> 30) >> n == 0u)
+    /* A layer with a shift adds its term before the offset and bias: the general path. */
+    if (!dec->wide[l] && !dec->shift[l] && n >= 1 && n <= 62 && (bound >> 30) >> n == 0u)
         dec->a_shift[l] = (uint8_t)n;
     /* b sum x_q: |sum x_q| <= 2^15 n_in */
     const int nb = -((int)L->b_e + 16 - (int)L->f_in);
@@ -641,8 +889,8 @@ static void prove_layer(cnerf_decoder *dec, uint32_t l, uint32_t maxsum)
         dec->b_shift[l] = (uint8_t)nb;
 }
 
-cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void *ws,
-                        size_t ws_size)
+cnerf_status cnerf_open_scene(cnerf_decoder *dec, const uint8_t *buf, size_t len,
+                              uint32_t scene, void *ws, size_t ws_size)
 {
     if (!dec)
         return CNERF_E_NULL;
@@ -653,7 +901,7 @@ cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void
         return CNERF_E_WS_ALIGN;
     if (!buf)
         buf = (const uint8_t *)""; /* no bytes: an empty stream */
-    cnerf_status st = cn_parse(buf, len, &dec->info);
+    cnerf_status st = cn_parse(buf, len, scene, &dec->info);
     if (st == CNERF_OK && ws_size < cnerf_workspace_size(&dec->info))
         st = CNERF_E_WS_SMALL;
     uint8_t *w = (uint8_t *)ws;
@@ -665,6 +913,10 @@ cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void
             const cnerf_layer_info *L = &info->layer[l];
             dec->latent[l] = (const int16_t *)(void *)w;
             w += align8((size_t)in_pad(L) * L->n_out * 2u);
+            if (has_shift(&info->shift[l])) {
+                dec->shift[l] = (const int16_t *)(void *)w;
+                w += align8((size_t)in_pad(L) * L->n_out * 2u);
+            }
             dec->bias[l] = (const int32_t *)(void *)w;
             w += align8((size_t)L->n_out * 4u);
             dec->bias_q16[l] = (const int32_t *)(void *)w;
@@ -688,18 +940,29 @@ cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void
         int32_t *bias = (int32_t *)(uintptr_t)dec->bias[l];
         int16_t *lat = (int16_t *)(uintptr_t)dec->latent[l];
         uint16_t *rows = (uint16_t *)(uintptr_t)dec->rows[l];
+        int16_t *sh = (int16_t *)(uintptr_t)dec->shift[l]; /* NULL: no shift */
+        int16_t *tmp = (int16_t *)(void *)scratch;
+        const coded ck = coded_latents(L), cs = coded_shifts(L, &info->shift[l]);
         st = read_biases(buf, L, bias);
         if (st == CNERF_OK)
-            st = decode_layer(buf, L, lat, (uint32_t *)(void *)scratch);
+            st = decode_matrix(buf, &ck, lat, (uint32_t *)(void *)scratch);
+        if (st == CNERF_OK && sh)
+            st = decode_matrix(buf, &cs, sh, (uint32_t *)(void *)scratch);
         if (st != CNERF_OK)
             break;
-        order_columns(dec, l, lat, (int16_t *)(void *)scratch);
-        uint32_t maxsum;
-        dec->n_live[l] = pack_rows(L, lat, rows, (int16_t *)(void *)scratch, &maxsum);
+        order_columns(dec, l, lat, tmp);
+        if (sh)
+            order_columns(dec, l, sh, tmp);
+        uint32_t maxsum, maxshift;
+        const uint16_t live = order_rows(L, lat, sh, rows, &maxsum, &maxshift);
+        dec->n_live[l] = live;
+        pack_rows(L, lat, rows, live, tmp);
+        if (sh)
+            pack_rows(L, sh, rows, live, tmp);
         int32_t *bq = (int32_t *)(uintptr_t)dec->bias_q16[l];
         for (uint32_t j = 0; j < L->n_out; j++)
             bq[j] = L->bias_bits ? q16_bias(bias[rows[j]], L->bias_e) : 0;
-        prove_layer(dec, l, maxsum);
+        prove_layer(dec, l, maxsum, maxshift);
     }
     if (st == CNERF_OK) {
         const cn_dot_variant v = cn_dot_select();
@@ -712,14 +975,20 @@ cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void
     return st;
 }
 
-int32_t cnerf_latent(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t i)
+cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void *ws,
+                        size_t ws_size)
 {
-    if (!dec || l >= dec->info.n_layers)
-        return 0;
+    return cnerf_open_scene(dec, buf, len, 0, ws, ws_size);
+}
+
+/* Element (o, i) of layer l's packed matrix m (its latents or its shifts). */
+static int32_t packed_at(const cnerf_decoder *dec, uint32_t l, const int16_t *m, uint32_t o,
+                         uint32_t i)
+{
     const cnerf_layer_info *L = &dec->info.layer[l];
-    if (o >= L->n_out || i >= L->n_in || !dec->latent[l])
+    if (o >= L->n_out || i >= L->n_in || !m)
         return 0;
-    /* Live rows are stored first, in increasing output order (pack_rows): a search, since
+    /* Live rows are stored first, in increasing output order (order_rows): a search, since
      * this accessor is for tools and tests, not for rendering. */
     uint32_t j = 0;
     while (j < dec->n_live[l] && dec->rows[l][j] != o)
@@ -733,5 +1002,15 @@ int32_t cnerf_latent(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t 
         while (dec->rows[p][c - off] != i - off)
             c++;
     }
-    return dec->latent[l][packed_index(j, c, dec->n_live[l], dec->n_pairs[l])];
+    return m[packed_index(j, c, dec->n_live[l], dec->n_pairs[l])];
+}
+
+int32_t cnerf_latent(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t i)
+{
+    return dec && l < dec->info.n_layers ? packed_at(dec, l, dec->latent[l], o, i) : 0;
+}
+
+int32_t cnerf_shift(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t i)
+{
+    return dec && l < dec->info.n_layers ? packed_at(dec, l, dec->shift[l], o, i) : 0;
 }

@@ -107,7 +107,7 @@ static void posenc(int32_t *out, const int64_t v[3], unsigned L, int inc)
     }
 }
 
-/* ---- one linear layer: y = a (sum k x) + b (sum x) + bias, in Q16 ---- */
+/* ---- one linear layer: y = a (sum k x) + b (sum x) [+ g (sum s x)] + bias, in Q16 ---- */
 
 /* The layer's output o from its sum acc = sum_i k[o][i] x_q[i] (docs/fixed-point.md):
  * sat32(sat32(round(acc a 2^(16-f)) + t) + bias_q16), rounding half up, then ReLU. */
@@ -241,7 +241,31 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
                 y[j] = cn_sat32(cn_mul_exp_r(acc[j], L->a_m, L->a_e + e, 1));
         }
     }
-    if (dec->wide[l] || !dec->a_shift[l] || final) /* y[j] holds A_j */
+    const int16_t *sh = dec->shift[l];
+    if (sh && live) {
+        /* The shared shift's term G_j = sat32(round(g (sum s x_q) 2^(16-f))), added to A_j
+         * (a_shift is 0 for such layers, so y[j] holds A_j). */
+        const cnerf_shift_info *S = &dec->info.shift[l];
+        if (dec->shift_wide[l]) {
+            for (uint32_t j = 0; j < live; j += 4u) {
+                const uint32_t rb = live - j < 4u ? live - j : 4u;
+                int64_t a64[4];
+                cn_dot64_c(sh + (size_t)j * 2u * pairs, xq, pairs, rb, a64);
+                for (uint32_t q = 0; q < rb; q++)
+                    y[j + q] = cn_qadd32(y[j + q],
+                                         cn_sat32(cn_mul_exp_r(a64[q], S->g_m, S->g_e + e, 1)));
+            }
+        } else {
+#ifdef CN_DOT_DIRECT
+            CN_DOT_DIRECT(sh, xq, pairs, live, acc);
+#else
+            dec->dot(sh, xq, pairs, live, acc);
+#endif
+            for (uint32_t j = 0; j < live; j++)
+                y[j] = cn_qadd32(y[j], cn_sat32(cn_mul_exp_r(acc[j], S->g_m, S->g_e + e, 1)));
+        }
+    }
+    if (dec->wide[l] || !dec->a_shift[l] || final) /* y[j] holds A_j (+ G_j) */
         for (uint32_t j = 0; j < live; j++)
             y[j] = finish(y[j], t, bq[j], relu);
     for (uint32_t j = live; j < n_out; j++)
@@ -255,7 +279,8 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
         for (uint32_t j = 0; j < n_out; j++)
             y[rows[j]] = v[j];
     }
-    return live * n_in; /* the multiply-accumulates done: live <= 2^11, n_in <= 2^11 */
+    /* the multiply-accumulates done: live <= 2^11, n_in <= 2^11 */
+    return live * n_in * (sh ? 2u : 1u);
 }
 
 /* ---- scratch layout ---- */

@@ -44,7 +44,8 @@ typedef struct cn_layer_params {
     size_t w, b; /* offsets of the kernel [n_out][n_in] and the bias [n_out] in the block */
 } cn_layer_params;
 
-typedef struct cn_model {
+typedef struct cn_model cn_model;
+struct cn_model {
     cnerf_info topo;   /* render parameters and expanded topology */
     size_t n_params;   /* floats in each block */
     float *params;     /* the one parameter block */
@@ -63,11 +64,19 @@ typedef struct cn_model {
     /* The stream's occupancy grid (owned; NULL: none): a sample in an empty cell has
      * density 0 and is not evaluated, by every renderer of the model. */
     struct cn_occ *grid;
+    /* Several scenes in one stream: the set's shared shift, a compressed model of the same
+     * topology whose latents are the shifts S and whose a is g (its b stays 0; its biases
+     * are not used); NULL: none. Materialized kernels become a round(Phi) + b + g round(S)
+     * (the shift materialized first), and the kernel gradients also accumulate into the
+     * shift's (cn_model_kernels_backward; then the shift's own maps them onto S and g).
+     * Freed with this model when own_shift. */
+    struct cn_model *shift;
+    int own_shift;
     /* Group penalty on the trunk's units (0: off): the backward pass adds the gradient of
      * group * sum over trunk layers and units u of sqrt(sum over the P rows of h_u^2), which
      * drives whole units to output 0 on every sample, so that export can remove them. */
     float group;
-} cn_model;
+};
 
 /* Glorot-uniform limit of a layer's kernel, sqrt(6 / (n_in + n_out)). */
 double cn_glorot_limit(const cnerf_layer_info *L);

@@ -117,6 +117,16 @@ typedef struct cn_stream_src {
     uint32_t grid_g;
 } cn_stream_src;
 
+/* A layer's shift shared by every scene of a set (SHFT chunk). */
+typedef struct cn_shift_src {
+    const int32_t *s; /* n_out * n_in shifts, row-major [out][in]; NULL: all zero */
+    int32_t g_m;      /* g = g_m 2^g_e, m24e8 */
+    int8_t g_e;
+    const double *pmf; /* optional prior PMF over s = pmf_kmin + i, as cn_layer_src */
+    int32_t pmf_kmin;
+    uint32_t pmf_n;
+} cn_shift_src;
+
 typedef struct cn_write_report {
     uint8_t table_source[CNERF_MAX_LAYERS]; /* enum cn_table_source per layer */
     double ideal_bits[CNERF_MAX_LAYERS];    /* -sum log2 of the chosen table's probabilities */
@@ -132,6 +142,12 @@ int cn_topology_pruned(const cnerf_info *I);
  * the decoder's parser. On failure returns -1 and puts a message in err. */
 int cn_write_stream(const cn_stream_src *src, cn_buf *out, cn_write_report *rep, char *err,
                     size_t errlen);
+/* The same for a set of n_scenes scenes of one topology (2..CNERF_MAX_SCENES, with one
+ * cn_shift_src per layer; 1 scene without shifts is cn_write_stream). The meta text is
+ * scenes[0]'s. rep: NULL or one report per scene; shift_rep: NULL or the shifts' report. */
+int cn_write_set(const cn_stream_src *scenes, unsigned n_scenes, const cn_shift_src *shift,
+                 cn_buf *out, cn_write_report *rep, cn_write_report *shift_rep, char *err,
+                 size_t errlen);
 
 /* The largest file read whole: a stream's limit (its sizes are 32-bit). */
 #define CN_READ_MAX 4294967295u

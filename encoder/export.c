@@ -187,6 +187,30 @@ int cn_model_from_stream(const cnerf_decoder *dec, cn_model *m, char *err, size_
         for (uint32_t o = 0; o < L->n_out; o++)
             b[o] = L->bias_bits ? (float)ldexp(dec->bias[l][o], L->bias_e) : 0.0f;
     }
+    if (I->n_scenes > 1) {
+        /* the set's shared shift: latents S, a = g, b = 0 */
+        cn_model *sh = calloc(1, sizeof *sh);
+        if (!sh || cn_model_init_compressed(sh, I, 0, 1.0, err, errlen)) {
+            free(sh);
+            cn_model_free(m);
+            if (!sh)
+                snprintf(err, errlen, "out of memory");
+            return -1;
+        }
+        for (unsigned l = 0; l < I->n_layers; l++) {
+            const cnerf_layer_info *L = &I->layer[l];
+            float *s = sh->params + sh->layer[l].w;
+            for (uint32_t o = 0; o < L->n_out; o++)
+                for (uint32_t i = 0; i < L->n_in; i++)
+                    s[(size_t)o * L->n_in + i] = (float)cnerf_shift(dec, l, o, i);
+            sh->params[sh->off_ab + 2 * l] =
+                (float)cn_from_m24e8(I->shift[l].g_m, I->shift[l].g_e);
+            sh->params[sh->off_ab + 2 * l + 1] = 0.0f;
+        }
+        cn_model_materialize(sh);
+        m->shift = sh;
+        m->own_shift = 1;
+    }
     cn_model_materialize(m);
     if (I->grid_g) {
         const size_t g = I->grid_g, cells = g * g * g;

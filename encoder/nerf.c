@@ -266,6 +266,11 @@ void cn_model_free(cn_model *m)
     free(m->kernel);
     free(m->kgrad);
     m->params = m->grads = m->adam_m = m->adam_v = m->kernel = m->kgrad = NULL;
+    if (m->shift && m->own_shift) {
+        cn_model_free(m->shift);
+        free(m->shift);
+    }
+    m->shift = NULL;
     if (m->grid) {
         cn_occ_free(m->grid);
         free(m->grid);
@@ -297,9 +302,12 @@ void cn_model_materialize(cn_model *m)
         const float a = m->params[m->off_ab + 2 * l], b = m->params[m->off_ab + 2 * l + 1];
         const float *phi = m->params + m->layer[l].w;
         float *w = m->kernel + m->kofs[l], *dw = m->kgrad + m->kofs[l];
+        const float *gs = m->shift ? m->shift->kernel + m->shift->kofs[l] : NULL;
 #pragma omp parallel for schedule(static)
         for (size_t i = 0; i < n; i++) {
             w[i] = a * roundf(phi[i]) + b; /* ties away from zero, as the export */
+            if (gs)
+                w[i] += gs[i]; /* the shared shift g round(S) */
             dw[i] = 0;
         }
     }
@@ -323,6 +331,12 @@ void cn_model_kernels_backward(cn_model *m)
         }
         m->grads[m->off_ab + 2 * l] += (float)da;
         m->grads[m->off_ab + 2 * l + 1] += (float)db;
+        if (m->shift) { /* W = ... + g round(S): the shift's kernel gradient gains dW */
+            float *ds = m->shift->kgrad + m->shift->kofs[l];
+#pragma omp parallel for schedule(static)
+            for (size_t i = 0; i < n; i++)
+                ds[i] += dw[i];
+        }
     }
 }
 

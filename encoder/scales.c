@@ -64,34 +64,29 @@ static int net_maxima(const cn_model *m, unsigned net, const float *pts, const f
     return 0;
 }
 
-int cn_choose_scales(cn_stream_src *src, uint64_t seed, double *max_abs, char *err,
-                     size_t errlen)
+/* The layers' largest inputs of scene `scene` of the stream b (its float model over points
+ * spread through that scene's bounds). */
+static int scene_maxima(const cn_buf *b, unsigned scene, uint64_t seed, double *mx, char *err,
+                        size_t errlen)
 {
-    /* The float model of the stream as it is, whatever scales it holds now. */
-    for (unsigned l = 0; l < CNERF_MAX_LAYERS; l++)
-        src->layer[l].f_in = CNERF_F_MAX;
-    cn_buf b = {0};
     cnerf_decoder *dec = calloc(1, sizeof *dec);
     void *ws = NULL;
     float *pts = malloc(sizeof(float) * 3 * CN_SCALE_POINTS);
     float *dirs = malloc(sizeof(float) * 3 * CN_SCALE_POINTS);
-    double mx[CNERF_MAX_LAYERS] = {0};
     cn_model m;
     int have_model = 0, rc = -1;
     if (!dec || !pts || !dirs) {
         snprintf(err, errlen, "out of memory");
         goto done;
     }
-    if (cn_write_stream(src, &b, NULL, err, errlen))
-        goto done;
-    cnerf_status st = cnerf_peek(b.p, b.n, &dec->info);
+    cnerf_status st = cnerf_peek_scene(b->p, b->n, scene, &dec->info);
     const size_t wsz = st == CNERF_OK ? cnerf_workspace_size(&dec->info) : 0;
     if (st == CNERF_OK && !(ws = aligned_alloc(CNERF_WS_ALIGN, (wsz + 7u) & ~(size_t)7u))) {
         snprintf(err, errlen, "out of memory");
         goto done;
     }
     if (st == CNERF_OK)
-        st = cnerf_open(dec, b.p, b.n, ws, wsz);
+        st = cnerf_open_scene(dec, b->p, b->n, scene, ws, wsz);
     if (st != CNERF_OK) {
         snprintf(err, errlen, "the stream does not decode: %s", cnerf_status_str(st));
         goto done;
@@ -119,19 +114,53 @@ int cn_choose_scales(cn_stream_src *src, uint64_t seed, double *max_abs, char *e
             snprintf(err, errlen, "out of memory");
             goto done;
         }
-    for (unsigned l = 0; l < T->n_layers; l++) {
-        src->layer[l].f_in = (int8_t)cn_scale_for(mx[l]);
-        if (max_abs)
-            max_abs[l] = mx[l];
-    }
     rc = 0;
 done:
     if (have_model)
         cn_model_free(&m);
-    cn_buf_free(&b);
     free(ws);
     free(dec);
     free(pts);
     free(dirs);
     return rc;
+}
+
+int cn_choose_scales_set(cn_stream_src *scenes, unsigned n_scenes, const cn_shift_src *shift,
+                         uint64_t seed, double *max_abs, char *err, size_t errlen)
+{
+    /* The float models of the stream as it is, whatever scales it holds now. */
+    for (unsigned m = 0; m < n_scenes; m++)
+        for (unsigned l = 0; l < CNERF_MAX_LAYERS; l++)
+            scenes[m].layer[l].f_in = CNERF_F_MAX;
+    cn_buf b = {0};
+    if (cn_write_set(scenes, n_scenes, shift, &b, NULL, NULL, err, errlen)) {
+        cn_buf_free(&b);
+        return -1;
+    }
+    for (unsigned m = 0; m < n_scenes; m++) {
+        double mx[CNERF_MAX_LAYERS] = {0};
+        if (scene_maxima(&b, m, seed, mx, err, errlen)) {
+            cn_buf_free(&b);
+            return -1;
+        }
+        for (unsigned l = 0; l < CNERF_MAX_LAYERS; l++) {
+            scenes[m].layer[l].f_in = (int8_t)cn_scale_for(mx[l]);
+            if (max_abs)
+                max_abs[(size_t)m * CNERF_MAX_LAYERS + l] = mx[l];
+        }
+    }
+    cn_buf_free(&b);
+    return 0;
+}
+
+int cn_choose_scales(cn_stream_src *src, uint64_t seed, double *max_abs, char *err,
+                     size_t errlen)
+{
+    double mx[CNERF_MAX_LAYERS];
+    if (cn_choose_scales_set(src, 1, NULL, seed, mx, err, errlen))
+        return -1;
+    if (max_abs)
+        for (unsigned l = 0; l < CNERF_MAX_LAYERS; l++)
+            max_abs[l] = mx[l];
+    return 0;
 }

@@ -125,10 +125,76 @@ static int choose_table(const uint64_t *cnt, const double *prior, uint32_t n, ta
     return 0;
 }
 
+/* The coded part of a layer's latents or shifts: range, then (unless constant) table and
+ * rANS payload. `what` names the matrix in messages. */
+static int put_coded(cn_buf *c, const int32_t *k, size_t count, const double *pmf,
+                     int32_t pmf_kmin, uint32_t pmf_n, const char *what, unsigned l,
+                     uint8_t *source, double *ideal, char *err, size_t errlen)
+{
+    int32_t kmin = k[0], kmax = k[0];
+    for (size_t i = 0; i < count; i++) {
+        if (k[i] < -CNERF_MAX_ABS_K || k[i] > CNERF_MAX_ABS_K)
+            return fail(err, errlen, "layer %u: %s %d outside +-%d", l, what, k[i],
+                        CNERF_MAX_ABS_K);
+        if (k[i] < kmin)
+            kmin = k[i];
+        if (k[i] > kmax)
+            kmax = k[i];
+    }
+    cn_buf_u16(c, (uint32_t)kmin & 0xFFFFu);
+    cn_buf_u16(c, (uint32_t)kmax & 0xFFFFu);
+    *source = CN_TABLE_NONE;
+    *ideal = 0;
+    if (kmin == kmax)
+        return 0;
+    const uint32_t n = (uint32_t)(kmax - kmin) + 1;
+    uint64_t *cnt = calloc(n, sizeof(uint64_t));
+    double *prior = pmf ? calloc(n, sizeof(double)) : NULL;
+    uint32_t *syms = malloc(sizeof(uint32_t) * count);
+    table_choice best = {malloc(sizeof(uint32_t) * n), 0, 0, 0, 0};
+    int rc = -1;
+    if (!cnt || (pmf && !prior) || !syms || !best.freq) {
+        fail(err, errlen, "layer %u: out of memory", l);
+        goto done;
+    }
+    for (size_t i = 0; i < count; i++) {
+        syms[i] = (uint32_t)(k[i] - kmin);
+        cnt[syms[i]]++;
+    }
+    if (prior)
+        for (uint32_t i = 0; i < n; i++) {
+            int64_t j = (int64_t)kmin + i - pmf_kmin;
+            prior[i] = j >= 0 && j < (int64_t)pmf_n ? pmf[j] : 0.0;
+        }
+    if (choose_table(cnt, prior, n, &best)) {
+        fail(err, errlen, "layer %u: out of memory", l);
+        goto done;
+    }
+    cn_buf_u8(c, best.prec);
+    cn_buf_u8(c, best.order);
+    cn_bitw w;
+    cn_bitw_init(&w, c);
+    for (uint32_t i = 0; i + 1 < n; i++)
+        cn_bitw_eg(&w, best.freq[i] - 1, best.order);
+    cn_bitw_flush(&w);
+    if (cn_rans_encode(syms, count, best.freq, n, best.prec, c)) {
+        fail(err, errlen, "layer %u: entropy coding failed", l);
+        goto done;
+    }
+    *source = (uint8_t)best.source;
+    *ideal = cn_table_cost_bits(cnt, best.freq, n, best.prec);
+    rc = 0;
+done:
+    free(cnt);
+    free(prior);
+    free(syms);
+    free(best.freq);
+    return rc;
+}
+
 static int put_layer(cn_buf *c, const cnerf_layer_info *L, const cn_layer_src *S, unsigned l,
                      cn_write_report *rep, char *err, size_t errlen)
 {
-    const size_t count = (size_t)L->n_in * L->n_out;
     if (!S->k)
         return fail(err, errlen, "layer %u: no latents", l);
     if (llabs(S->a_m) > CNERF_M24_ABS_MAX || llabs(S->b_m) > CNERF_M24_ABS_MAX ||
@@ -162,120 +228,161 @@ static int put_layer(cn_buf *c, const cnerf_layer_info *L, const cn_layer_src *S
         }
         cn_bitw_flush(&w);
     }
-    int32_t kmin = S->k[0], kmax = S->k[0];
-    for (size_t i = 0; i < count; i++) {
-        if (S->k[i] < -CNERF_MAX_ABS_K || S->k[i] > CNERF_MAX_ABS_K)
-            return fail(err, errlen, "layer %u: latent %d outside +-%d", l, S->k[i],
-                        CNERF_MAX_ABS_K);
-        if (S->k[i] < kmin)
-            kmin = S->k[i];
-        if (S->k[i] > kmax)
-            kmax = S->k[i];
+    uint8_t source;
+    double ideal;
+    if (put_coded(c, S->k, (size_t)L->n_in * L->n_out, S->pmf, S->pmf_kmin, S->pmf_n, "latent",
+                  l, &source, &ideal, err, errlen))
+        return -1;
+    if (rep) {
+        rep->table_source[l] = source;
+        rep->ideal_bits[l] = ideal;
     }
-    cn_buf_u16(c, (uint32_t)kmin & 0xFFFFu);
-    cn_buf_u16(c, (uint32_t)kmax & 0xFFFFu);
-    if (kmin == kmax) {
+    return 0;
+}
+
+/* A SHFT payload: the layer's identity and shape, g, then the shifts coded as latents. */
+static int put_shift(cn_buf *c, const cnerf_layer_info *L, const cn_shift_src *S, unsigned l,
+                     cn_write_report *rep, char *err, size_t errlen)
+{
+    if (llabs(S->g_m) > CNERF_M24_ABS_MAX || S->g_e < CNERF_EXP_MIN || S->g_e > CNERF_EXP_MAX)
+        return fail(err, errlen, "layer %u: shift scale out of range", l);
+    cn_buf_u8(c, L->net);
+    cn_buf_u8(c, L->index);
+    cn_buf_u16(c, L->n_in);
+    cn_buf_u16(c, L->n_out);
+    cn_buf_u24(c, (uint32_t)S->g_m & 0xFFFFFFu);
+    cn_buf_u8(c, (uint32_t)(uint8_t)S->g_e);
+    const size_t count = (size_t)L->n_in * L->n_out;
+    if (!S->s) { /* all zero: an empty range */
+        cn_buf_u16(c, 0);
+        cn_buf_u16(c, 0);
         if (rep) {
             rep->table_source[l] = CN_TABLE_NONE;
             rep->ideal_bits[l] = 0;
         }
         return 0;
     }
-    const uint32_t n = (uint32_t)(kmax - kmin) + 1;
-    uint64_t *cnt = calloc(n, sizeof(uint64_t));
-    double *prior = S->pmf ? calloc(n, sizeof(double)) : NULL;
-    uint32_t *syms = malloc(sizeof(uint32_t) * count);
-    table_choice best = {malloc(sizeof(uint32_t) * n), 0, 0, 0, 0};
-    int rc = -1;
-    if (!cnt || (S->pmf && !prior) || !syms || !best.freq) {
-        fail(err, errlen, "layer %u: out of memory", l);
-        goto done;
-    }
-    for (size_t i = 0; i < count; i++) {
-        syms[i] = (uint32_t)(S->k[i] - kmin);
-        cnt[syms[i]]++;
-    }
-    if (prior)
-        for (uint32_t i = 0; i < n; i++) {
-            int64_t j = (int64_t)kmin + i - S->pmf_kmin;
-            prior[i] = j >= 0 && j < (int64_t)S->pmf_n ? S->pmf[j] : 0.0;
-        }
-    if (choose_table(cnt, prior, n, &best)) {
-        fail(err, errlen, "layer %u: out of memory", l);
-        goto done;
-    }
-    cn_buf_u8(c, best.prec);
-    cn_buf_u8(c, best.order);
-    cn_bitw w;
-    cn_bitw_init(&w, c);
-    for (uint32_t i = 0; i + 1 < n; i++)
-        cn_bitw_eg(&w, best.freq[i] - 1, best.order);
-    cn_bitw_flush(&w);
-    if (cn_rans_encode(syms, count, best.freq, n, best.prec, c)) {
-        fail(err, errlen, "layer %u: entropy coding failed", l);
-        goto done;
-    }
+    uint8_t source;
+    double ideal;
+    if (put_coded(c, S->s, count, S->pmf, S->pmf_kmin, S->pmf_n, "shift", l, &source, &ideal,
+                  err, errlen))
+        return -1;
     if (rep) {
-        rep->table_source[l] = (uint8_t)best.source;
-        rep->ideal_bits[l] = cn_table_cost_bits(cnt, best.freq, n, best.prec);
+        rep->table_source[l] = source;
+        rep->ideal_bits[l] = ideal;
     }
-    rc = 0;
-done:
-    free(cnt);
-    free(prior);
-    free(syms);
-    free(best.freq);
-    return rc;
+    return 0;
 }
 
-int cn_write_stream(const cn_stream_src *src, cn_buf *out, cn_write_report *rep, char *err,
-                    size_t errlen)
+/* 1 when two headers have the same topology (what HEAD holds besides render parameters). */
+static int same_topology(const cnerf_info *a, const cnerf_info *b)
 {
-    cnerf_info *info = malloc(sizeof *info);
-    if (!info)
-        return fail(err, errlen, "out of memory");
-    *info = src->hdr;
-    cnerf_status st = cnerf_expand_topology(info);
-    if (st != CNERF_OK) {
+    cn_buf x = {0}, y = {0};
+    cn_put_head(&x, a);
+    cn_put_head(&y, b);
+    int same = !x.oom && !y.oom && x.n == y.n;
+    for (size_t i = 1; same && i < x.n; i++)
+        if ((i < 4 || i >= CNERF_HEAD_FIXED_BYTES - 1) && x.p[i] != y.p[i])
+            same = 0;
+    for (unsigned n = 0; same && n < a->n_nets; n++) {
+        for (unsigned i = 0; i < CNERF_MAX_DEPTH; i++)
+            same &= a->net[n].units[i] == b->net[n].units[i];
+        same &= a->net[n].view_units == b->net[n].view_units;
+    }
+    cn_buf_free(&x);
+    cn_buf_free(&y);
+    return same;
+}
+
+int cn_write_set(const cn_stream_src *scenes, unsigned n_scenes, const cn_shift_src *shift,
+                 cn_buf *out, cn_write_report *rep, cn_write_report *shift_rep, char *err,
+                 size_t errlen)
+{
+    if (n_scenes < 1 || n_scenes > CNERF_MAX_SCENES || (n_scenes > 1) != (shift != NULL))
+        return fail(err, errlen, "%u scenes %s shifts: a set has 2 to %u scenes and shifts",
+                    n_scenes, shift ? "with" : "without", CNERF_MAX_SCENES);
+    cnerf_info *info = malloc(sizeof *info), *other = malloc(sizeof *other);
+    if (!info || !other) {
         free(info);
-        return fail(err, errlen, "invalid topology: %s", cnerf_status_str(st));
+        free(other);
+        return fail(err, errlen, "out of memory");
+    }
+    *info = scenes[0].hdr;
+    cnerf_status st = cnerf_expand_topology(info);
+    int rc = 0;
+    if (st != CNERF_OK)
+        rc = fail(err, errlen, "invalid topology: %s", cnerf_status_str(st));
+    for (unsigned m = 1; m < n_scenes && rc == 0; m++) {
+        *other = scenes[m].hdr;
+        if ((st = cnerf_expand_topology(other)) != CNERF_OK)
+            rc = fail(err, errlen, "scene %u: invalid topology: %s", m, cnerf_status_str(st));
+        else if (!same_topology(info, other))
+            rc = fail(err, errlen, "scene %u: its topology differs from scene 0's", m);
+    }
+    if (rc) {
+        free(info);
+        free(other);
+        return rc;
     }
     if (rep)
-        memset(rep, 0, sizeof *rep);
+        memset(rep, 0, sizeof *rep * n_scenes);
+    if (shift_rep)
+        memset(shift_rep, 0, sizeof *shift_rep);
     out->n = 0;
     out->oom = 0;
     const uint8_t sig[4] = {CNERF_MAGIC_0, CNERF_MAGIC_1, CNERF_MAGIC_2, CNERF_MAGIC_3};
     cn_buf_put(out, sig, 4);
     const int pruned = cn_topology_pruned(info);
     cn_buf_u16(out, CNERF_VERSION_MAJOR);
-    cn_buf_u16(out, CNERF_VERSION_MINOR);
+    cn_buf_u16(out, n_scenes > 1 ? CNERF_VERSION_MINOR_SCENES : 0u); /* the lowest that fits */
     cn_buf c = {0};
     cn_put_head(&c, info);
     put_chunk(out, CNERF_TAG_HEAD, &c);
+    if (n_scenes > 1) {
+        c.n = 0;
+        cn_buf_u8(&c, n_scenes);
+        put_chunk(out, CNERF_TAG_SCNS, &c);
+    }
     if (pruned) {
         c.n = 0;
         put_units(&c, info);
         put_chunk(out, CNERF_TAG_UNIT, &c);
     }
-    if (src->meta) {
+    if (scenes[0].meta) {
         c.n = 0;
-        cn_buf_put(&c, src->meta, strlen(src->meta));
+        cn_buf_put(&c, scenes[0].meta, strlen(scenes[0].meta));
         put_chunk(out, CNERF_TAG_META, &c);
     }
-    int rc = 0;
-    if (src->grid_g) {
+    for (unsigned l = 0; shift && l < info->n_layers && rc == 0; l++) {
         c.n = 0;
-        if (!src->grid || cn_grid_encode(src->grid, src->grid_g, CN_GRID_PREC, &c))
-            rc = fail(err, errlen, "occupancy grid of %u cells per axis: invalid or out of memory",
-                      src->grid_g);
-        else
-            put_chunk(out, CNERF_TAG_GRID, &c);
-    }
-    for (unsigned l = 0; l < info->n_layers && rc == 0; l++) {
-        c.n = 0;
-        rc = put_layer(&c, &info->layer[l], &src->layer[l], l, rep, err, errlen);
+        rc = put_shift(&c, &info->layer[l], &shift[l], l, shift_rep, err, errlen);
         if (rc == 0)
-            put_chunk(out, CNERF_TAG_LAYR, &c);
+            put_chunk(out, CNERF_TAG_SHFT, &c);
+    }
+    for (unsigned m = 0; m < n_scenes && rc == 0; m++) {
+        const cn_stream_src *src = &scenes[m];
+        if (m > 0) {
+            c.n = 0;
+            *other = src->hdr; /* its render parameters, the set's topology */
+            cn_put_head(&c, other);
+            put_chunk(out, CNERF_TAG_HEAD, &c);
+        }
+        if (src->grid_g) {
+            c.n = 0;
+            if (!src->grid || cn_grid_encode(src->grid, src->grid_g, CN_GRID_PREC, &c))
+                rc = fail(err, errlen,
+                          "scene %u: occupancy grid of %u cells per axis: invalid or out of memory",
+                          m, src->grid_g);
+            else
+                put_chunk(out, CNERF_TAG_GRID, &c);
+        }
+        for (unsigned l = 0; l < info->n_layers && rc == 0; l++) {
+            c.n = 0;
+            rc = put_layer(&c, &info->layer[l], &src->layer[l], l, rep ? &rep[m] : NULL, err,
+                           errlen);
+            if (rc == 0)
+                put_chunk(out, CNERF_TAG_LAYR, &c);
+        }
     }
     c.n = 0;
     if (rc == 0)
@@ -284,9 +391,18 @@ int cn_write_stream(const cn_stream_src *src, cn_buf *out, cn_write_report *rep,
     cn_buf_free(&c);
     if (rc == 0 && oom)
         rc = fail(err, errlen, "out of memory");
-    if (rc == 0 && (st = cn_parse(out->p, out->n, info)) != CNERF_OK)
-        rc = fail(err, errlen, "the written stream does not parse (%s): invalid header fields?",
-                  cnerf_status_str(st));
+    for (unsigned m = 0; m < n_scenes && rc == 0; m++)
+        if ((st = cn_parse(out->p, out->n, m, info)) != CNERF_OK)
+            rc = fail(err, errlen,
+                      "the written stream does not parse (%s): invalid header fields?",
+                      cnerf_status_str(st));
     free(info);
+    free(other);
     return rc;
+}
+
+int cn_write_stream(const cn_stream_src *src, cn_buf *out, cn_write_report *rep, char *err,
+                    size_t errlen)
+{
+    return cn_write_set(src, 1, NULL, out, rep, NULL, err, errlen);
 }

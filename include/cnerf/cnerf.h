@@ -85,8 +85,25 @@ typedef struct cnerf_layer_info {
     uint32_t table_offset, bias_offset, payload_offset; /* absolute offsets in the stream */
 } cnerf_layer_info;
 
+/* A layer's shift shared by every scene of a stream (SHFT chunk, several-scene streams):
+ * the kernel of each scene gains g s[o][i], g = g_m 2^g_e, with the integer shifts s coded
+ * like latents (range smin..smax, table, rANS payload). smin = smax = 0: no shift (always,
+ * in a one-scene stream). */
+typedef struct cnerf_shift_info {
+    int32_t g_m;
+    int8_t g_e;
+    uint8_t prec, eg_order; /* table precision (0 when smin == smax), Exp-Golomb order */
+    int32_t smin, smax;
+    uint32_t chunk_offset, chunk_bytes; /* the SHFT chunk, framing included */
+    uint32_t table_offset, payload_offset, payload_bytes;
+} cnerf_shift_info;
+
 typedef struct cnerf_info {
     uint16_t version_major, version_minor;
+    /* Scenes in the stream (1, or 2..CNERF_MAX_SCENES), and the one whose render parameters,
+     * grid and layers this struct describes (cnerf_peek_scene). The topology is the same
+     * for every scene. */
+    uint8_t n_scenes, scene;
     uint8_t coord;      /* CNERF_COORD_WORLD or CNERF_COORD_NDC */
     uint8_t l_pos;      /* position encoding octaves */
     uint8_t l_dir;      /* direction encoding octaves */
@@ -119,6 +136,11 @@ typedef struct cnerf_info {
     uint32_t grid_payload_offset, grid_payload_bytes;
     /* UNIT chunk (minor >= 2) including framing; 0 when every layer has its full width. */
     uint32_t unit_bytes;
+    /* Several scenes: this scene's own chunks (HEAD, GRID, LAYR; framing included), and the
+     * shared ones (SCNS, SHFT); a one-scene stream has shared_bytes 0. */
+    uint32_t scene_bytes, shared_bytes;
+    uint32_t n_shift_params; /* shift latents of the layers that have a shift */
+    cnerf_shift_info shift[CNERF_MAX_LAYERS];
 } cnerf_info;
 
 typedef struct cnerf_decoder {
@@ -147,6 +169,11 @@ typedef struct cnerf_decoder {
     /* The kernels cnerf_open chose for this CPU (docs/decoder.md, Kernels): the sums, and,
      * where the CPU has its own (NULL: the portable C), the inputs' quantization and the
      * outputs' rescale. */
+    /* Several-scene streams: the layer's shared shifts s, packed like its latents (same
+     * stored rows), or NULL for a layer without a shift; shift_wide as wide, for the sums
+     * of s x_q. */
+    const int16_t *shift[CNERF_MAX_LAYERS];
+    uint8_t shift_wide[CNERF_MAX_LAYERS];
     void (*dot)(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                 int32_t *acc);
     int32_t (*requant)(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
@@ -157,9 +184,13 @@ typedef struct cnerf_decoder {
 } cnerf_decoder;
 
 /* Parses and validates the whole structure (signature, every chunk's CRC, header, layer
- * shapes, ranges and tables) without decoding payloads. buf may be NULL when len is 0
- * (an empty stream: CNERF_E_TRUNCATED). */
+ * shapes, ranges and tables, every scene's) without decoding payloads, and describes
+ * scene 0. buf may be NULL when len is 0 (an empty stream: CNERF_E_TRUNCATED). */
 cnerf_status cnerf_peek(const uint8_t *buf, size_t len, cnerf_info *info);
+/* The same, describing scene `scene` (CNERF_E_ARG when the stream has no such scene; then
+ * info->n_scenes still tells how many it has). */
+cnerf_status cnerf_peek_scene(const uint8_t *buf, size_t len, uint32_t scene,
+                              cnerf_info *info);
 
 /* Workspace bytes cnerf_open needs for this stream (0 if info is NULL). */
 size_t cnerf_workspace_size(const cnerf_info *info);
@@ -173,10 +204,19 @@ size_t cnerf_workspace_size(const cnerf_info *info);
      ((size_t)65536u + 1u) * 4u + 16u +                                                    \
      ((size_t)(grid) * (size_t)(grid) * (size_t)(grid) + 7u) / 8u + 8u)
 
-/* Decodes the stream into `ws` (aligned to CNERF_WS_ALIGN, at least
+/* The bound for streams of several scenes: one scene's latents and the shared shifts. */
+#define CNERF_WORKSPACE_BOUND_SCENES(params, outputs, layers, grid)                      \
+    (CNERF_WORKSPACE_BOUND(params, outputs, layers, grid) + (size_t)(params) * 2u +        \
+     (size_t)(layers) * 8u)
+
+/* Decodes the stream's scene 0 into `ws` (aligned to CNERF_WS_ALIGN, at least
  * cnerf_workspace_size() bytes). On error `dec` is left zeroed. */
 cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void *ws,
                         size_t ws_size);
+/* The same for scene `scene` (cnerf_workspace_size of cnerf_peek_scene's info): the
+ * workspace holds that scene's latents and the shared shifts, never another scene's. */
+cnerf_status cnerf_open_scene(cnerf_decoder *dec, const uint8_t *buf, size_t len,
+                              uint32_t scene, void *ws, size_t ws_size);
 
 /* Fills info->layer[] shapes and roles and info->net[].n_layers/first_layer, in_pos,
  * in_dir, n_layers, n_params and n_biases from the topology fields.
@@ -186,6 +226,8 @@ cnerf_status cnerf_expand_topology(cnerf_info *info);
 /* Latent k[o][i] of layer `l` (0 out of range); searches the layer's row order: for tools
  * and tests, not for rendering. */
 int32_t cnerf_latent(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t i);
+/* Shift s[o][i] of layer `l` (0 out of range or without a shift); as cnerf_latent. */
+int32_t cnerf_shift(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t i);
 
 /* ---- rendering (decoder/render.c; formats and error analysis in docs/fixed-point.md) ---- */
 

@@ -17,8 +17,10 @@
 #define CNERF_VERSION_MAJOR 2u
 /* The newest minor revision this code knows. Version 2.0 changed the layers' arithmetic
  * (int16 inputs at a per-layer scale, LAYR's f_in) and holds the GRID and UNIT chunks that
- * 1.1 and 1.2 added; 1.x streams are refused (CNERF_E_VERSION). */
-#define CNERF_VERSION_MINOR 0u
+ * 1.1 and 1.2 added; 1.x streams are refused (CNERF_E_VERSION). 2.1 adds several scenes in
+ * one stream (SCNS, SHFT). A writer stamps the lowest minor whose chunks its stream holds. */
+#define CNERF_VERSION_MINOR 1u
+#define CNERF_VERSION_MINOR_SCENES 1u
 
 /* Chunk framing: tag[4], u32 length, payload[length], u32 CRC-32 of tag+payload. */
 #define CNERF_CHUNK_OVERHEAD 12u
@@ -33,6 +35,13 @@
 #define CNERF_TAG_META CNERF_TAG('m', 'e', 't', 'a')
 #define CNERF_TAG_GRID CNERF_TAG('G', 'R', 'I', 'D') /* occupancy grid */
 #define CNERF_TAG_UNIT CNERF_TAG('U', 'N', 'I', 'T') /* units per layer */
+#define CNERF_TAG_SCNS CNERF_TAG('S', 'C', 'N', 'S') /* scene count (2.1) */
+#define CNERF_TAG_SHFT CNERF_TAG('S', 'H', 'F', 'T') /* a layer's shared shift (2.1) */
+
+/* Scenes in one stream: 1 without a SCNS chunk, 2..CNERF_MAX_SCENES with one. */
+#define CNERF_MAX_SCENES 255u
+/* SHFT: net, index, n_in, n_out, g (m24e8), smin, smax before the table. */
+#define CNERF_SHFT_FIXED_BYTES 14u
 
 /* GRID: g^3 cells over the scene bounds, coded bit by bit with binary rANS under
  * CNERF_GRID_CONTEXTS contexts (the left, front and lower neighbours). */

@@ -34,16 +34,22 @@ void tu_small_header(cnerf_info *hdr, unsigned depth, unsigned width, int two_ne
     }
 }
 
-cnerf_status tu_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void **ws)
+cnerf_status tu_open_scene(cnerf_decoder *dec, const uint8_t *buf, size_t len, unsigned scene,
+                           void **ws)
 {
     cnerf_info *info = malloc(sizeof *info);
     assert_non_null(info);
-    cnerf_status st = cnerf_peek(buf, len, info);
+    cnerf_status st = cnerf_peek_scene(buf, len, scene, info);
     size_t n = st == CNERF_OK ? cnerf_workspace_size(info) : 64;
     free(info);
     *ws = aligned_alloc(CNERF_WS_ALIGN, (n + 7) & ~(size_t)7);
     assert_non_null(*ws);
-    return cnerf_open(dec, buf, len, *ws, n);
+    return cnerf_open_scene(dec, buf, len, scene, *ws, n);
+}
+
+cnerf_status tu_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void **ws)
+{
+    return tu_open_scene(dec, buf, len, 0, ws);
 }
 
 static uint32_t rd32(const uint8_t *p)

@@ -23,6 +23,9 @@ void tu_small_header(cnerf_info *hdr, unsigned depth, unsigned width, int two_ne
 /* Opens buf into a freshly allocated, aligned workspace; returns the status and the
  * workspace (free with free()). */
 cnerf_status tu_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void **ws);
+/* The same for scene `scene` of a several-scene stream. */
+cnerf_status tu_open_scene(cnerf_decoder *dec, const uint8_t *buf, size_t len, unsigned scene,
+                           void **ws);
 
 /* Recomputes a chunk's CRC after the test edited it; `chunk` points at its tag. */
 void tu_fix_crc(uint8_t *chunk);

@@ -12,6 +12,7 @@
 #include "cn_internal.h"
 #include "cn_render.h"
 #include "cn_rng.h"
+#include "cn_scales.h"
 #include "cn_train.h"
 #include "testutil.h"
 
@@ -855,6 +856,144 @@ static void test_zero_rows(void **state)
     free_scene(&s);
 }
 
+/* ---- several scenes: the shared shift's term ---- */
+
+/* A set of two synthetic scenes of one topology (different bounds and backgrounds) with
+ * shifts of `spread` at g = g_rel a, written, then opened per scene. */
+typedef struct set2 {
+    cn_buf buf;
+    cn_synth syn[2];
+    cn_synth_shift sh;
+} set2;
+
+static void make_set(set2 *t, double spread, double g_rel)
+{
+    char err[256];
+    memset(t, 0, sizeof *t);
+    cnerf_info hdr;
+    tu_small_header(&hdr, 3, 16, 1);
+    for (unsigned m = 0; m < 2; m++) {
+        if (cn_synth_make(&t->syn[m], &hdr, 7 + m, 3.0, err, sizeof err))
+            fail_msg("synth: %s", err);
+        hdr.background[0] = 30; /* scene 1: another background and bounds */
+        for (unsigned a = 0; a < 3; a++)
+            hdr.aabb_q16[a + 3] += 1 << 15;
+    }
+    if (cn_synth_shift_make(&t->sh, &t->syn[0], 11, spread, g_rel, err, sizeof err))
+        fail_msg("shift: %s", err);
+    cn_stream_src src[2] = {t->syn[0].src, t->syn[1].src};
+    if (cn_choose_scales_set(src, 2, t->sh.src, 3, NULL, err, sizeof err) ||
+        cn_write_set(src, 2, t->sh.src, &t->buf, NULL, NULL, err, sizeof err))
+        fail_msg("write: %s", err);
+}
+
+static void free_set(set2 *t)
+{
+    cn_synth_free(&t->syn[0]);
+    cn_synth_free(&t->syn[1]);
+    cn_synth_shift_free(&t->sh);
+    free(t->buf.p);
+}
+
+static void open_in_set(scene *s, const set2 *t, unsigned m)
+{
+    char err[256];
+    memset(s, 0, sizeof *s);
+    assert_int_equal(tu_open_scene(&s->dec, t->buf.p, t->buf.n, m, &s->ws), CNERF_OK);
+    assert_int_equal(cn_model_from_stream(&s->dec, &s->ref, err, sizeof err), 0);
+    s->scratch_size = cnerf_render_scratch_size(&s->dec.info);
+    s->scratch = aligned_alloc(8, (s->scratch_size + 7) & ~(size_t)7);
+}
+
+/* Each scene of a two-scene stream: its own latents and render parameters, the shared
+ * shifts, and a picture that matches its float reference (W = a k + b + g s). */
+static void test_two_scenes(void **state)
+{
+    (void)state;
+    set2 t;
+    make_set(&t, 0.8, 0.5);
+    cn_camera cam;
+    look_at(&cam, 2.5, -3.0, 2.0, 24, 20, 40);
+    for (unsigned m = 0; m < 2; m++) {
+        scene s;
+        open_in_set(&s, &t, m);
+        const cnerf_info *I = &s.dec.info;
+        assert_int_equal(I->n_scenes, 2);
+        assert_int_equal(I->scene, m);
+        assert_int_equal(I->background[0], m ? 30 : t.syn[0].src.hdr.background[0]);
+        uint32_t nonzero = 0;
+        for (unsigned l = 0; l < I->n_layers; l++) {
+            const cnerf_layer_info *L = &I->layer[l];
+            for (uint32_t o = 0; o < L->n_out; o++)
+                for (uint32_t i = 0; i < L->n_in; i++) {
+                    const size_t k = (size_t)o * L->n_in + i;
+                    assert_int_equal(cnerf_latent(&s.dec, l, o, i), t.syn[m].k[l][k]);
+                    assert_int_equal(cnerf_shift(&s.dec, l, o, i), t.sh.s[l][k]);
+                    nonzero += t.sh.s[l][k] != 0;
+                }
+        }
+        assert_true(nonzero > 0);
+        const cmp c = compare(&s, &cam, 7, NULL);
+        printf("scene %u of 2, fixed vs float: %.2f dB, max diff %d, %zu scene pixels\n", m,
+               c.psnr, c.maxdiff, c.n_scene);
+        assert_true(c.psnr >= 50.0 && c.maxdiff <= 2 && c.n_scene > 0);
+        free_scene(&s);
+    }
+    /* no third scene; peek says how many there are */
+    cnerf_info *info = malloc(sizeof *info);
+    assert_int_equal(cnerf_peek_scene(t.buf.p, t.buf.n, 2, info), CNERF_E_ARG);
+    assert_int_equal(info->n_scenes, 2);
+    free(info);
+    cnerf_decoder dec;
+    void *ws;
+    assert_int_equal(tu_open_scene(&dec, t.buf.p, t.buf.n, 2, &ws), CNERF_E_ARG);
+    free(ws);
+    free_set(&t);
+}
+
+/* Shifts that are all 0 add nothing: each scene renders exactly as its own one-scene
+ * stream. Non-zero ones change the picture (the term is not ignored). */
+static void test_zero_shifts(void **state)
+{
+    (void)state;
+    set2 z, t;
+    make_set(&z, 0.0, 0.5);
+    make_set(&t, 0.8, 0.5);
+    cn_camera cam;
+    look_at(&cam, 2.5, -3.0, 2.0, 24, 20, 40);
+    for (unsigned m = 0; m < 2; m++) {
+        scene sz, st, one;
+        open_in_set(&sz, &z, m);
+        open_in_set(&st, &t, m);
+        for (unsigned l = 0; l < sz.dec.info.n_layers; l++)
+            assert_null(sz.dec.shift[l]);
+        cn_stream_src src = z.syn[m].src;
+        char err[256];
+        assert_int_equal(cn_choose_scales(&src, 3, NULL, err, sizeof err), 0);
+        memset(&one, 0, sizeof one);
+        assert_int_equal(cn_write_stream(&src, &one.buf, NULL, err, sizeof err), 0);
+        assert_int_equal(tu_open(&one.dec, one.buf.p, one.buf.n, &one.ws), CNERF_OK);
+        assert_int_equal(cn_model_from_stream(&one.dec, &one.ref, err, sizeof err), 0);
+        one.scratch_size = cnerf_render_scratch_size(&one.dec.info);
+        one.scratch = aligned_alloc(8, (one.scratch_size + 7) & ~(size_t)7);
+        const size_t n = (size_t)cam.w * cam.h * 3;
+        uint8_t *a = malloc(n), *b = malloc(n), *c = malloc(n);
+        compare(&sz, &cam, 7, a);
+        compare(&one, &cam, 7, b);
+        compare(&st, &cam, 7, c);
+        assert_memory_equal(a, b, n);
+        assert_true(memcmp(a, c, n) != 0);
+        free(a);
+        free(b);
+        free(c);
+        free_scene(&one);
+        free_scene(&sz);
+        free_scene(&st);
+    }
+    free_set(&z);
+    free_set(&t);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -876,6 +1015,8 @@ int main(void)
         cmocka_unit_test(test_macs_counted),
         cmocka_unit_test(test_grid_cell_mapping),
         cmocka_unit_test(test_zero_rows),
+        cmocka_unit_test(test_two_scenes),
+        cmocka_unit_test(test_zero_shifts),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
