@@ -465,7 +465,7 @@ cnerf_status cn_parse(const uint8_t *buf, size_t len, uint32_t want, cnerf_info 
      * per scene its HEAD (not for scene 0), GRID and layers; DONE. `scene` is the scene whose
      * chunks are being read; only the wanted one's go into info, the others are checked the
      * same way into scratch fields. */
-    int seen_head = 0, grid_seen = 0;
+    int seen_head = 0, grid_seen = 0, set = 0; /* set: a SCNS chunk was read */
     uint32_t next_layer = 0, next_shift = 0, scene = 0, head0_off = 0, head0_len = 0;
     for (;;) {
         const uint32_t off = (uint32_t)(r.p - buf);
@@ -491,7 +491,7 @@ cnerf_status cn_parse(const uint8_t *buf, size_t len, uint32_t want, cnerf_info 
         const int critical = (tag & 0xFFu) >= 'A' && (tag & 0xFFu) <= 'Z';
         const uint32_t cbytes = clen + CNERF_CHUNK_OVERHEAD;
         const int record = scene == want;
-        const int shared_done = info->n_scenes == 1u || next_shift == info->n_layers;
+        const int shared_done = !set || next_shift == info->n_layers;
         cnerf_status st;
         if (!seen_head && tag != CNERF_TAG_HEAD)
             return CNERF_E_CHUNK_ORDER;
@@ -521,18 +521,19 @@ cnerf_status cn_parse(const uint8_t *buf, size_t len, uint32_t want, cnerf_info 
             }
         } else if (tag == CNERF_TAG_SCNS) {
             /* Right after the first HEAD (ancillary chunks aside), at most once. */
-            if (info->n_scenes != 1u || info->unit_bytes || grid_seen || next_layer > 0u)
+            if (set || info->unit_bytes || grid_seen || next_layer > 0u)
                 return CNERF_E_CHUNK_ORDER;
             if (clen != 1u)
                 return CNERF_E_CHUNK;
             const uint32_t n = buf[poff];
-            if (n < 2u || n > CNERF_MAX_SCENES)
+            if (n < 1u || n > CNERF_MAX_SCENES)
                 return CNERF_E_LIMIT;
             info->n_scenes = (uint8_t)n;
+            set = 1;
             info->shared_bytes += cbytes;
         } else if (tag == CNERF_TAG_SHFT) {
             /* One per layer, in order, after SCNS and UNIT, before scene 0's grid and layers. */
-            if (info->n_scenes == 1u || scene > 0u || grid_seen || next_layer > 0u ||
+            if (!set || scene > 0u || grid_seen || next_layer > 0u ||
                 next_shift >= info->n_layers)
                 return CNERF_E_CHUNK_ORDER;
             cnerf_shift_info *S = &info->shift[next_shift];
@@ -550,7 +551,11 @@ cnerf_status cn_parse(const uint8_t *buf, size_t len, uint32_t want, cnerf_info 
                 return CNERF_E_CHUNK_ORDER;
             cnerf_layer_info other, *L = &info->layer[next_layer];
             if (!record) { /* another scene's layer: checked against the same shape */
-                other = *L;
+                cn_memzero(&other, sizeof other); /* field by field: no memcpy here */
+                other.net = L->net;
+                other.index = L->index;
+                other.n_in = L->n_in;
+                other.n_out = L->n_out;
                 L = &other;
             }
             if ((st = parse_layer(buf, poff, clen, L)) != CNERF_OK)

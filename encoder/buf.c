@@ -121,3 +121,21 @@ void cn_bitw_flush(cn_bitw *w)
     if (w->nacc)
         cn_bitw_put(w, 0, 8 - w->nacc);
 }
+
+void cn_buf_f32s(cn_buf *b, const float *x, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        uint32_t u;
+        memcpy(&u, &x[i], 4);
+        cn_buf_u32(b, u);
+    }
+}
+
+void cn_get_f32s(float *x, const uint8_t *p, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        const uint32_t u = (uint32_t)p[4 * i] | (uint32_t)p[4 * i + 1] << 8 |
+                           (uint32_t)p[4 * i + 2] << 16 | (uint32_t)p[4 * i + 3] << 24;
+        memcpy(&x[i], &u, 4);
+    }
+}

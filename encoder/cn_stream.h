@@ -26,6 +26,9 @@ void cn_buf_u24(cn_buf *b, uint32_t v);
 void cn_buf_u32(cn_buf *b, uint32_t v);
 void cn_buf_u64(cn_buf *b, uint64_t v);
 void cn_buf_f64(cn_buf *b, double v); /* IEEE 754 bits, little-endian */
+void cn_buf_f32s(cn_buf *b, const float *x, size_t n); /* n floats, IEEE bits, little-endian */
+/* Reads n floats written by cn_buf_f32s from p (4 n bytes). */
+void cn_get_f32s(float *x, const uint8_t *p, size_t n);
 
 /* ---- bit writer: MSB-first into a cn_buf, zero-padded to a byte on flush ---- */
 typedef struct cn_bitw {
@@ -142,9 +145,9 @@ int cn_topology_pruned(const cnerf_info *I);
  * the decoder's parser. On failure returns -1 and puts a message in err. */
 int cn_write_stream(const cn_stream_src *src, cn_buf *out, cn_write_report *rep, char *err,
                     size_t errlen);
-/* The same for a set of n_scenes scenes of one topology (2..CNERF_MAX_SCENES, with one
- * cn_shift_src per layer; 1 scene without shifts is cn_write_stream). The meta text is
- * scenes[0]'s. rep: NULL or one report per scene; shift_rep: NULL or the shifts' report. */
+/* The same for a set of n_scenes scenes of one topology (1..CNERF_MAX_SCENES) with one
+ * cn_shift_src per layer (a SCNS chunk and SHFT chunks); shift NULL (one scene only) is
+ * cn_write_stream. The meta text is scenes[0]'s. rep: NULL or one report per scene; shift_rep: NULL or the shifts' report. */
 int cn_write_set(const cn_stream_src *scenes, unsigned n_scenes, const cn_shift_src *shift,
                  cn_buf *out, cn_write_report *rep, cn_write_report *shift_rep, char *err,
                  size_t errlen);

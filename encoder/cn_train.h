@@ -123,13 +123,23 @@ double cn_quality_lambda(const cn_trainer *t, double k, double mse_sum);
 /* Current learning rate. */
 double cn_trainer_lr(const cn_trainer *t);
 
+/* Adam over m->params[lo, hi) at learning rate lr, at iteration `step` (1 first); zeroes
+ * those gradients. */
+void cn_adam_range(cn_model *m, size_t lo, size_t hi, double lr, long step);
+
 /* Checkpoints: magic, version, step, options, header, parameters, Adam moments, the
  * occupancy grids, CRC (train.c has the layout). A resumed run continues bit for bit. */
 int cn_checkpoint_save(const cn_trainer *t, const char *path, char *err, size_t errlen);
+/* The same bytes appended to a buffer (out->oom on allocation failure). */
+struct cn_buf;
+void cn_checkpoint_put(const cn_trainer *t, struct cn_buf *out);
 /* Restores parameters, moments, the step and the occupancy grids into an initialised
  * trainer whose topology matches; a grid that the checkpoint lacks (version 1) or has at
  * another size stays empty and is rebuilt from the model at the next step. */
 int cn_checkpoint_resume(cn_trainer *t, const char *path, char *err, size_t errlen);
+/* The same from a checkpoint's bytes (path names them in messages). */
+int cn_checkpoint_resume_data(cn_trainer *t, const char *path, const uint8_t *data, size_t len,
+                              char *err, size_t errlen);
 /* Loads a checkpoint's model alone (for evaluation); m is initialised by this call.
  * *step receives the iteration count when not NULL. */
 int cn_checkpoint_load_model(const char *path, cn_model *m, long *step, char *err,

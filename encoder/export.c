@@ -187,7 +187,10 @@ int cn_model_from_stream(const cnerf_decoder *dec, cn_model *m, char *err, size_
         for (uint32_t o = 0; o < L->n_out; o++)
             b[o] = L->bias_bits ? (float)ldexp(dec->bias[l][o], L->bias_e) : 0.0f;
     }
-    if (I->n_scenes > 1) {
+    int shifted = 0;
+    for (unsigned l = 0; l < I->n_layers; l++)
+        shifted |= I->shift[l].smin != 0 || I->shift[l].smax != 0;
+    if (shifted) {
         /* the set's shared shift: latents S, a = g, b = 0 */
         cn_model *sh = calloc(1, sizeof *sh);
         if (!sh || cn_model_init_compressed(sh, I, 0, 1.0, err, errlen)) {

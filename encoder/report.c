@@ -1,5 +1,6 @@
 /* Size breakdown and `cnerf info` output. */
 #include <inttypes.h>
+#include <math.h>
 #include <stdlib.h>
 
 #include "../decoder/cn_internal.h"
@@ -27,8 +28,9 @@ void cn_breakdown(const cnerf_info *info, cn_totals *t)
                     info->done_bytes;
     t->ancillary = info->ancillary_bytes;
     t->grid = info->grid_bytes;
+    t->shared = info->shared_bytes;
     t->total = t->payload + t->tables + t->affine + t->biases + t->layer_hdr + t->stream_hdr +
-               t->ancillary + t->grid;
+               t->ancillary + t->grid + t->shared;
 }
 
 static double q16(int32_t v) { return v / 65536.0; }
@@ -39,10 +41,50 @@ static void row(FILE *f, const char *what, uint64_t bytes, uint64_t total)
             total ? 100.0 * (double)bytes / (double)total : 0.0);
 }
 
+/* Several scenes: one line per scene (its own chunks), the shifts' table; returns the bytes
+ * of the scenes other than the one described. */
+static uint64_t print_scenes(FILE *f, const uint8_t *buf, const cnerf_info *I)
+{
+    cnerf_info *J = malloc(sizeof *J);
+    uint64_t other = 0;
+    fprintf(f, "scenes: %u, sharing one topology; this report's layers and render parameters "
+               "are scene %u's (--scene)\n", I->n_scenes, I->scene);
+    for (unsigned m = 0; J && m < I->n_scenes; m++) {
+        if (cnerf_peek_scene(buf, I->file_bytes, m, J) != CNERF_OK)
+            continue;
+        if (m != I->scene)
+            other += J->scene_bytes;
+        fprintf(f, "  scene %u: %" PRIu32 " bytes of its own, %.3f bits per latent; %s, "
+                   "background #%02x%02x%02x, grid %s\n",
+                m, J->scene_bytes, 8.0 * J->scene_bytes / J->n_params,
+                J->coord == CNERF_COORD_NDC ? "NDC" : "world", J->background[0],
+                J->background[1], J->background[2], J->grid_g ? "yes" : "none");
+    }
+    free(J);
+    fprintf(f, "  shared: %" PRIu32 " bytes (SCNS and %u SHFT chunks), %" PRIu32
+               " shifts in layers with a shift, %.3f bits per shift\n",
+            I->shared_bytes, I->n_layers, I->n_shift_params,
+            I->n_shift_params ? 8.0 * I->shared_bytes / I->n_shift_params : 0.0);
+    fprintf(f, "\n%-5s %13s %4s %8s %13s\n", "shift", "s range", "prec", "payload", "g");
+    for (uint32_t l = 0; l < I->n_layers; l++) {
+        const cnerf_shift_info *S = &I->shift[l];
+        char range[32];
+        snprintf(range, sizeof range, "[%d,%d]", (int)S->smin, (int)S->smax);
+        fprintf(f, "%-5u %13s %4u %8u %13.6g\n", l, range, S->prec, S->payload_bytes,
+                S->g_m * ldexp(1.0, S->g_e));
+    }
+    fprintf(f, "\n");
+    return other;
+}
+
 void cn_print_info(FILE *f, const char *name, const uint8_t *buf, const cnerf_info *I)
 {
     fprintf(f, "%s: cnerf stream, format version %u.%u, %" PRIu32 " bytes\n", name,
             I->version_major, I->version_minor, I->file_bytes);
+    const int set = I->shared_bytes > 0;
+    const uint64_t other = set ? print_scenes(f, buf, I) : 0;
+    if (set)
+        fprintf(f, "scene %u:\n", I->scene);
     fprintf(f, "render: %s", I->coord == CNERF_COORD_NDC ? "NDC (forward-facing)" : "world (360)");
     fprintf(f, ", near %g, far %g, background #%02x%02x%02x\n", q16(I->near_q16), q16(I->far_q16),
             I->background[0], I->background[1], I->background[2]);
@@ -114,6 +156,7 @@ void cn_print_info(FILE *f, const char *name, const uint8_t *buf, const cnerf_in
     }
     cn_totals t;
     cn_breakdown(I, &t);
+    t.total += other;
     fprintf(f, "\ntotals (bits/p counts the whole layer chunk):\n");
     row(f, "latent payload", t.payload, t.total);
     row(f, "frequency tables", t.tables, t.total);
@@ -123,11 +166,22 @@ void cn_print_info(FILE *f, const char *name, const uint8_t *buf, const cnerf_in
     row(f, "stream header", t.stream_hdr, t.total);
     row(f, "ancillary (meta)", t.ancillary, t.total);
     row(f, "occupancy grid", t.grid, t.total);
+    if (set) {
+        row(f, "shared shifts (SCNS, SHFT)", t.shared, t.total);
+        row(f, "the other scenes", other, t.total);
+    }
     fprintf(f, "  %-26s %10" PRIu64 " bytes  (file: %" PRIu32 " bytes%s)\n", "total", t.total,
             I->file_bytes, t.total == I->file_bytes ? "" : ", MISMATCH");
     fprintf(f, "parameters: %" PRIu32 " latents, %" PRIu32 " biases\n", I->n_params, I->n_biases);
-    fprintf(f, "bits per parameter: %.3f payload only, %.3f whole file (float32: 32)\n",
-            8.0 * (double)t.payload / I->n_params, 8.0 * (double)t.total / I->n_params);
+    if (set) /* the whole file over every scene's latents and the shifts */
+        fprintf(f, "bits per parameter: %.3f payload only (this scene), %.3f whole file over "
+                   "%u scenes' latents and the shifts (float32: 32)\n",
+                8.0 * (double)t.payload / I->n_params,
+                8.0 * (double)t.total / ((double)I->n_params * I->n_scenes + I->n_shift_params),
+                I->n_scenes);
+    else
+        fprintf(f, "bits per parameter: %.3f payload only, %.3f whole file (float32: 32)\n",
+                8.0 * (double)t.payload / I->n_params, 8.0 * (double)t.total / I->n_params);
     fprintf(f, "decoder memory: workspace %zu bytes, render scratch %zu bytes, decoder state "
             "%zu bytes (this host)\n",
             cnerf_workspace_size(I), cnerf_render_scratch_size(I), sizeof(cnerf_decoder));

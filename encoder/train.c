@@ -228,7 +228,7 @@ static void draw_rays(cn_trainer *t, size_t R)
 }
 
 /* Adam over params[lo, hi) at learning rate lr; zeroes the gradients. */
-static void adam_range(cn_model *m, size_t lo, size_t hi, double lr, long step)
+void cn_adam_range(cn_model *m, size_t lo, size_t hi, double lr, long step)
 {
     const float b1 = 0.9f, b2 = 0.999f, eps = 1e-7f;
     const float c1 = (float)(1.0 - pow(b1, (double)step)), c2 = (float)(1.0 - pow(b2, (double)step));
@@ -386,18 +386,18 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
             for (unsigned l = 0; l < m->topo.n_layers; l++) {
                 const double a0 = cn_glorot_limit(&m->topo.layer[l]) / t->opts.levels;
                 const size_t w = m->layer[l].w, b = m->layer[l].b;
-                adam_range(m, w, b, cn_trainer_lr(t) / a0, t->step);
-                adam_range(m, b, b + m->topo.layer[l].n_out, cn_trainer_lr(t), t->step);
+                cn_adam_range(m, w, b, cn_trainer_lr(t) / a0, t->step);
+                cn_adam_range(m, b, b + m->topo.layer[l].n_out, cn_trainer_lr(t), t->step);
             }
         } else {
-            adam_range(m, 0, m->off_ab, cn_trainer_lr(t), t->step);
+            cn_adam_range(m, 0, m->off_ab, cn_trainer_lr(t), t->step);
         }
-        adam_range(m, m->off_ab, m->off_prior, t->opts.lr_affine * decay, t->step);
+        cn_adam_range(m, m->off_ab, m->off_prior, t->opts.lr_affine * decay, t->step);
     } else {
-        adam_range(m, 0, m->off_prior, cn_trainer_lr(t), t->step);
+        cn_adam_range(m, 0, m->off_prior, cn_trainer_lr(t), t->step);
     }
     if (m->compressed)
-        adam_range(m, m->off_prior, m->n_params, t->opts.lr_prior * decay, t->step);
+        cn_adam_range(m, m->off_prior, m->n_params, t->opts.lr_prior * decay, t->step);
     if (mse_last)
         *mse_last = mse;
     if (bits)
@@ -426,16 +426,7 @@ static uint64_t poses_hash(const cn_dataset *ds)
     return h;
 }
 
-static void put_floats(cn_buf *b, const float *x, size_t n)
-{
-    for (size_t i = 0; i < n; i++) {
-        uint32_t u;
-        memcpy(&u, &x[i], 4);
-        cn_buf_u32(b, u);
-    }
-}
-
-int cn_checkpoint_save(const cn_trainer *t, const char *path, char *err, size_t errlen)
+void cn_checkpoint_put(const cn_trainer *t, cn_buf *out)
 {
     cn_buf b = {0}, h = {0};
     cn_buf_put(&b, CN_CKPT_MAGIC, 4);
@@ -448,16 +439,16 @@ int cn_checkpoint_save(const cn_trainer *t, const char *path, char *err, size_t 
     cn_buf_put(&b, h.p, h.n);
     cn_buf_free(&h);
     cn_buf_u64(&b, t->model.n_params);
-    put_floats(&b, t->model.params, t->model.n_params);
-    put_floats(&b, t->model.adam_m, t->model.n_params);
-    put_floats(&b, t->model.adam_v, t->model.n_params);
+    cn_buf_f32s(&b, t->model.params, t->model.n_params);
+    cn_buf_f32s(&b, t->model.adam_m, t->model.n_params);
+    cn_buf_f32s(&b, t->model.adam_v, t->model.n_params);
     cn_buf_u32(&b, t->model.topo.n_nets);
     for (unsigned n = 0; n < t->model.topo.n_nets; n++) {
         const cn_occ *o = &t->occ[n];
         cn_buf_u32(&b, (uint32_t)o->g);
         cn_buf_u32(&b, (uint32_t)(o->g && o->valid));
         if (o->g && o->valid)
-            put_floats(&b, o->density, (size_t)o->g * o->g * o->g);
+            cn_buf_f32s(&b, o->density, (size_t)o->g * o->g * o->g);
     }
     cn_buf_f64(&b, t->opts.lambda);
     cn_buf_u32(&b, (uint32_t)t->ds->n_train);
@@ -478,6 +469,15 @@ int cn_checkpoint_save(const cn_trainer *t, const char *path, char *err, size_t 
     }
     cn_buf_f64(&b, t->opts.quality_slope);
     cn_buf_u32(&b, cnerf_crc32(0, b.p, b.n));
+    cn_buf_put(out, b.p, b.n);
+    out->oom |= b.oom;
+    cn_buf_free(&b);
+}
+
+int cn_checkpoint_save(const cn_trainer *t, const char *path, char *err, size_t errlen)
+{
+    cn_buf b = {0};
+    cn_checkpoint_put(t, &b);
     int rc = b.oom ? -1 : cn_write_file_atomic(path, b.p, b.n, err, errlen);
     if (b.oom)
         snprintf(err, errlen, "%s: out of memory", path);
@@ -499,28 +499,30 @@ static int ckpt_read(const char *path, uint8_t **data, cn_ckpt *c, char *err, si
     return 0;
 }
 
-static void get_floats(float *x, const uint8_t *p, size_t n)
-{
-    for (size_t i = 0; i < n; i++) {
-        uint32_t u = (uint32_t)p[4 * i] | (uint32_t)p[4 * i + 1] << 8 |
-                     (uint32_t)p[4 * i + 2] << 16 | (uint32_t)p[4 * i + 3] << 24;
-        memcpy(&x[i], &u, 4);
-    }
-}
-
 static void ckpt_fill(const cn_ckpt *c, cn_model *m)
 {
     const size_t n = m->n_params;
-    get_floats(m->params, c->blocks, n);
-    get_floats(m->adam_m, c->blocks + 4 * n, n);
-    get_floats(m->adam_v, c->blocks + 8 * n, n);
+    cn_get_f32s(m->params, c->blocks, n);
+    cn_get_f32s(m->adam_m, c->blocks + 4 * n, n);
+    cn_get_f32s(m->adam_v, c->blocks + 8 * n, n);
 }
 
 int cn_checkpoint_resume(cn_trainer *t, const char *path, char *err, size_t errlen)
 {
-    cn_ckpt c;
     uint8_t *data;
-    if (ckpt_read(path, &data, &c, err, errlen))
+    size_t len;
+    if (cn_read_file(path, &data, &len, err, errlen))
+        return -1;
+    const int rc = cn_checkpoint_resume_data(t, path, data, len, err, errlen);
+    free(data);
+    return rc;
+}
+
+int cn_checkpoint_resume_data(cn_trainer *t, const char *path, const uint8_t *data, size_t len,
+                              char *err, size_t errlen)
+{
+    cn_ckpt c;
+    if (cn_ckpt_parse(path, data, len, &c, err, errlen))
         return -1;
     int rc = 0;
     if (c.seed != t->opts.seed) { /* every step's random draws derive from the seed */
@@ -599,11 +601,10 @@ int cn_checkpoint_resume(cn_trainer *t, const char *path, char *err, size_t errl
             cn_occ *o = &t->occ[n];
             if (!o->g || (uint32_t)o->g != c.grid_g[n] || !c.grid[n])
                 continue;
-            get_floats(o->density, c.grid[n], (size_t)o->g * o->g * o->g);
+            cn_get_f32s(o->density, c.grid[n], (size_t)o->g * o->g * o->g);
             t->occ_frac[n] = cn_occ_refresh(o, threshold);
         }
     }
-    free(data);
     return rc;
 }
 

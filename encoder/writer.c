@@ -298,8 +298,8 @@ int cn_write_set(const cn_stream_src *scenes, unsigned n_scenes, const cn_shift_
                  cn_buf *out, cn_write_report *rep, cn_write_report *shift_rep, char *err,
                  size_t errlen)
 {
-    if (n_scenes < 1 || n_scenes > CNERF_MAX_SCENES || (n_scenes > 1) != (shift != NULL))
-        return fail(err, errlen, "%u scenes %s shifts: a set has 2 to %u scenes and shifts",
+    if (n_scenes < 1 || n_scenes > CNERF_MAX_SCENES || (n_scenes > 1 && !shift))
+        return fail(err, errlen, "%u scenes %s shifts: a set has 1 to %u scenes and shifts",
                     n_scenes, shift ? "with" : "without", CNERF_MAX_SCENES);
     cnerf_info *info = malloc(sizeof *info), *other = malloc(sizeof *other);
     if (!info || !other) {
@@ -334,11 +334,11 @@ int cn_write_set(const cn_stream_src *scenes, unsigned n_scenes, const cn_shift_
     cn_buf_put(out, sig, 4);
     const int pruned = cn_topology_pruned(info);
     cn_buf_u16(out, CNERF_VERSION_MAJOR);
-    cn_buf_u16(out, n_scenes > 1 ? CNERF_VERSION_MINOR_SCENES : 0u); /* the lowest that fits */
+    cn_buf_u16(out, shift ? CNERF_VERSION_MINOR_SCENES : 0u); /* the lowest that fits */
     cn_buf c = {0};
     cn_put_head(&c, info);
     put_chunk(out, CNERF_TAG_HEAD, &c);
-    if (n_scenes > 1) {
+    if (shift) {
         c.n = 0;
         cn_buf_u8(&c, n_scenes);
         put_chunk(out, CNERF_TAG_SCNS, &c);

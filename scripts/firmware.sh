@@ -23,6 +23,7 @@
 #   FW_STACK       bytes reserved for the stack (4096); the static worst case must fit
 #   FW_TIMEOUT     seconds before QEMU is killed (600)
 #   FW_EXPECT_MD5  if set, the MD5 the tile must also have (a golden value)
+#   FW_SCENE       the scene of a stream of several that the firmware opens (0)
 # Instructions are counted with QEMU's -icount shift=0 (one virtual nanosecond per
 # instruction) and the SysTick on the processor clock (25 MHz on the AN386, 32 MHz on the
 # AN547): 40 or 31.25 instructions per tick, validated by the firmware on a loop of known
@@ -88,7 +89,8 @@ log=$bdir/firmware-build.log
 # ---- the firmware ----
 if ! { cmake -S . -B "$bdir" -DCMAKE_TOOLCHAIN_FILE="$toolchain" -DCNERF_FW_BOARD="$board" \
          -DCMAKE_BUILD_TYPE="$btype" -DCNERF_FW_STREAM="$stream" -DCNERF_FW_CAMERA="$camera" \
-         -DCNERF_FW_TILE="$x0 $y0 $w $h" -DCNERF_FW_KNOBS="$knobs" -DCNERF_FW_STACK="$stack" &&
+         -DCNERF_FW_TILE="$x0 $y0 $w $h" -DCNERF_FW_KNOBS="$knobs" -DCNERF_FW_STACK="$stack" \
+         -DCNERF_FW_SCENE="${FW_SCENE:-0}" &&
        cmake --build "$bdir" -j1 --target cnerf_fw; } > "$log" 2>&1; then
   cat "$log" >&2
   echo "firmware.sh: the firmware build failed (log: $log)" >&2
@@ -120,7 +122,8 @@ fi
 # ---- the same tile on the host ----
 host=$bdir/render_tile_host
 cc -std=c99 -O2 -Wall -Wextra -Werror -Iinclude decoder/*.c tests/xarch/render_tile.c -o "$host"
-if ! "$host" "$stream" "$camera" $x0 $y0 $w $h $knobs > "$bdir/tile_host.rgb"; then
+if ! CNERF_SCENE=${FW_SCENE:-0} "$host" "$stream" "$camera" $x0 $y0 $w $h $knobs \
+    > "$bdir/tile_host.rgb"; then
   echo "firmware.sh: the host render failed" >&2
   exit 1
 fi

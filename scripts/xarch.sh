@@ -57,8 +57,10 @@ $cnerf synth -o "$work/grid.cnrf" --preset tiny --seed 6 --grid 16 > /dev/null
 $cnerf synth -o "$work/gridndc.cnrf" --preset tiny --seed 7 --ndc --grid 5 > /dev/null
 # layers narrower than the width (format 1.2, a UNIT chunk), into the skip and the view branch
 $cnerf synth -o "$work/units.cnrf" --preset tiny --seed 8 --units 20,7,32,64:5 > /dev/null
+# two scenes sharing shifts (format 2.1): scene 1 is rendered (CNERF_SCENE), shifts included
+$cnerf synth -o "$work/scenes.cnrf" --preset tiny --seed 9 --scenes 2 > /dev/null
 streams=("$work/tiny.cnrf" "$work/small.cnrf" "$work/ndc.cnrf" "$work/grid.cnrf" "$work/gridndc.cnrf"
-         "$work/units.cnrf")
+         "$work/units.cnrf" "$work/scenes.cnrf")
 [ -f out/lego.cnrf ] && streams+=(out/lego.cnrf)
 half=$((size / 2))
 f=$(( size * 65536 * 3 / 2 ))  # focal length 1.5 image widths: about 37 degrees
@@ -81,6 +83,8 @@ PY
 
 bad=0 n=0
 for s in "${streams[@]}"; do
+  # the stream of several scenes: its scene 1
+  export CNERF_SCENE=$([ "$(basename "$s")" = scenes.cnrf ] && echo 1 || echo 0)
   for cam in cam_z cam_y cam_oblique; do
     for tile in "0 0 $half $half" "$half 0 $half $half" "0 $half $half $half" "$half $half $half $half" "3 5 1 1"; do
       for knobs in "" "8 4 0"; do

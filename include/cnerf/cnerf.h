@@ -100,7 +100,7 @@ typedef struct cnerf_shift_info {
 
 typedef struct cnerf_info {
     uint16_t version_major, version_minor;
-    /* Scenes in the stream (1, or 2..CNERF_MAX_SCENES), and the one whose render parameters,
+    /* Scenes in the stream (1..CNERF_MAX_SCENES; SCNS chunk), and the one whose render parameters,
      * grid and layers this struct describes (cnerf_peek_scene). The topology is the same
      * for every scene. */
     uint8_t n_scenes, scene;

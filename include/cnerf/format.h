@@ -38,7 +38,7 @@
 #define CNERF_TAG_SCNS CNERF_TAG('S', 'C', 'N', 'S') /* scene count (2.1) */
 #define CNERF_TAG_SHFT CNERF_TAG('S', 'H', 'F', 'T') /* a layer's shared shift (2.1) */
 
-/* Scenes in one stream: 1 without a SCNS chunk, 2..CNERF_MAX_SCENES with one. */
+/* Scenes in one stream: 1 without a SCNS chunk, 1..CNERF_MAX_SCENES with one. */
 #define CNERF_MAX_SCENES 255u
 /* SHFT: net, index, n_in, n_out, g (m24e8), smin, smax before the table. */
 #define CNERF_SHFT_FIXED_BYTES 14u

@@ -106,8 +106,13 @@ int main(int argc, char **argv)
 
     /* Static buffer sizes from the decoder. A stream that does not parse is embedded anyway
      * with minimal buffers: the firmware then reports the decoder's status. */
+    /* The scene to open (CNERF_FW_SCENE in the environment; 0 when unset). */
+    long long scene = 0;
+    const char *scene_env = getenv("CNERF_FW_SCENE");
+    if (scene_env && *scene_env && !parse_int(scene_env, 0, CNERF_MAX_SCENES - 1, &scene))
+        return die(scene_env, "CNERF_FW_SCENE must be a scene index in 0..254");
     static cnerf_info info;
-    const cnerf_status st = cnerf_peek(buf, len, &info);
+    const cnerf_status st = cnerf_peek_scene(buf, len, (uint32_t)scene, &info);
     size_t ws = 8, scratch = 8;
     if (st == CNERF_OK) {
         ws = cnerf_workspace_size(&info);
@@ -130,6 +135,7 @@ int main(int argc, char **argv)
                " * stream %s\n * camera %s\n */\n",
             stream_path, cam_path);
     fprintf(f, "#define CNERF_FW_STREAM_BYTES %zuu\n", len);
+    fprintf(f, "#define CNERF_FW_SCENE %lldu\n", scene);
     fprintf(f, "#define CNERF_FW_HOST_PEEK %d /* cnerf_peek on the build host */\n", (int)st);
     fprintf(f, "#define CNERF_FW_WS_BYTES %zuu\n", ws);
     fprintf(f, "#define CNERF_FW_SCRATCH_BYTES %zuu\n", scratch);

@@ -159,7 +159,7 @@ int main(void)
 
     const uint32_t timer2_start = fw_timer2_count();
     const uint64_t t0 = ticks_now();
-    cnerf_status st = cnerf_peek(cnerf_fw_stream, len, &dec.info);
+    cnerf_status st = cnerf_peek_scene(cnerf_fw_stream, len, CNERF_FW_SCENE, &dec.info);
     const uint64_t t1 = ticks_now();
     if (st != CNERF_OK)
         return fail("cnerf_peek", st);
@@ -171,7 +171,7 @@ int main(void)
         return too_small("render scratch", sc_need, sizeof scratch);
 
     const uint64_t t2 = ticks_now();
-    st = cnerf_open(&dec, cnerf_fw_stream, len, ws, sizeof ws);
+    st = cnerf_open_scene(&dec, cnerf_fw_stream, len, CNERF_FW_SCENE, ws, sizeof ws);
     const uint64_t t3 = ticks_now();
     if (st != CNERF_OK)
         return fail("cnerf_open", st);

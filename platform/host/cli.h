@@ -17,6 +17,8 @@ int cmd_synth(int argc, char **argv);
 int cmd_train(int argc, char **argv);
 int cmd_eval(int argc, char **argv);
 int cmd_encode(int argc, char **argv);
+/* cnerf encode with several datasets: one stream of several scenes (cmd_encode_set.c). */
+int cmd_encode_set(int argc, char **argv);
 int cmd_quantize(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 int cmd_views(int argc, char **argv);
@@ -52,6 +54,20 @@ void cli_unlock_output(int fd, const char *lock);
  * time so far without the evaluations. Returns 0 or 1 (error printed). */
 int cli_run_training(const char *cmd, struct cn_trainer *t, const char *ckpt, long ckpt_every,
                      double ckpt_secs, long log_every, long eval_every, long every, int *stopped);
+/* The same loop for any training job: done() gives the iterations done, step() runs one and
+ * returns the loss (NaN with a message in err on failure), the PSNR to show and the rest of
+ * the progress line, save() writes the checkpoint, eval() (NULL: none) evaluates and returns
+ * the seconds it took or -1. */
+typedef struct cli_job {
+    void *ctx;
+    long iters;
+    long (*done)(void *ctx);
+    double (*step)(void *ctx, double *psnr, char *extra, size_t n, char *err, size_t errlen);
+    int (*save)(void *ctx, const char *path, char *err, size_t errlen);
+    double (*eval)(void *ctx, long every, double trained);
+} cli_job;
+int cli_run_job(const char *cmd, const cli_job *job, const char *ckpt, long ckpt_every,
+                double ckpt_secs, long log_every, long eval_every, long every, int *stopped);
 /* "SIGINT", "SIGTERM" or "SIGHUP". */
 const char *cli_signal_name(int sig);
 /* Restores a checkpoint into t (cn_checkpoint_resume) and says so, noting when the
@@ -94,6 +110,10 @@ typedef struct cli_stream {
 /* Reads and opens `path`, and builds its float reference model into *ref (when not NULL);
  * prints the error and returns 1 on failure. */
 int cli_stream_open(const char *cmd, const char *path, cli_stream *s, struct cn_model *ref);
+/* The same for scene `scene` of a stream of several (a message naming the scene count when
+ * there is no such scene). */
+int cli_stream_open_scene(const char *cmd, const char *path, unsigned scene, cli_stream *s,
+                          struct cn_model *ref);
 void cli_stream_free(cli_stream *s);
 /* One line: file bytes = latent payload + overhead (tables, affine, biases, headers). */
 void cli_print_sizes(const char *path, const cli_stream *s);

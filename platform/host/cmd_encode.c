@@ -19,6 +19,9 @@
 
 #define ENCODE_USAGE                                                                          \
     "usage: cnerf encode DATASET -o scene.cnrf\n"                                            \
+    "       or, several scenes in one stream with shared shifts (options as below, and\n"   \
+    "       --shift-lr X; not --size, --bits-per-param, --rate-control or --prune on):\n"  \
+    "       cnerf encode DATASET1 DATASET2 ... -o set.cnrf (--lambda L | --quality Q)\n"   \
     "       (--lambda L | --quality Q | --size BYTES | --bits-per-param X)\n"               \
     "       [--preset tiny|small|paper] [--rate-control dual|pi] [--lr X] [--lr-decay N]\n"     \
     "       [--iters N] [--downscale F|--max-size N] [--threads T] [--seed S] [--resume CKPT]\n"          \
@@ -69,13 +72,13 @@ int cmd_encode(int argc, char **argv)
     cn_train_opts o;
     cn_train_defaults(&o);
     o.compress = 1;
-    const char *out = NULL, *resume = NULL, *pos[1], *latent_lr = "weight";
+    const char *out = NULL, *resume = NULL, *pos[CNERF_MAX_SCENES], *latent_lr = "weight";
     const char *random_bg = "auto", *prune = "on";
     long iters = o.iters, downscale = 1, max_size = 0, threads = 0, batch = o.batch, every = 1;
     long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 0, log_every = 100;
     double ckpt_secs = CLI_CKPT_SECS;
     long eval_every = 0, grid_g = -1;
-    double lambda = -1, levels = o.levels, size = 0, bpp = 0, quality = -1;
+    double lambda = -1, levels = o.levels, size = 0, bpp = 0, quality = -1, lr_shift = -1;
     const char *scheme = "dual";
     uint64_t seed = o.seed;
     int black = 0, n_pos, grid_verbose = 0;
@@ -116,10 +119,16 @@ int cmd_encode(int argc, char **argv)
         {"--grid-verbose", CLI_FLAG, &grid_verbose, 0, 0},
         {"--random-bg", CLI_STR, &random_bg, 0, 0},
         {"--prune", CLI_STR, &prune, 0, 0},
+        {"--shift-lr", CLI_DOUBLE, &lr_shift, 0, 1},
     };
-    if (cli_parse("encode", ENCODE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
-                  &n_pos))
+    if (cli_parse("encode", ENCODE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos,
+                  CNERF_MAX_SCENES, &n_pos))
         return 2;
+    if (n_pos > 1) /* several scenes: their own command line */
+        return cmd_encode_set(argc, argv);
+    if (lr_shift >= 0)
+        return cli_usage("encode", "--shift-lr sets the shared shifts' rate of a stream of "
+                         "several scenes; this encode has one");
     if (n_pos != 1 || !out || (lambda < 0 && size == 0 && bpp == 0 && quality < 0))
         return cli_usage("encode", "need a dataset directory, -o FILE and one of --lambda L, "
                          "--quality Q, --size BYTES or --bits-per-param X\n%s", ENCODE_USAGE);

@@ -15,7 +15,7 @@
 
 #define EVAL_USAGE                                                                          \
     "usage: cnerf eval model.ckpt|scene.cnrf DATASET [--split test|val|train] [--downscale F|--max-size N]\n"      \
-    "       [--every N] [-o DIR] [--threads T] [--black] [--chunk R]"
+    "       [--every N] [-o DIR] [--threads T] [--black] [--chunk R] [--scene I]"
 
 /* Writes rgb floats in [0, 1] as an 8-bit PNG. */
 int cli_write_png(const char *path, const float *rgb, int w, int h, char *err, size_t errlen)
@@ -118,7 +118,7 @@ static int is_stream(const char *path)
 int cmd_eval(int argc, char **argv)
 {
     const char *outdir = NULL, *split = "test", *pos[2];
-    long downscale = 1, max_size = 0, every = 1, threads = 0, chunk = 4096;
+    long downscale = 1, max_size = 0, every = 1, threads = 0, chunk = 4096, scene = -1;
     int black = 0, n_pos;
     const cli_opt opts[] = {
         {"-o", CLI_STR, &outdir, 0, 0},
@@ -129,6 +129,7 @@ int cmd_eval(int argc, char **argv)
         {"--threads", CLI_LONG, &threads, 1, 256},
         {"--black", CLI_FLAG, &black, 0, 0},
         {"--chunk", CLI_LONG, &chunk, 1, 1 << 20},
+        {"--scene", CLI_LONG, &scene, 0, CNERF_MAX_SCENES - 1},
     };
     if (cli_parse("eval", EVAL_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 2,
                   &n_pos))
@@ -140,9 +141,11 @@ int cmd_eval(int argc, char **argv)
     char err[1024];
     cn_model m;
     long step = -1;
+    if (scene >= 0 && !is_stream(pos[0]))
+        return cli_usage("eval", "--scene picks a scene of a stream; %s is a checkpoint", pos[0]);
     if (is_stream(pos[0])) {
         cli_stream st;
-        if (cli_stream_open("eval", pos[0], &st, &m))
+        if (cli_stream_open_scene("eval", pos[0], scene < 0 ? 0u : (unsigned)scene, &st, &m))
             return 1;
         cli_print_sizes(pos[0], &st);
         cli_stream_free(&st);

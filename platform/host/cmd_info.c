@@ -8,18 +8,29 @@
 #include "cn_stream.h"
 
 #define INFO_USAGE                                                                            \
-    "usage: cnerf info [--check] FILE.cnrf\n"                                                \
-    "  --check  also decode every payload (cnerf_open), as a device would; without it the\n" \
-    "           structure and every chunk's CRC are checked, not the coded latents"
+    "usage: cnerf info [--check] [--scene I] FILE.cnrf\n"                                    \
+    "  --check    also decode every payload (cnerf_open), as a device would; without it the\n" \
+    "             structure and every chunk's CRC are checked, not the coded latents\n"      \
+    "  --scene I  a stream of several scenes: describe scene I (0 by default); --check\n"    \
+    "             decodes every scene"
 
-/* cnerf_open into a workspace of its own: decodes every payload. */
-static cnerf_status open_all(const uint8_t *buf, size_t len, const cnerf_info *info)
+/* cnerf_open_scene of every scene, each into a workspace of its own: decodes every
+ * payload. *bad gets the scene that failed. */
+static cnerf_status open_all(const uint8_t *buf, size_t len, unsigned n_scenes, unsigned *bad)
 {
-    const size_t n = cnerf_workspace_size(info);
-    void *ws = aligned_alloc(CNERF_WS_ALIGN, (n + 7) & ~(size_t)7);
+    cnerf_info *info = malloc(sizeof *info);
     cnerf_decoder *dec = malloc(sizeof *dec);
-    cnerf_status st = ws && dec ? cnerf_open(dec, buf, len, ws, n) : CNERF_E_WS_SMALL;
-    free(ws);
+    cnerf_status st = info && dec ? CNERF_OK : CNERF_E_WS_SMALL;
+    for (unsigned m = 0; st == CNERF_OK && m < n_scenes; m++) {
+        *bad = m;
+        st = cnerf_peek_scene(buf, len, m, info);
+        const size_t n = st == CNERF_OK ? cnerf_workspace_size(info) : 0;
+        void *ws = st == CNERF_OK ? aligned_alloc(CNERF_WS_ALIGN, (n + 7) & ~(size_t)7) : NULL;
+        if (st == CNERF_OK)
+            st = ws ? cnerf_open_scene(dec, buf, len, m, ws, n) : CNERF_E_WS_SMALL;
+        free(ws);
+    }
+    free(info);
     free(dec);
     return st;
 }
@@ -27,9 +38,21 @@ static cnerf_status open_all(const uint8_t *buf, size_t len, const cnerf_info *i
 int cmd_info(int argc, char **argv)
 {
     int check = 0;
-    if (argc >= 2 && !strcmp(argv[1], "--check")) {
-        check = 1;
-        argc--, argv++;
+    long scene = 0;
+    for (;;) {
+        if (argc >= 2 && !strcmp(argv[1], "--check")) {
+            check = 1;
+            argc--, argv++;
+        } else if (argc >= 3 && !strcmp(argv[1], "--scene")) {
+            char *end;
+            scene = strtol(argv[2], &end, 10);
+            if (*end || end == argv[2] || scene < 0 || scene >= (long)CNERF_MAX_SCENES)
+                return cli_usage("info", "--scene '%s': expected a scene index 0..%u\n%s",
+                                 argv[2], CNERF_MAX_SCENES - 1, INFO_USAGE);
+            argc -= 2, argv += 2;
+        } else {
+            break;
+        }
     }
     if (argc == 2 && (!strcmp(argv[1], "-h") || !strcmp(argv[1], "--help"))) {
         printf("%s\n", INFO_USAGE);
@@ -47,11 +70,18 @@ int cmd_info(int argc, char **argv)
         free(buf);
         return cli_fail("info", "out of memory");
     }
-    cnerf_status st = cnerf_peek(buf, len, info);
+    cnerf_status st = cnerf_peek_scene(buf, len, (uint32_t)scene, info);
+    unsigned bad = 0;
     if (st == CNERF_OK && check)
-        st = open_all(buf, len, info);
+        st = open_all(buf, len, info->n_scenes, &bad);
     int rc = 0;
-    if (st != CNERF_OK)
+    if (st == CNERF_E_ARG && scene > 0)
+        rc = cli_fail("info", "%s: no scene %ld: the stream has %u (0..%u)", argv[1], scene,
+                      info->n_scenes, info->n_scenes - 1u);
+    else if (st != CNERF_OK && check && info->n_scenes > 1)
+        rc = cli_fail("info", "%s: scene %u: %s (%d): not a valid cnerf stream (every payload "
+                      "decoded)", argv[1], bad, cnerf_status_str(st), (int)st);
+    else if (st != CNERF_OK)
         rc = cli_fail("info", "%s: %s (%d): not a valid cnerf stream%s", argv[1],
                       cnerf_status_str(st), (int)st,
                       check ? " (every payload decoded)" : "");

@@ -23,7 +23,7 @@
     "usage: cnerf render scene.cnrf [--dataset DIR [--split test|val|train] [--downscale F|--max-size N]\n" \
     "       [--every N]] [--orbit N [--size PX] [--radius R] [--elevation DEG] [--fov DEG]]\n" \
     "       [-o DIR] [--float] [--verify MD5] [--coarse N] [--fine N] [--t-stop X]\n"        \
-    "       [--tile PX] [--threads T] [--save-cameras FILE] [--no-skip]"
+    "       [--tile PX] [--threads T] [--save-cameras FILE] [--no-skip] [--scene I]"
 
 typedef struct render_cfg {
     cnerf_render_opts opts;
@@ -159,7 +159,7 @@ int cmd_render(int argc, char **argv)
     const char *dataset = NULL, *split = "test", *outdir = NULL, *verify = NULL, *pos[1];
     const char *cam_path = NULL;
     long downscale = 1, max_size = 0, every = 1, threads = 0, orbit = 0, size = 100, coarse = -1, fine = -1;
-    long tile = 32;
+    long tile = 32, scene = 0;
     double radius = 4.0, elev = 30.0, fov = 40.0, t_stop = -1;
     int use_float = 0, no_skip = 0, n_pos;
     const cli_opt opts[] = {
@@ -183,6 +183,7 @@ int cmd_render(int argc, char **argv)
         {"--threads", CLI_LONG, &threads, 1, 256},
         {"--save-cameras", CLI_STR, &cam_path, 0, 0},
         {"--no-skip", CLI_FLAG, &no_skip, 0, 0},
+        {"--scene", CLI_LONG, &scene, 0, CNERF_MAX_SCENES - 1},
     };
     if (cli_parse("render", RENDER_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
                   &n_pos))
@@ -197,7 +198,7 @@ int cmd_render(int argc, char **argv)
 
     cli_stream st;
     cn_model ref;
-    if (cli_stream_open("render", pos[0], &st, &ref))
+    if (cli_stream_open_scene("render", pos[0], (unsigned)scene, &st, &ref))
         return 1;
     const cnerf_info *I = &st.dec->info;
     render_cfg cfg = {.tile = tile};

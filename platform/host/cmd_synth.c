@@ -1,17 +1,19 @@
 /* cnerf synth: writes a random model of a preset's (or a custom) topology. */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "cli.h"
 #include "cli_args.h"
+#include "cn_scales.h"
 #include "cn_synth.h"
 
 #define SYNTH_USAGE                                                                          \
     "usage: cnerf synth -o FILE.cnrf [--preset tiny|small|paper] [--seed S] [--spread X]\n" \
     "       [--depth D] [--width W] [--view-width V] [--coarse N] [--fine N] [--lpos L]\n"  \
     "       [--ldir L] [--ndc] [--black] [--grid G [--grid-shape ball|full|empty]]\n"     \
-    "       [--units U1,U2,...[:V]]"
+    "       [--units U1,U2,...[:V]] [--scenes N [--shift-spread X] [--shift-gain G]]"
 
 /* --units "U1,...,UD[:V]": units of each trunk layer (and of the view layer) of every
  * network, as a pruned stream's UNIT chunk gives them. Returns 0 or 1 (error printed). */
@@ -68,6 +70,8 @@ int cmd_synth(int argc, char **argv)
     long grid = 0;
     const char *shape = "ball", *units = NULL;
     int ndc = 0, black = 0, n_pos;
+    long scenes = 0; /* 0: a one-scene stream; N: a set of N scenes with shared shifts */
+    double shift_spread = 1.0, shift_gain = 0.5;
     const cli_opt opts[] = {
         {"-o", CLI_STR, &out, 0, 0},
         {"--preset", CLI_STR, &preset, 0, 0},
@@ -85,6 +89,9 @@ int cmd_synth(int argc, char **argv)
         {"--grid", CLI_LONG, &grid, 0, CNERF_MAX_GRID},
         {"--grid-shape", CLI_STR, &shape, 0, 0},
         {"--units", CLI_STR, &units, 0, 0},
+        {"--scenes", CLI_LONG, &scenes, 1, CNERF_MAX_SCENES},
+        {"--shift-spread", CLI_DOUBLE, &shift_spread, 0, 40000},
+        {"--shift-gain", CLI_DOUBLE, &shift_gain, -1e6, 1e6},
     };
     if (cli_parse("synth", SYNTH_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], NULL, 0,
                   &n_pos))
@@ -130,20 +137,14 @@ int cmd_synth(int argc, char **argv)
     char err[512], meta[512];
     snprintf(meta, sizeof meta, "encoder=cnerf %s; command=synth; preset=%s; seed=%llu; spread=%g",
              CNERF_VERSION_STRING, preset, (unsigned long long)seed, spread);
-    cn_synth s;
-    if (cn_synth_make(&s, &hdr, seed, spread, err, sizeof err))
-        return cli_fail("synth", "%s", err);
-    s.src.meta = meta;
     /* An occupancy grid: the cells whose centre lies within 0.7 of the half-width from the
      * box's centre (in cell units on each axis), or all, or none. */
     uint8_t *occ = NULL;
     if (grid > 0) {
         const size_t g = (size_t)grid, cells = g * g * g;
         occ = malloc(cells);
-        if (!occ) {
-            cn_synth_free(&s);
+        if (!occ)
             return cli_fail("synth", "out of memory");
-        }
         for (size_t i = 0; i < cells; i++) {
             const double x = (double)(i % g) + 0.5 - 0.5 * (double)g,
                          y = (double)(i / g % g) + 0.5 - 0.5 * (double)g,
@@ -151,19 +152,60 @@ int cmd_synth(int argc, char **argv)
             occ[i] = !strcmp(shape, "full") ||
                      (!strcmp(shape, "ball") && x * x + y * y + z * z <= r * r);
         }
-        s.src.grid = occ;
-        s.src.grid_g = (uint32_t)grid;
+    }
+    /* Scene m of a set: seed + m, its bounds 1 + (m mod 4) / 4 times as wide and its
+     * background's channels changed with m, so that the scenes differ where a decoder could
+     * mix them up. */
+    const unsigned M = scenes ? (unsigned)scenes : 1u;
+    cn_synth *syn = calloc(M, sizeof *syn);
+    cn_stream_src *src = calloc(M, sizeof *src);
+    cn_synth_shift sh;
+    int have_shift = 0, rc = 0;
+    unsigned made = 0;
+    if (!syn || !src)
+        rc = -1, snprintf(err, sizeof err, "out of memory");
+    for (; rc == 0 && made < M; made++) {
+        cnerf_info h = hdr;
+        const double grow = 1.0 + (double)(made % 4) / 4.0;
+        for (unsigned a = 0; a < 6 && hdr.coord != CNERF_COORD_NDC; a++)
+            h.aabb_q16[a] = (int32_t)lround(hdr.aabb_q16[a] * grow);
+        for (unsigned c = 0; c < 3; c++)
+            h.background[c] = (uint8_t)(hdr.background[c] ^ ((37u * made * (c + 1u)) & 0xFFu));
+        if (cn_synth_make(&syn[made], &h, seed + made, spread, err, sizeof err)) {
+            rc = -1;
+            break;
+        }
+        src[made] = syn[made].src;
+        src[made].meta = meta;
+        src[made].grid = occ;
+        src[made].grid_g = occ ? (uint32_t)grid : 0;
+    }
+    if (rc == 0 && scenes) {
+        rc = cn_synth_shift_make(&sh, &syn[0], seed ^ 0x5348465475ull, shift_spread, shift_gain,
+                                 err, sizeof err);
+        have_shift = rc == 0;
+        if (rc == 0)
+            rc = cn_choose_scales_set(src, M, sh.src, seed, NULL, err, sizeof err);
     }
     cn_buf b = {0};
-    int rc = cn_write_stream(&s.src, &b, NULL, err, sizeof err);
+    if (rc == 0)
+        rc = cn_write_set(src, M, scenes ? sh.src : NULL, &b, NULL, NULL, err, sizeof err);
     if (rc == 0)
         rc = cn_write_file_atomic(out, b.p, b.n, err, sizeof err);
     size_t n = b.n;
-    cn_synth_free(&s);
+    for (unsigned m = 0; syn && m < made; m++)
+        cn_synth_free(&syn[m]);
+    if (have_shift)
+        cn_synth_shift_free(&sh);
+    free(syn);
+    free(src);
     cn_buf_free(&b);
     free(occ);
     if (rc)
         return cli_fail("synth", "%s", err);
-    printf("wrote %s (%zu bytes)\n", out, n);
+    if (scenes)
+        printf("wrote %s (%zu bytes, %u scenes)\n", out, n, M);
+    else
+        printf("wrote %s (%zu bytes)\n", out, n);
     return 0;
 }

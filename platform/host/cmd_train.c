@@ -167,56 +167,45 @@ int cli_resume(const char *cmd, cn_trainer *t, const char *path)
     return 0;
 }
 
-int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt_every,
-                     double ckpt_secs, long log_every, long eval_every, long every, int *stopped)
+int cli_run_job(const char *cmd, const cli_job *job, const char *ckpt, long ckpt_every,
+                double ckpt_secs, long log_every, long eval_every, long every, int *stopped)
 {
     char err[1024];
     int rc = 0;
     *stopped = 0;
-    if (t->step >= t->opts.iters) { /* a resumed checkpoint that is already done */
-        printf("%s is at iteration %ld of %ld: nothing to train\n", ckpt, t->step, t->opts.iters);
+    if (job->done(job->ctx) >= job->iters) { /* a resumed checkpoint that is already done */
+        printf("%s is at iteration %ld of %ld: nothing to train\n", ckpt, job->done(job->ctx),
+               job->iters);
         return 0;
     }
     sigint_guard guard;
     sigint_guard_begin(&guard);
     cli_progress p;
-    cli_progress_init(&p, t->step, t->opts.iters, log_every);
-    double mse = 0, loss = 0, bits = 0;
+    cli_progress_init(&p, job->done(job->ctx), job->iters, log_every);
+    double psnr = 0;
     const double t0 = cli_now();
-    const long first = t->step;
+    const long first = job->done(job->ctx);
     double eval_secs = 0; /* time spent on evaluations, left out of the training time */
     double last_save = t0;  /* with ckpt_every 0: a checkpoint each ckpt_secs of training */
-    while (rc == 0 && t->step < t->opts.iters && !sigint_seen(&guard)) {
-        loss = cn_trainer_step(t, &mse, &bits);
-        if (isnan(loss) && t->err[0]) {
+    while (rc == 0 && job->done(job->ctx) < job->iters && !sigint_seen(&guard)) {
+        char extra[160] = "";
+        const double loss = job->step(job->ctx, &psnr, extra, sizeof extra, err, sizeof err);
+        if (isnan(loss) && err[0]) {
             cli_progress_break(&p);
-            rc = cli_fail(cmd, "%s", t->err);
+            rc = cli_fail(cmd, "%s", err);
             break;
         }
-        char extra[96] = "";
-        if (t->rate_control && t->rc.first > 0)
-            snprintf(extra, sizeof extra, "  size %.2f kB, plan %.2f, target %.2f, lambda %.3g",
-                     (t->rc.size + t->rc.reserved) / 1000.0,
-                     (t->rc.plan + t->rc.reserved) / 1000.0, t->rc.target / 1000.0,
-                     t->opts.lambda);
-        else if (t->model.compressed && t->opts.quality_slope > 0)
-            snprintf(extra, sizeof extra, "  rate %.1f kB, lambda %.3g", bits / 8000.0,
-                     t->opts.lambda);
-        else if (t->model.compressed)
-            snprintf(extra, sizeof extra, "  rate %.1f kB", bits / 8000.0);
-        else if (t->occ[0].valid)
-            snprintf(extra, sizeof extra, "  occupied %.0f%%", 100.0 * t->occ_frac[t->model.topo.n_nets - 1]);
-        cli_progress_update(&p, t->step, loss, cn_psnr_from_mse(mse), extra);
-        const int due = ckpt_every > 0 ? t->step % ckpt_every == 0
-                                       : cli_now() - last_save >= ckpt_secs;
-        if (due && t->step < t->opts.iters) {
-            if (cn_checkpoint_save(t, ckpt, err, sizeof err))
+        const long it = job->done(job->ctx);
+        cli_progress_update(&p, it, loss, psnr, extra);
+        const int due = ckpt_every > 0 ? it % ckpt_every == 0 : cli_now() - last_save >= ckpt_secs;
+        if (due && it < job->iters) {
+            if (job->save(job->ctx, ckpt, err, sizeof err))
                 rc = cli_fail(cmd, "%s", err);
             last_save = cli_now();
         }
-        if (rc == 0 && eval_every > 0 && (t->step % eval_every == 0 || t->step == t->opts.iters)) {
+        if (rc == 0 && eval_every > 0 && job->eval && (it % eval_every == 0 || it == job->iters)) {
             cli_progress_break(&p);
-            const double s = eval_now(t, every, cli_now() - t0 - eval_secs);
+            const double s = job->eval(job->ctx, every, cli_now() - t0 - eval_secs);
             if (s < 0)
                 rc = 1;
             eval_secs += s;
@@ -224,22 +213,70 @@ int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt
         }
     }
     cli_progress_done(&p);
-    if (rc == 0 && cn_checkpoint_save(t, ckpt, err, sizeof err))
+    if (rc == 0 && job->save(job->ctx, ckpt, err, sizeof err))
         rc = cli_fail(cmd, "%s", err);
     *stopped = sigint_seen(&guard); /* a signal during the save stops the command too */
     if (rc == 0) {
         const double el = cli_now() - t0 - eval_secs;
+        const long it = job->done(job->ctx);
         if (*stopped)
             printf("interrupted by %s: ", cli_signal_name(*stopped));
-        printf("saved %s at iteration %ld: %.1f s, %.3f s/it, train psnr %.2f dB\n", ckpt,
-               t->step, el,
-               t->step > first ? el / (double)(t->step - first) : 0.0, cn_psnr_from_mse(mse));
+        printf("saved %s at iteration %ld: %.1f s, %.3f s/it, train psnr %.2f dB\n", ckpt, it,
+               el, it > first ? el / (double)(it - first) : 0.0, psnr);
     }
     /* A stopped command exits next, and takes any further signal until then; a finished
      * run gives the signals back their default meaning for the work after training. */
     if (!*stopped && rc == 0)
         sigint_guard_end(&guard);
     return rc;
+}
+
+/* ---- a trainer as a job ---- */
+
+static long trainer_done(void *ctx) { return ((cn_trainer *)ctx)->step; }
+
+static double trainer_step(void *ctx, double *psnr, char *extra, size_t n, char *err,
+                           size_t errlen)
+{
+    cn_trainer *t = ctx;
+    double mse = 0, bits = 0;
+    const double loss = cn_trainer_step(t, &mse, &bits);
+    if (isnan(loss) && t->err[0]) {
+        snprintf(err, errlen, "%s", t->err);
+        return loss;
+    }
+    err[0] = 0;
+    *psnr = cn_psnr_from_mse(mse);
+    if (t->rate_control && t->rc.first > 0)
+        snprintf(extra, n, "  size %.2f kB, plan %.2f, target %.2f, lambda %.3g",
+                 (t->rc.size + t->rc.reserved) / 1000.0, (t->rc.plan + t->rc.reserved) / 1000.0,
+                 t->rc.target / 1000.0, t->opts.lambda);
+    else if (t->model.compressed && t->opts.quality_slope > 0)
+        snprintf(extra, n, "  rate %.1f kB, lambda %.3g", bits / 8000.0, t->opts.lambda);
+    else if (t->model.compressed)
+        snprintf(extra, n, "  rate %.1f kB", bits / 8000.0);
+    else if (t->occ[0].valid)
+        snprintf(extra, n, "  occupied %.0f%%", 100.0 * t->occ_frac[t->model.topo.n_nets - 1]);
+    return loss;
+}
+
+static int trainer_save(void *ctx, const char *path, char *err, size_t errlen)
+{
+    return cn_checkpoint_save(ctx, path, err, errlen);
+}
+
+static double trainer_eval(void *ctx, long every, double trained)
+{
+    return eval_now(ctx, every, trained);
+}
+
+int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt_every,
+                     double ckpt_secs, long log_every, long eval_every, long every, int *stopped)
+{
+    const cli_job job = {t, t->opts.iters, trainer_done, trainer_step, trainer_save,
+                         trainer_eval};
+    return cli_run_job(cmd, &job, ckpt, ckpt_every, ckpt_secs, log_every, eval_every, every,
+                       stopped);
 }
 
 int cmd_train(int argc, char **argv)

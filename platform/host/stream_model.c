@@ -1,5 +1,6 @@
 /* The float reference model of a stream file: read, opened by the decoder's parser and
  * rebuilt with exactly the file's numbers. */
+#include <inttypes.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -9,7 +10,8 @@
 #include "cn_report.h"
 #include "cn_stream.h"
 
-int cli_stream_open(const char *cmd, const char *path, cli_stream *s, cn_model *ref)
+int cli_stream_open_scene(const char *cmd, const char *path, unsigned scene, cli_stream *s,
+                          cn_model *ref)
 {
     char err[1024];
     memset(s, 0, sizeof *s);
@@ -22,11 +24,18 @@ int cli_stream_open(const char *cmd, const char *path, cli_stream *s, cn_model *
         cli_stream_free(s);
         return cli_fail(cmd, "out of memory");
     }
-    cnerf_status st = cnerf_peek(s->file, s->len, &s->dec->info);
+    cnerf_status st = cnerf_peek_scene(s->file, s->len, scene, &s->dec->info);
     size_t need = st == CNERF_OK ? cnerf_workspace_size(&s->dec->info) : 0;
     if (st == CNERF_OK) {
         s->ws = aligned_alloc(CNERF_WS_ALIGN, (need + CNERF_WS_ALIGN - 1) & ~(size_t)(CNERF_WS_ALIGN - 1));
-        st = s->ws ? cnerf_open(s->dec, s->file, s->len, s->ws, need) : CNERF_E_WS_SMALL;
+        st = s->ws ? cnerf_open_scene(s->dec, s->file, s->len, scene, s->ws, need)
+                   : CNERF_E_WS_SMALL;
+    }
+    if (st == CNERF_E_ARG) {
+        const unsigned n = s->dec->info.n_scenes;
+        cli_stream_free(s);
+        return cli_fail(cmd, "%s: no scene %u: the stream has %u (--scene 0..%u)", path, scene, n,
+                        n - 1);
     }
     if (st != CNERF_OK) {
         cli_stream_free(s);
@@ -37,6 +46,11 @@ int cli_stream_open(const char *cmd, const char *path, cli_stream *s, cn_model *
         return cli_fail(cmd, "%s: %s", path, err);
     }
     return 0;
+}
+
+int cli_stream_open(const char *cmd, const char *path, cli_stream *s, cn_model *ref)
+{
+    return cli_stream_open_scene(cmd, path, 0, s, ref);
 }
 
 void cli_stream_free(cli_stream *s)
@@ -51,6 +65,15 @@ void cli_print_sizes(const char *path, const cli_stream *s)
 {
     cn_totals tot;
     cn_breakdown(&s->dec->info, &tot);
+    const cnerf_info *I = &s->dec->info;
+    if (I->shared_bytes) { /* one scene of several: its own chunks, the shared ones */
+        printf("%s: %zu bytes, %u scenes; scene %u: %" PRIu32 " bytes of its own (latent payload "
+               "%llu), %.3f bits per parameter; shared shifts %" PRIu32 " bytes\n",
+               path, s->len, I->n_scenes, I->scene, I->scene_bytes,
+               (unsigned long long)tot.payload, 8.0 * I->scene_bytes / I->n_params,
+               I->shared_bytes);
+        return;
+    }
     const uint64_t overhead = tot.total - tot.payload;
     printf("%s: %zu bytes = latent payload %llu + overhead %llu (tables %llu, affine %llu, "
            "biases %llu, headers %llu); %.3f bits per parameter\n",

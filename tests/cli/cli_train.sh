@@ -244,4 +244,31 @@ cmp -s "$work/f1.ckpt" "$work/f2.ckpt" || fail "train --train-images on the view
 cp -r "$work/fv" "$work/fvx" && cp "$work/fv/0001.png" "$work/fvx/0000.png"
 "$cnerf" train "$data/fern" -o "$work/f3.ckpt" --train-images "$work/fvx" "${fern[@]}" > /dev/null
 cmp -s "$work/f1.ckpt" "$work/f3.ckpt" && fail "train --train-images: another view 0 changed nothing"
+# Several scenes in one stream: Lego and Mic encoded jointly, each scene read back, rendered
+# and evaluated by index; the options that encode one scene only are refused.
+out=$("$cnerf" encode "$data/lego" "$data/mic" -o "$work/set.cnrf" --lambda 1e-3 --iters 3 \
+  --every 100 "${common[@]}")
+grep -q "^encoding 2 scenes jointly, shifts shared" <<<"$out" || fail "encode a set: $out"
+grep -q "^wrote $work/set.cnrf: [0-9]* bytes, 2 scenes, shared shifts [0-9]* bytes" <<<"$out" ||
+  fail "encode a set: wrote line: $out"
+grep -q "^scene 1: [0-9]* bytes of its own, test: 2 views, psnr" <<<"$out" ||
+  fail "encode a set: scene 1's test line: $out"
+set_psnr=$(sed -n 's/^scene 1: .* psnr \([0-9.]*\) dB.*/\1/p' <<<"$out")
+info=$("$cnerf" info --check --scene 1 "$work/set.cnrf")
+grep -q "^scenes: 2, sharing one topology" <<<"$info" || fail "info of a set: $info"
+grep -q "file: [0-9]* bytes)$" <<<"$info" || fail "info of a set: totals: $info"
+out=$("$cnerf" eval "$work/set.cnrf" "$data/mic" --scene 1 --every 100 --downscale 16 --threads 2)
+grep -q "mean over 2 test views .* psnr $set_psnr dB" <<<"$out" || fail "eval --scene 1 ($set_psnr): $out"
+set +e
+msg=$("$cnerf" render "$work/set.cnrf" --orbit 1 --size 8 --scene 2 2>&1); rc=$?
+[ $rc = 1 ] && grep -q "no scene 2: the stream has 2" <<<"$msg" || fail "render --scene 2: $rc $msg"
+msg=$("$cnerf" encode "$data/lego" "$data/mic" -o "$work/z.cnrf" --size 9000 2>&1); rc=$?
+[ $rc = 2 ] && grep -q "takes --lambda L or --quality Q" <<<"$msg" || fail "set --size: $rc $msg"
+msg=$("$cnerf" encode "$data/lego" "$data/lego" -o "$work/z.cnrf" --lambda 1 2>&1); rc=$?
+[ $rc = 2 ] && grep -q "is given twice" <<<"$msg" || fail "set of one dataset twice: $rc $msg"
+msg=$("$cnerf" encode "$data/lego" "$data/fern" -o "$work/z.cnrf" --lambda 1 --iters 1 \
+  "${common[@]}" 2>&1); rc=$?
+[ $rc = 0 ] || fail "a 360-degree and a forward-facing scene in one set: $rc $msg"
+set -e
+[ ! -e "$work/z.cnrf.ckpt.tmp" ] || fail "a set left a temporary checkpoint"
 echo "cli_train: all checks passed"

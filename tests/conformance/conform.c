@@ -5,11 +5,16 @@
  *       valid/NAME.cnrf: every tile of NAME.md5 must have its MD5 (bit-exact decoders), and
  *       every camera's whole image must reach NAME.txt's `min_psnr` against the encoder's
  *       float reference render NAME.<camera>.ref.png; invalid/expected.txt: each broken
- *       stream must get exactly its status from cnerf_peek and cnerf_open.
+ *       stream must get exactly its status from cnerf_peek and cnerf_open (of scene N
+ *       where its line says scene=N).
+ *       A stream of several scenes checks scene 0 with NAME.cam, NAME.md5 and
+ *       NAME.<camera>.ref.png, and each other scene m that has a NAME.s<m>.cam with
+ *       NAME.s<m>.cam, NAME.s<m>.md5 and NAME.s<m>.<camera>.ref.png.
  *       Prints one line per check and closes with "N passed, M failed".
- *   conform tiles STREAM CAMERAS TILE NC NF TSTOP
+ *   conform tiles STREAM CAMERAS TILE NC NF TSTOP [SCENE]
  *       prints NAME.md5 lines for every camera of CAMERAS tiled TILE x TILE (the edge tiles
- *       smaller), with the given knobs (vectors/regenerate.sh writes the MD5 files with it).
+ *       smaller), with the given knobs, of scene SCENE (0) (vectors/regenerate.sh writes the
+ *       MD5 files with it).
  *
  * Tile MD5s hash the tile's visible pixels only, row by row, RGB888 (w * 3 bytes a row).
  */
@@ -77,7 +82,7 @@ static void close_stream(opened *o)
     memset(o, 0, sizeof *o);
 }
 
-static cnerf_status open_stream(const char *path, opened *o)
+static cnerf_status open_stream(const char *path, unsigned scene, opened *o)
 {
     memset(o, 0, sizeof *o);
     size_t len;
@@ -88,7 +93,7 @@ static cnerf_status open_stream(const char *path, opened *o)
     o->dec = calloc(1, sizeof *o->dec);
     if (!o->dec)
         return CNERF_E_NULL;
-    cnerf_status st = cnerf_peek(o->buf, len, &o->dec->info);
+    cnerf_status st = cnerf_peek_scene(o->buf, len, scene, &o->dec->info);
     if (st != CNERF_OK)
         return st;
     const size_t ws_n = cnerf_workspace_size(&o->dec->info);
@@ -97,7 +102,7 @@ static cnerf_status open_stream(const char *path, opened *o)
     o->scratch = aligned_alloc(CNERF_WS_ALIGN, (o->scratch_n + 7) & ~(size_t)7);
     if (!o->ws || !o->scratch)
         return CNERF_E_NULL;
-    return cnerf_open(o->dec, o->buf, len, o->ws, ws_n);
+    return cnerf_open_scene(o->dec, o->buf, len, scene, o->ws, ws_n);
 }
 
 /* Cameras: one per line, 18 integers and a name (cnerf render --save-cameras). */
@@ -156,10 +161,10 @@ static void md5_tile(const uint8_t *px, uint32_t w, uint32_t h, size_t stride, c
     MD5End(&m, hex);
 }
 
-static int cmd_tiles(char **argv)
+static int cmd_tiles(char **argv, unsigned scene)
 {
     opened o;
-    cnerf_status st = open_stream(argv[0], &o);
+    cnerf_status st = open_stream(argv[0], scene, &o);
     camera cams[MAX_CAMS];
     int n, rc = 0;
     if (st != CNERF_OK) {
@@ -231,28 +236,31 @@ static double min_psnr_of(const char *txt)
 }
 
 /* One valid vector: its tiles' MD5s and each camera's PSNR against the float reference. */
-static void check_valid(const char *dir, const char *name)
+/* Checks scene `scene` of vector NAME with its files NAME<sfx>.*; returns the stream's scene
+ * count (0 when it does not open). */
+static unsigned check_scene(const char *dir, const char *name, unsigned scene, const char *sfx)
 {
     char path[4096], what[256];
-    snprintf(what, sizeof what, "valid/%s", name);
+    snprintf(what, sizeof what, "valid/%s%s", name, sfx);
     snprintf(path, sizeof path, "%s/valid/%s.cnrf", dir, name);
     opened o;
-    cnerf_status st = open_stream(path, &o);
+    cnerf_status st = open_stream(path, scene, &o);
     if (st != CNERF_OK) {
         result(0, what, "open: %s", cnerf_status_str(st));
         close_stream(&o);
-        return;
+        return 0;
     }
+    const unsigned n_scenes = o.dec->info.n_scenes;
     camera cams[MAX_CAMS];
     int n;
-    snprintf(path, sizeof path, "%s/valid/%s.cam", dir, name);
+    snprintf(path, sizeof path, "%s/valid/%s%s.cam", dir, name, sfx);
     if (read_cameras(path, cams, &n) || n == 0) {
         result(0, what, "no cameras in %s", path);
         close_stream(&o);
-        return;
+        return n_scenes;
     }
     /* Tiles. */
-    snprintf(path, sizeof path, "%s/valid/%s.md5", dir, name);
+    snprintf(path, sizeof path, "%s/valid/%s%s.md5", dir, name, sfx);
     FILE *f = fopen(path, "r");
     char line[512];
     int tiles = 0, bad = 0;
@@ -275,12 +283,12 @@ static void check_valid(const char *dir, const char *name)
             md5_tile(px, w, h, (size_t)w * 3, got);
             if (strcmp(got, want)) {
                 if (bad < 3)
-                    printf("  %s tile %s (%u,%u %ux%u, %u+%u, t_stop %u): md5 %s, want %s\n",
-                           name, cname, x0, y0, w, h, nc, nf, ts, got, want);
+                    printf("  %s%s tile %s (%u,%u %ux%u, %u+%u, t_stop %u): md5 %s, want %s\n",
+                           name, sfx, cname, x0, y0, w, h, nc, nf, ts, got, want);
                 bad++;
             }
         } else {
-            printf("  %s tile %s (%u,%u %ux%u): %s\n", name, cname, x0, y0, w, h,
+            printf("  %s%s tile %s (%u,%u %ux%u): %s\n", name, sfx, cname, x0, y0, w, h,
                    cnerf_status_str(st));
             bad++;
         }
@@ -297,9 +305,10 @@ static void check_valid(const char *dir, const char *name)
     for (int c = 0; c < n; c++) {
         const cnerf_camera *cam = &cams[c].c;
         char ref_path[4096], err[512];
-        snprintf(ref_path, sizeof ref_path, "%s/valid/%s.%s.ref.png", dir, name, cams[c].name);
+        snprintf(ref_path, sizeof ref_path, "%s/valid/%s%s.%s.ref.png", dir, name, sfx,
+                 cams[c].name);
         cn_image ref;
-        snprintf(what, sizeof what, "valid/%s %s", name, cams[c].name);
+        snprintf(what, sizeof what, "valid/%s%s %s", name, sfx, cams[c].name);
         if (cn_png_read(ref_path, &ref, err, sizeof err)) {
             result(0, what, "%s", err);
             continue;
@@ -329,6 +338,23 @@ static void check_valid(const char *dir, const char *name)
         cn_image_free(&ref);
     }
     close_stream(&o);
+    return n_scenes;
+}
+
+/* Scene 0 of vector NAME, then every other scene that has cameras of its own. */
+static void check_valid(const char *dir, const char *name)
+{
+    const unsigned n = check_scene(dir, name, 0, "");
+    for (unsigned m = 1; m < n; m++) {
+        char path[4096], sfx[16];
+        snprintf(sfx, sizeof sfx, ".s%u", m);
+        snprintf(path, sizeof path, "%s/valid/%s%s.cam", dir, name, sfx);
+        FILE *f = fopen(path, "r");
+        if (!f)
+            continue;
+        fclose(f);
+        check_scene(dir, name, m, sfx);
+    }
 }
 
 static cnerf_status status_of(const char *name)
@@ -349,9 +375,12 @@ static void check_invalid(const char *dir)
         return;
     }
     while (fgets(line, sizeof line, f)) {
-        char file[256], peek_s[64], open_s[64], what[300];
-        if (line[0] == '#' || sscanf(line, "%255s %63s %63s", file, peek_s, open_s) != 3)
+        char file[256], peek_s[64], open_s[64], opt[64] = "", what[300];
+        if (line[0] == '#' || sscanf(line, "%255s %63s %63s %63s", file, peek_s, open_s, opt) < 3)
             continue;
+        unsigned scene = 0; /* "scene=N": peek and open scene N */
+        if (strncmp(opt, "scene=", 6) == 0)
+            scene = (unsigned)strtoul(opt + 6, NULL, 10);
         snprintf(path, sizeof path, "%s/invalid/%s", dir, file);
         snprintf(what, sizeof what, "invalid/%s", file);
         uint8_t *buf;
@@ -361,7 +390,7 @@ static void check_invalid(const char *dir)
             continue;
         }
         cnerf_info *info = malloc(sizeof *info);
-        const cnerf_status p = info ? cnerf_peek(buf, len, info) : CNERF_E_NULL;
+        const cnerf_status p = info ? cnerf_peek_scene(buf, len, scene, info) : CNERF_E_NULL;
         free(info);
         opened o;
         memset(&o, 0, sizeof o);
@@ -369,12 +398,12 @@ static void check_invalid(const char *dir)
         /* open with a workspace as large as peek asks, or a small one when peek refuses */
         size_t ws_n = 64;
         cnerf_info *i2 = malloc(sizeof *i2);
-        if (i2 && cnerf_peek(buf, len, i2) == CNERF_OK)
+        if (i2 && cnerf_peek_scene(buf, len, scene, i2) == CNERF_OK)
             ws_n = cnerf_workspace_size(i2);
         free(i2);
         o.ws = aligned_alloc(CNERF_WS_ALIGN, (ws_n + 7) & ~(size_t)7);
         const cnerf_status op =
-            o.dec && o.ws ? cnerf_open(o.dec, buf, len, o.ws, ws_n) : CNERF_E_NULL;
+            o.dec && o.ws ? cnerf_open_scene(o.dec, buf, len, scene, o.ws, ws_n) : CNERF_E_NULL;
         close_stream(&o);
         free(buf);
         const int ok = p == status_of(peek_s) && op == status_of(open_s);
@@ -422,9 +451,9 @@ int main(int argc, char **argv)
 {
     if (argc == 3 && !strcmp(argv[1], "check"))
         return cmd_check(argv[2]);
-    if (argc == 8 && !strcmp(argv[1], "tiles"))
-        return cmd_tiles(argv + 2);
+    if ((argc == 8 || argc == 9) && !strcmp(argv[1], "tiles"))
+        return cmd_tiles(argv + 2, argc == 9 ? (unsigned)strtoul(argv[8], NULL, 10) : 0u);
     fprintf(stderr, "usage: conform check VECTORS_DIR\n"
-                    "       conform tiles STREAM CAMERAS TILE NC NF TSTOP\n");
+                    "       conform tiles STREAM CAMERAS TILE NC NF TSTOP [SCENE]\n");
     return 2;
 }

@@ -3,20 +3,22 @@
 # under qemu-system-arm, must have the MD5 that vectors/valid/NAME.md5 lists (and the host's).
 # The firmware is built in BUILD_DIR, for the board FW_BOARD names (scripts/firmware.sh:
 # an386, the Cortex-M4, by default; an547, the Cortex-M55); BUILD_DIR must be the board's own.
-#   [FW_BOARD=an386|an547] run_vector.sh VECTORS_DIR NAME BUILD_DIR [LINE [FLAGS]]
+#   [FW_BOARD=an386|an547] run_vector.sh VECTORS_DIR NAME BUILD_DIR [LINE [FLAGS [SCENE]]]
 # LINE (1, the first tile, by default) picks the tile line of NAME.md5; FLAGS (0) is
 # cnerf_render_opts.flags: with 1 (CNERF_RENDER_NO_SKIP, the occupancy grid ignored) the
 # tile's MD5 is checked against the host's render only, as the vector lists none for it.
+# SCENE (0) picks the scene of a stream of several: its tiles are NAME.s<SCENE>.md5's.
 set -euo pipefail
-vectors=$1 name=$2 build=$3 line=${4:-1} flags=${5:-0}
+vectors=$1 name=$2 build=$3 line=${4:-1} flags=${5:-0} scene=${6:-0}
 root=$(cd "$(dirname "$0")/../.." && pwd)
-read -r cam x0 y0 w h nc nf ts md5 < <(sed -n "${line}p" "$vectors/valid/$name.md5")
-[ -n "${md5:-}" ] || { echo "run_vector.sh: $name.md5 has no line $line" >&2; exit 1; }
-grep -E "[[:space:]]$cam\$" "$vectors/valid/$name.cam" > "$build.cam" ||
-  { echo "run_vector.sh: camera $cam is not in $name.cam" >&2; exit 1; }
+sfx=$([ "$scene" = 0 ] && echo "" || echo ".s$scene")
+read -r cam x0 y0 w h nc nf ts md5 < <(sed -n "${line}p" "$vectors/valid/$name$sfx.md5")
+[ -n "${md5:-}" ] || { echo "run_vector.sh: $name$sfx.md5 has no line $line" >&2; exit 1; }
+grep -E "[[:space:]]$cam\$" "$vectors/valid/$name$sfx.cam" > "$build.cam" ||
+  { echo "run_vector.sh: camera $cam is not in $name$sfx.cam" >&2; exit 1; }
 mkdir -p "$build"
 expect=$md5
 [ "$flags" = 0 ] || expect=
-FW_BOARD=${FW_BOARD:-an386} FW_BUILD_DIR=$build FW_EXPECT_MD5=$expect \
+FW_BOARD=${FW_BOARD:-an386} FW_BUILD_DIR=$build FW_EXPECT_MD5=$expect FW_SCENE=$scene \
   "$root/scripts/firmware.sh" "$vectors/valid/$name.cnrf" "$build.cam" "$x0 $y0 $w $h" "$nc" "$nf" \
   "$ts" "$flags"

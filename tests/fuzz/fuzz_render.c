@@ -28,6 +28,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     const size_t n = size - CTRL;
     if (cnerf_peek(s, n, &dec.info) != CNERF_OK)
         return 0;
+    /* A stream of several scenes: the scene from the control's last byte's high bits. */
+    const uint32_t scene = (uint32_t)(c[31] >> 4) % dec.info.n_scenes;
+    if (scene && cnerf_peek_scene(s, n, scene, &dec.info) != CNERF_OK)
+        return 0;
     const cnerf_info *I = &dec.info;
     /* Bounded work: small models and few samples only. */
     if (I->n_params > 20000u || (uint32_t)I->n_coarse + I->n_fine > 96u)
@@ -38,7 +42,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     void *ws = aligned_alloc(CNERF_WS_ALIGN, (need + 7) & ~(size_t)7);
     if (!ws)
         return 0;
-    if (cnerf_open(&dec, s, n, ws, need) == CNERF_OK) {
+    if (cnerf_open_scene(&dec, s, n, scene, ws, need) == CNERF_OK) {
         /* A camera: a rotation from one of 8 axis-aligned frames, or raw entries (which the
          * renderer must range-check); the centre anywhere within +-2^15 units or beyond. */
         cnerf_camera cam;

@@ -82,6 +82,7 @@ static void put32(uint8_t *p, uint32_t v)
 static cn_buf base;
 static cnerf_info base_info;
 enum { L_INT16 = 2, L_CONST = 1, L_CODED = 0 };
+static int set_base_make(void);
 
 int neg_base_make(cn_buf *out, cnerf_info *info)
 {
@@ -112,10 +113,44 @@ int neg_base_make(cn_buf *out, cnerf_info *info)
     }
     if (info)
         *info = base_info;
-    return 0;
+    return set_base_make();
 }
 
-void neg_base_free(void) { cn_buf_free(&base); }
+/* ---- the two-scene base stream: the same topology, shifts in every layer ---- */
+static cn_buf set_base;
+
+static int set_base_make(void)
+{
+    cnerf_info hdr;
+    tu_small_header(&hdr, 3, 6, 1);
+    cn_synth s[2];
+    cn_synth_shift sh;
+    char err[256];
+    if (cn_synth_make(&s[0], &hdr, 77, 2.0, err, sizeof err))
+        return -1;
+    hdr.background[1] = 40;
+    if (cn_synth_make(&s[1], &hdr, 78, 2.0, err, sizeof err)) {
+        cn_synth_free(&s[0]);
+        return -1;
+    }
+    int rc = cn_synth_shift_make(&sh, &s[0], 79, 1.0, 0.5, err, sizeof err);
+    const cn_stream_src src[2] = {s[0].src, s[1].src};
+    cn_buf_free(&set_base);
+    memset(&set_base, 0, sizeof set_base);
+    if (rc == 0) {
+        rc = cn_write_set(src, 2, sh.src, &set_base, NULL, NULL, err, sizeof err);
+        cn_synth_shift_free(&sh);
+    }
+    cn_synth_free(&s[0]);
+    cn_synth_free(&s[1]);
+    return rc;
+}
+
+void neg_base_free(void)
+{
+    cn_buf_free(&base);
+    cn_buf_free(&set_base);
+}
 
 /* Offsets inside chunk payloads. */
 #define HEAD 0
@@ -356,6 +391,71 @@ static void e_units_after_layer(chunks *c)
     behind_first_layer(c);
 }
 
+/* ---- several scenes (edits of set_base) ---- */
+
+/* Chunks of the set: HEAD, SCNS, SHFT x n, LAYR x n (scene 0), HEAD, LAYR x n, DONE. */
+#define NL ((int)base_info.n_layers)
+#define S_SCNS 1
+#define S_SHFT(l) (2 + (l))
+#define S_LAYR0(l) (2 + NL + (l))
+#define S_HEAD1 (2 + 2 * NL)
+#define S_LAYR1(l) (3 + 2 * NL + (l))
+/* SHFT payload offsets: net, index, n_in, n_out, g_m, g_e, smin, smax, prec. */
+#define F_NOUT 4
+#define F_G_E 9
+#define F_SMIN 10
+#define F_PREC 14
+
+static void e_set_ok(chunks *c) { (void)c; }
+static void e_set_shape(chunks *c)
+{
+    uint8_t *n = c->c[S_SHFT(0)].data + F_NOUT;
+    put16(n, (uint32_t)(n[0] | n[1] << 8) + 1u);
+}
+static void e_set_missing_shift(chunks *c) { remove_chunk(c, S_SHFT(NL - 1)); }
+static void e_set_no_scns(chunks *c) { remove_chunk(c, S_SCNS); }
+static void e_set_count0(chunks *c) { c->c[S_SCNS].data[0] = 0; }
+static void e_set_count_long(chunks *c) { c->c[S_SCNS].data[c->c[S_SCNS].len++] = 0; }
+static void e_set_count3(chunks *c) { c->c[S_SCNS].data[0] = 3; }
+static void e_set_count1(chunks *c) { c->c[S_SCNS].data[0] = 1; }
+static void e_set_two_scns(chunks *c)
+{
+    insert_chunk(c, S_SCNS + 1, "SCNS", c->c[S_SCNS].data, c->c[S_SCNS].len);
+}
+static void e_set_topology(chunks *c) { put16(c->c[S_HEAD1].data + H_NET0 + 1, 7); }
+static void e_set_render(chunks *c) { put32(c->c[S_HEAD1].data + H_NEAR, 6u << 16); }
+static void e_set_early_head(chunks *c)
+{
+    chunk t = c->c[S_HEAD1];
+    c->c[S_HEAD1] = c->c[S_HEAD1 - 1];
+    c->c[S_HEAD1 - 1] = t;
+}
+static void e_set_g_exp(chunks *c) { c->c[S_SHFT(0)].data[F_G_E] = 64; }
+static void e_set_range(chunks *c)
+{
+    uint8_t *k = c->c[S_SHFT(0)].data + F_SMIN;
+    uint8_t t[2] = {k[0], k[1]};
+    k[0] = k[2], k[1] = k[3], k[2] = t[0], k[3] = t[1];
+}
+static void e_set_prec0(chunks *c) { c->c[S_SHFT(0)].data[F_PREC] = 0; }
+static void e_set_units_late(chunks *c)
+{
+    add_units(c); /* after HEAD, before SCNS: moved behind the first SHFT */
+    chunk u = c->c[1];
+    remove_chunk(c, 1);
+    insert_chunk(c, S_SHFT(1), "UNIT", u.data, u.len);
+}
+static void e_set_shift_payload(chunks *c)
+{
+    chunk *f = &c->c[S_SHFT(0)];
+    f->data[f->len - 3] ^= 0x10;
+}
+static void e_set_scene1_payload(chunks *c)
+{
+    chunk *y = &c->c[S_LAYR1(L_CODED)];
+    y->data[y->len - 3] ^= 0x10;
+}
+
 /* Raw edits after joining (no CRC repair). */
 static void r_trailing(cn_buf *b) { cn_buf_u8(b, 0); }
 static void r_crc(cn_buf *b) { b->p[8 + 8 + base_info.head_bytes - 12] ^= 1; }
@@ -364,93 +464,123 @@ static void r_empty(cn_buf *b) { b->n = 0; }
 static void r_magic_prefix(cn_buf *b) { b->n = 3; }
 
 const neg_case neg_cases[] = {
-    {"wrong magic", e_magic, NULL, CNERF_E_MAGIC, CNERF_E_MAGIC},
-    {"major version 1 (format 1.x)", e_major1, NULL, CNERF_E_VERSION, CNERF_E_VERSION},
-    {"major version 3", e_major3, NULL, CNERF_E_VERSION, CNERF_E_VERSION},
-    {"minor version 7 is accepted", e_minor, NULL, CNERF_OK, CNERF_OK},
-    {"width over the limit", e_width, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT},
-    {"depth over the limit", e_depth17, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT},
-    {"depth 0", e_depth0, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT},
-    {"position octaves over the limit", e_lpos, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT},
-    {"no coarse samples", e_ncoarse0, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT},
-    {"coarse samples over the limit", e_ncoarse_big, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT},
-    {"three networks", e_nnets3, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT},
-    {"near >= far", e_near_far, NULL, CNERF_E_HEADER, CNERF_E_HEADER},
-    {"negative near", e_neg_near, NULL, CNERF_E_HEADER, CNERF_E_HEADER},
-    {"unknown coordinate system", e_coord, NULL, CNERF_E_HEADER, CNERF_E_HEADER},
-    {"NDC with world near/far", e_ndc_near, NULL, CNERF_E_HEADER, CNERF_E_HEADER},
-    {"unknown encoding flag", e_flags, NULL, CNERF_E_HEADER, CNERF_E_HEADER},
-    {"two networks but no fine samples", e_nets_mismatch, NULL, CNERF_E_HEADER, CNERF_E_HEADER},
-    {"skip into no later layer", e_skip, NULL, CNERF_E_HEADER, CNERF_E_HEADER},
-    {"empty scene bounds", e_aabb, NULL, CNERF_E_HEADER, CNERF_E_HEADER},
-    {"HEAD one byte long", e_head_long, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK},
-    {"HEAD cut short", e_head_short, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK},
-    {"layer width mismatch", e_nin, NULL, CNERF_E_LAYER, CNERF_E_LAYER},
-    {"layer index out of order", e_index, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER},
-    {"kmin > kmax", e_kmin_gt_kmax, NULL, CNERF_E_RANGE, CNERF_E_RANGE},
-    {"kmin -32768", e_kmin_limit, NULL, CNERF_E_RANGE, CNERF_E_RANGE},
-    {"affine exponent 64", e_a_exp, NULL, CNERF_E_FORMAT, CNERF_E_FORMAT},
-    {"affine mantissa -2^23", e_a_mant, NULL, CNERF_E_FORMAT, CNERF_E_FORMAT},
-    {"input scale below the range", e_f_low, NULL, CNERF_E_FORMAT, CNERF_E_FORMAT},
-    {"input scale above the range", e_f_high, NULL, CNERF_E_FORMAT, CNERF_E_FORMAT},
-    {"bias bits 25", e_bias_bits, NULL, CNERF_E_FORMAT, CNERF_E_FORMAT},
-    {"zero-bit biases with an exponent", e_bias_exp0, NULL, CNERF_E_FORMAT, CNERF_E_FORMAT},
-    {"table precision 0", e_prec0, NULL, CNERF_E_TABLE, CNERF_E_TABLE},
-    {"table precision 17", e_prec17, NULL, CNERF_E_TABLE, CNERF_E_TABLE},
-    {"Exp-Golomb order 16", e_order16, NULL, CNERF_E_TABLE, CNERF_E_TABLE},
-    {"frequencies exceed the precision", e_prec_lower, NULL, CNERF_E_TABLE, CNERF_E_TABLE},
-    {"frequencies fall short (payload mismatch)", e_prec_higher, NULL, CNERF_OK, CNERF_E_PAYLOAD},
-    {"alphabet larger than 2^prec", e_prec_too_small, NULL, CNERF_E_TABLE, CNERF_E_TABLE},
-    {"empty table", e_table_empty, NULL, CNERF_E_TABLE, CNERF_E_TABLE},
-    {"payload under 4 bytes", e_payload_short, NULL, CNERF_E_PAYLOAD, CNERF_E_PAYLOAD},
-    {"payload byte changed, CRC fixed", e_payload_byte, NULL, CNERF_OK, CNERF_E_PAYLOAD},
-    {"payload with an extra byte", e_payload_extra, NULL, CNERF_OK, CNERF_E_PAYLOAD},
-    {"int16 payload bit changed", e_int16_payload, NULL, CNERF_OK, CNERF_E_PAYLOAD},
-    {"constant layer with payload", e_const_payload, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK},
+    {"wrong magic", e_magic, NULL, CNERF_E_MAGIC, CNERF_E_MAGIC, 0, 0},
+    {"major version 1 (format 1.x)", e_major1, NULL, CNERF_E_VERSION, CNERF_E_VERSION, 0, 0},
+    {"major version 3", e_major3, NULL, CNERF_E_VERSION, CNERF_E_VERSION, 0, 0},
+    {"minor version 7 is accepted", e_minor, NULL, CNERF_OK, CNERF_OK, 0, 0},
+    {"width over the limit", e_width, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT, 0, 0},
+    {"depth over the limit", e_depth17, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT, 0, 0},
+    {"depth 0", e_depth0, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT, 0, 0},
+    {"position octaves over the limit", e_lpos, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT, 0, 0},
+    {"no coarse samples", e_ncoarse0, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT, 0, 0},
+    {"coarse samples over the limit", e_ncoarse_big, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT, 0, 0},
+    {"three networks", e_nnets3, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT, 0, 0},
+    {"near >= far", e_near_far, NULL, CNERF_E_HEADER, CNERF_E_HEADER, 0, 0},
+    {"negative near", e_neg_near, NULL, CNERF_E_HEADER, CNERF_E_HEADER, 0, 0},
+    {"unknown coordinate system", e_coord, NULL, CNERF_E_HEADER, CNERF_E_HEADER, 0, 0},
+    {"NDC with world near/far", e_ndc_near, NULL, CNERF_E_HEADER, CNERF_E_HEADER, 0, 0},
+    {"unknown encoding flag", e_flags, NULL, CNERF_E_HEADER, CNERF_E_HEADER, 0, 0},
+    {"two networks but no fine samples", e_nets_mismatch, NULL, CNERF_E_HEADER, CNERF_E_HEADER, 0, 0},
+    {"skip into no later layer", e_skip, NULL, CNERF_E_HEADER, CNERF_E_HEADER, 0, 0},
+    {"empty scene bounds", e_aabb, NULL, CNERF_E_HEADER, CNERF_E_HEADER, 0, 0},
+    {"HEAD one byte long", e_head_long, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK, 0, 0},
+    {"HEAD cut short", e_head_short, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK, 0, 0},
+    {"layer width mismatch", e_nin, NULL, CNERF_E_LAYER, CNERF_E_LAYER, 0, 0},
+    {"layer index out of order", e_index, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER, 0, 0},
+    {"kmin > kmax", e_kmin_gt_kmax, NULL, CNERF_E_RANGE, CNERF_E_RANGE, 0, 0},
+    {"kmin -32768", e_kmin_limit, NULL, CNERF_E_RANGE, CNERF_E_RANGE, 0, 0},
+    {"affine exponent 64", e_a_exp, NULL, CNERF_E_FORMAT, CNERF_E_FORMAT, 0, 0},
+    {"affine mantissa -2^23", e_a_mant, NULL, CNERF_E_FORMAT, CNERF_E_FORMAT, 0, 0},
+    {"input scale below the range", e_f_low, NULL, CNERF_E_FORMAT, CNERF_E_FORMAT, 0, 0},
+    {"input scale above the range", e_f_high, NULL, CNERF_E_FORMAT, CNERF_E_FORMAT, 0, 0},
+    {"bias bits 25", e_bias_bits, NULL, CNERF_E_FORMAT, CNERF_E_FORMAT, 0, 0},
+    {"zero-bit biases with an exponent", e_bias_exp0, NULL, CNERF_E_FORMAT, CNERF_E_FORMAT, 0, 0},
+    {"table precision 0", e_prec0, NULL, CNERF_E_TABLE, CNERF_E_TABLE, 0, 0},
+    {"table precision 17", e_prec17, NULL, CNERF_E_TABLE, CNERF_E_TABLE, 0, 0},
+    {"Exp-Golomb order 16", e_order16, NULL, CNERF_E_TABLE, CNERF_E_TABLE, 0, 0},
+    {"frequencies exceed the precision", e_prec_lower, NULL, CNERF_E_TABLE, CNERF_E_TABLE, 0, 0},
+    {"frequencies fall short (payload mismatch)", e_prec_higher, NULL, CNERF_OK, CNERF_E_PAYLOAD, 0, 0},
+    {"alphabet larger than 2^prec", e_prec_too_small, NULL, CNERF_E_TABLE, CNERF_E_TABLE, 0, 0},
+    {"empty table", e_table_empty, NULL, CNERF_E_TABLE, CNERF_E_TABLE, 0, 0},
+    {"payload under 4 bytes", e_payload_short, NULL, CNERF_E_PAYLOAD, CNERF_E_PAYLOAD, 0, 0},
+    {"payload byte changed, CRC fixed", e_payload_byte, NULL, CNERF_OK, CNERF_E_PAYLOAD, 0, 0},
+    {"payload with an extra byte", e_payload_extra, NULL, CNERF_OK, CNERF_E_PAYLOAD, 0, 0},
+    {"int16 payload bit changed", e_int16_payload, NULL, CNERF_OK, CNERF_E_PAYLOAD, 0, 0},
+    {"constant layer with payload", e_const_payload, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK, 0, 0},
     {"unknown critical chunk", e_unknown_critical, NULL, CNERF_E_UNKNOWN_CHUNK,
-     CNERF_E_UNKNOWN_CHUNK},
-    {"unknown ancillary chunk is skipped", e_unknown_ancillary, NULL, CNERF_OK, CNERF_OK},
+     CNERF_E_UNKNOWN_CHUNK, 0, 0},
+    {"unknown ancillary chunk is skipped", e_unknown_ancillary, NULL, CNERF_OK, CNERF_OK, 0, 0},
     {"ancillary chunk before HEAD", e_meta_before_head, NULL, CNERF_E_CHUNK_ORDER,
-     CNERF_E_CHUNK_ORDER},
-    {"tag not letters", e_bad_tag, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK},
-    {"HEAD not first", e_head_not_first, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER},
-    {"duplicate HEAD", e_dup_head, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER},
-    {"missing layer", e_missing_layer, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER},
-    {"extra layer", e_extra_layer, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER},
-    {"missing DONE", e_missing_done, NULL, CNERF_E_TRUNCATED, CNERF_E_TRUNCATED},
-    {"DONE with a payload", e_done_payload, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK},
-    {"signature only", e_no_chunks, NULL, CNERF_E_TRUNCATED, CNERF_E_TRUNCATED},
-    {"grid is accepted", e_grid_ok, NULL, CNERF_OK, CNERF_OK},
-    {"grid of 0 cells", e_grid_g0, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT},
-    {"grid over the limit", e_grid_g129, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT},
-    {"grid size disagrees with its payload", e_grid_size, NULL, CNERF_OK, CNERF_E_PAYLOAD},
-    {"grid precision 0", e_grid_prec0, NULL, CNERF_E_TABLE, CNERF_E_TABLE},
-    {"grid precision 17", e_grid_prec17, NULL, CNERF_E_TABLE, CNERF_E_TABLE},
-    {"grid frequency 0", e_grid_f0, NULL, CNERF_E_TABLE, CNERF_E_TABLE},
-    {"grid frequency 2^prec", e_grid_fmax, NULL, CNERF_E_TABLE, CNERF_E_TABLE},
-    {"grid chunk cut in its tables", e_grid_cut, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK},
-    {"grid payload under 4 bytes", e_grid_short, NULL, CNERF_E_PAYLOAD, CNERF_E_PAYLOAD},
-    {"grid payload byte changed, CRC fixed", e_grid_byte, NULL, CNERF_OK, CNERF_E_PAYLOAD},
-    {"grid payload with an extra byte", e_grid_extra, NULL, CNERF_OK, CNERF_E_PAYLOAD},
-    {"two grids", e_grid_twice, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER},
-    {"grid after a layer", e_grid_after_layer, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER},
-    {"units are accepted", e_units_ok, NULL, CNERF_OK, CNERF_OK},
-    {"units disagree with the layers", e_units_layer, NULL, CNERF_E_LAYER, CNERF_E_LAYER},
-    {"a layer of 0 units", e_units_zero, NULL, CNERF_E_HEADER, CNERF_E_HEADER},
-    {"more units than the width", e_units_wide, NULL, CNERF_E_HEADER, CNERF_E_HEADER},
+     CNERF_E_CHUNK_ORDER, 0, 0},
+    {"tag not letters", e_bad_tag, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK, 0, 0},
+    {"HEAD not first", e_head_not_first, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER, 0, 0},
+    {"duplicate HEAD", e_dup_head, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER, 0, 0},
+    {"missing layer", e_missing_layer, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER, 0, 0},
+    {"extra layer", e_extra_layer, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER, 0, 0},
+    {"missing DONE", e_missing_done, NULL, CNERF_E_TRUNCATED, CNERF_E_TRUNCATED, 0, 0},
+    {"DONE with a payload", e_done_payload, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK, 0, 0},
+    {"signature only", e_no_chunks, NULL, CNERF_E_TRUNCATED, CNERF_E_TRUNCATED, 0, 0},
+    {"grid is accepted", e_grid_ok, NULL, CNERF_OK, CNERF_OK, 0, 0},
+    {"grid of 0 cells", e_grid_g0, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT, 0, 0},
+    {"grid over the limit", e_grid_g129, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT, 0, 0},
+    {"grid size disagrees with its payload", e_grid_size, NULL, CNERF_OK, CNERF_E_PAYLOAD, 0, 0},
+    {"grid precision 0", e_grid_prec0, NULL, CNERF_E_TABLE, CNERF_E_TABLE, 0, 0},
+    {"grid precision 17", e_grid_prec17, NULL, CNERF_E_TABLE, CNERF_E_TABLE, 0, 0},
+    {"grid frequency 0", e_grid_f0, NULL, CNERF_E_TABLE, CNERF_E_TABLE, 0, 0},
+    {"grid frequency 2^prec", e_grid_fmax, NULL, CNERF_E_TABLE, CNERF_E_TABLE, 0, 0},
+    {"grid chunk cut in its tables", e_grid_cut, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK, 0, 0},
+    {"grid payload under 4 bytes", e_grid_short, NULL, CNERF_E_PAYLOAD, CNERF_E_PAYLOAD, 0, 0},
+    {"grid payload byte changed, CRC fixed", e_grid_byte, NULL, CNERF_OK, CNERF_E_PAYLOAD, 0, 0},
+    {"grid payload with an extra byte", e_grid_extra, NULL, CNERF_OK, CNERF_E_PAYLOAD, 0, 0},
+    {"two grids", e_grid_twice, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER, 0, 0},
+    {"grid after a layer", e_grid_after_layer, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER, 0, 0},
+    {"units are accepted", e_units_ok, NULL, CNERF_OK, CNERF_OK, 0, 0},
+    {"units disagree with the layers", e_units_layer, NULL, CNERF_E_LAYER, CNERF_E_LAYER, 0, 0},
+    {"a layer of 0 units", e_units_zero, NULL, CNERF_E_HEADER, CNERF_E_HEADER, 0, 0},
+    {"more units than the width", e_units_wide, NULL, CNERF_E_HEADER, CNERF_E_HEADER, 0, 0},
     {"more view units than the view width", e_units_view_wide, NULL, CNERF_E_HEADER,
-     CNERF_E_HEADER},
-    {"UNIT chunk cut short", e_units_short, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK},
-    {"UNIT chunk too long", e_units_long, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK},
-    {"two UNIT chunks", e_units_twice, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER},
-    {"units after the grid", e_units_after_grid, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER},
+     CNERF_E_HEADER, 0, 0},
+    {"UNIT chunk cut short", e_units_short, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK, 0, 0},
+    {"UNIT chunk too long", e_units_long, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK, 0, 0},
+    {"two UNIT chunks", e_units_twice, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER, 0, 0},
+    {"units after the grid", e_units_after_grid, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER, 0, 0},
     {"units after a layer", e_units_after_layer, NULL, CNERF_E_CHUNK_ORDER,
-     CNERF_E_CHUNK_ORDER},
-    {"trailing byte", NULL, r_trailing, CNERF_E_TRAILING, CNERF_E_TRAILING},
-    {"HEAD CRC flipped", NULL, r_crc, CNERF_E_CRC, CNERF_E_CRC},
-    {"chunk length past the end", NULL, r_length_huge, CNERF_E_TRUNCATED, CNERF_E_TRUNCATED},
-    {"empty input", NULL, r_empty, CNERF_E_TRUNCATED, CNERF_E_TRUNCATED},
-    {"magic prefix only", NULL, r_magic_prefix, CNERF_E_TRUNCATED, CNERF_E_TRUNCATED},
+     CNERF_E_CHUNK_ORDER, 0, 0},
+    {"trailing byte", NULL, r_trailing, CNERF_E_TRAILING, CNERF_E_TRAILING, 0, 0},
+    {"HEAD CRC flipped", NULL, r_crc, CNERF_E_CRC, CNERF_E_CRC, 0, 0},
+    {"chunk length past the end", NULL, r_length_huge, CNERF_E_TRUNCATED, CNERF_E_TRUNCATED, 0, 0},
+    {"empty input", NULL, r_empty, CNERF_E_TRUNCATED, CNERF_E_TRUNCATED, 0, 0},
+    {"magic prefix only", NULL, r_magic_prefix, CNERF_E_TRUNCATED, CNERF_E_TRUNCATED, 0, 0},
+    {"set of two scenes is accepted", e_set_ok, NULL, CNERF_OK, CNERF_OK, 1, 0},
+    {"scene index out of range", e_set_ok, NULL, CNERF_E_ARG, CNERF_E_ARG, 1, 2},
+    {"shift shape disagrees with its layer", e_set_shape, NULL, CNERF_E_LAYER, CNERF_E_LAYER, 1,
+     0},
+    {"a missing shared shift layer", e_set_missing_shift, NULL, CNERF_E_CHUNK_ORDER,
+     CNERF_E_CHUNK_ORDER, 1, 0},
+    {"shifts without a scene count", e_set_no_scns, NULL, CNERF_E_CHUNK_ORDER,
+     CNERF_E_CHUNK_ORDER, 1, 0},
+    {"scene count 0", e_set_count0, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT, 1, 0},
+    {"SCNS chunk two bytes long", e_set_count_long, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK, 1, 0},
+    {"fewer scenes than the count", e_set_count3, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER,
+     1, 0},
+    {"more scenes than the count", e_set_count1, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER,
+     1, 0},
+    {"two SCNS chunks", e_set_two_scns, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER, 1, 0},
+    {"second scene of another topology", e_set_topology, NULL, CNERF_E_HEADER, CNERF_E_HEADER, 1,
+     0},
+    {"second scene with near >= far", e_set_render, NULL, CNERF_E_HEADER, CNERF_E_HEADER, 1, 0},
+    {"second scene before the first one's last layer", e_set_early_head, NULL,
+     CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER, 1, 0},
+    {"shift scale exponent 64", e_set_g_exp, NULL, CNERF_E_FORMAT, CNERF_E_FORMAT, 1, 0},
+    {"shift range inverted", e_set_range, NULL, CNERF_E_RANGE, CNERF_E_RANGE, 1, 0},
+    {"shift table precision 0", e_set_prec0, NULL, CNERF_E_TABLE, CNERF_E_TABLE, 1, 0},
+    {"units after the shifts", e_set_units_late, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER,
+     1, 0},
+    {"shift payload byte changed", e_set_shift_payload, NULL, CNERF_OK, CNERF_E_PAYLOAD, 1, 0},
+    {"second scene's payload changed, opened", e_set_scene1_payload, NULL, CNERF_OK,
+     CNERF_E_PAYLOAD, 1, 1},
+    {"second scene's payload changed, first opened", e_set_scene1_payload, NULL, CNERF_OK,
+     CNERF_OK, 1, 0},
 };
 
 const size_t neg_case_count = sizeof neg_cases / sizeof neg_cases[0];
@@ -458,10 +588,11 @@ const size_t neg_case_count = sizeof neg_cases / sizeof neg_cases[0];
 int neg_build(size_t i, cn_buf *out)
 {
     static chunks cs;
-    if (i >= neg_case_count || !base.p)
+    if (i >= neg_case_count || !base.p || !set_base.p)
         return -1;
     const neg_case *t = &neg_cases[i];
-    split(base.p, base.n, &cs);
+    const cn_buf *b = t->set ? &set_base : &base;
+    split(b->p, b->n, &cs);
     if (t->edit)
         t->edit(&cs);
     memset(out, 0, sizeof *out);

@@ -14,6 +14,8 @@ typedef struct neg_case {
     void (*edit)(chunks *);
     void (*raw)(cn_buf *);
     cnerf_status peek, open;
+    int set;        /* 1: an edit of the two-scene base stream */
+    unsigned scene; /* the scene cnerf_peek_scene and cnerf_open_scene are asked for */
 } neg_case;
 
 extern const neg_case neg_cases[];

@@ -2,7 +2,7 @@
  *   make_invalid INVALID_DIR VALID_DIR
  * INVALID_DIR/NNN-<case>.cnrf for every case that cnerf_open must refuse, and
  * INVALID_DIR/expected.txt with one line per file: name, the status of cnerf_peek, the status
- * of cnerf_open, the case. The cases that must be accepted (a newer minor version, an unknown
+ * of cnerf_open, "scene=N" when the case opens scene N of a set, the case. The cases that must be accepted (a newer minor version, an unknown
  * ancillary chunk) go to VALID_DIR/<case>.cnrf. */
 #include <ctype.h>
 #include <stdio.h>
@@ -64,8 +64,12 @@ int main(int argc, char **argv)
             fprintf(stderr, "make_invalid: %s\n", err);
             rc = 1;
         } else if (t->open != CNERF_OK) {
-            fprintf(list, "%s %s %s  # %s\n", name, cnerf_status_str(t->peek),
-                    cnerf_status_str(t->open), t->name);
+            if (t->scene)
+                fprintf(list, "%s %s %s scene=%u  # %s\n", name, cnerf_status_str(t->peek),
+                        cnerf_status_str(t->open), t->scene, t->name);
+            else
+                fprintf(list, "%s %s %s  # %s\n", name, cnerf_status_str(t->peek),
+                        cnerf_status_str(t->open), t->name);
             n++;
         }
         cn_buf_free(&b);

@@ -30,11 +30,11 @@ static uint32_t rd32(const uint8_t *p)
     return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
 }
 
-static cnerf_status open_status(const uint8_t *p, size_t n)
+static cnerf_status open_status(const uint8_t *p, size_t n, unsigned scene)
 {
     cnerf_decoder *dec = malloc(sizeof *dec);
     void *ws = NULL;
-    cnerf_status st = tu_open(dec, p, n, &ws);
+    cnerf_status st = tu_open_scene(dec, p, n, scene, &ws);
     free(ws);
     free(dec);
     return st;
@@ -49,8 +49,8 @@ static void test_table(void **state)
         cn_buf b;
         assert_int_equal(neg_build(i, &b), 0);
         cnerf_info info;
-        cnerf_status p = cnerf_peek(b.p ? b.p : (const uint8_t *)"", b.n, &info);
-        cnerf_status o = open_status(b.p ? b.p : (const uint8_t *)"", b.n);
+        cnerf_status p = cnerf_peek_scene(b.p ? b.p : (const uint8_t *)"", b.n, t->scene, &info);
+        cnerf_status o = open_status(b.p ? b.p : (const uint8_t *)"", b.n, t->scene);
         if (p != t->peek || o != t->open) {
             print_error("case '%s': peek %s (want %s), open %s (want %s)\n", t->name,
                         cnerf_status_str(p), cnerf_status_str(t->peek), cnerf_status_str(o),
@@ -72,7 +72,7 @@ static void test_every_truncation(void **state)
         if (st != CNERF_E_TRUNCATED)
             fail_msg("cut at %zu of %zu: %s", n, base.n, cnerf_status_str(st));
         if (n % 37 == 0)
-            assert_int_equal(open_status(base.p, n), CNERF_E_TRUNCATED);
+            assert_int_equal(open_status(base.p, n, 0), CNERF_E_TRUNCATED);
     }
     assert_int_equal(cnerf_peek(base.p, base.n, &info), CNERF_OK);
 }

@@ -435,6 +435,92 @@ static void test_compressed_kernels(void **state)
     cn_model_free(&gm);
 }
 
+/* Shared shifts (several scenes): W = a round(Phi) + b + g round(S). The scene's kernel
+ * gradient reaches the shift model's kernel gradient unchanged; S gets g dW (straight
+ * through) and g its finite difference. */
+static void test_shared_shift(void **state)
+{
+    (void)state;
+    setup_small_model(1, 1);
+    cn_model sh;
+    char err[256];
+    assert_int_equal(cn_model_init_compressed(&sh, &gm.topo, 5, 1.0, err, sizeof err), 0);
+    cn_rng r = cn_rng_seed(41);
+    for (unsigned l = 0; l < sh.topo.n_layers; l++) {
+        const cnerf_layer_info *L = &sh.topo.layer[l];
+        float *s = sh.params + sh.layer[l].w;
+        for (size_t i = 0; i < (size_t)L->n_in * L->n_out; i++)
+            s[i] = (float)((int)cn_rng_below(&r, 5) - 2);
+        sh.params[sh.off_ab + 2 * l] = 0.5f * gm.params[gm.off_ab + 2 * l];
+        sh.params[sh.off_ab + 2 * l + 1] = 0.0f;
+    }
+    gm.shift = &sh;
+    cn_model_materialize(&sh);
+    cn_model_materialize(&gm);
+    for (unsigned l = 0; l < gm.topo.n_layers; l++) {
+        const float a = gm.params[gm.off_ab + 2 * l], b = gm.params[gm.off_ab + 2 * l + 1];
+        const float g = sh.params[sh.off_ab + 2 * l];
+        for (size_t i = 0; i < 5; i++)
+            assert_float_equal(cn_model_kernel(&gm, l)[i],
+                               a * cn_model_latent(&gm, l, i) + b + g * cn_model_latent(&sh, l, i),
+                               1e-6);
+    }
+    for (unsigned net = 0; net < 2; net++) {
+        memset(gm.grads, 0, sizeof(float) * gm.n_params);
+        memset(sh.grads, 0, sizeof(float) * sh.n_params);
+        cn_model_materialize(&sh); /* zeroes the shift's kernel gradients */
+        render_loss(net);
+        float *dcol[2] = {NULL, NULL};
+        dcol[net] = gg[net];
+        cn_render_backward(&gm, &gb, GR, dcol);
+        cn_model_kernels_backward(&gm);
+        cn_model_kernels_backward(&sh);
+        const cnerf_net_info *N = &gm.topo.net[net];
+        int bad = 0;
+        for (unsigned l = N->first_layer; l < (unsigned)N->first_layer + N->n_layers; l++) {
+            const float g = sh.params[sh.off_ab + 2 * l];
+            for (size_t i = 0; i < 7; i++) {
+                assert_true(sh.kgrad[sh.kofs[l] + i] == gm.kgrad[gm.kofs[l] + i]);
+                assert_float_equal(sh.grads[sh.layer[l].w + i], g * gm.kgrad[gm.kofs[l] + i],
+                                   1e-6 * fabs(sh.grads[sh.layer[l].w + i]) + 1e-12);
+            }
+        }
+        /* (each difference below re-materializes, which zeroes the kernel gradients) */
+        for (unsigned l = N->first_layer; l < (unsigned)N->first_layer + N->n_layers; l++) {
+            const size_t idx = sh.off_ab + 2 * (size_t)l;
+            const float keep = sh.params[idx];
+            /* g moves every weight of the layer: as for b above, three steps, one of which
+             * must agree (a kink inside [g - h, g + h] spoils a central difference) */
+            double num = 0;
+            int agree = 0;
+            for (int k = 0; k < 3 && !agree; k++) {
+                const double h = 1e-3 * keep / (double)(1 << (2 * k));
+                sh.params[idx] = keep + (float)h;
+                cn_model_materialize(&sh);
+                const double lp = render_loss(net);
+                sh.params[idx] = keep - (float)h;
+                cn_model_materialize(&sh);
+                const double lm = render_loss(net);
+                sh.params[idx] = keep;
+                cn_model_materialize(&sh);
+                num = (lp - lm) / (((double)(keep + (float)h) - (double)(keep - (float)h)));
+                agree = fabs(sh.grads[idx] - num) <=
+                        REL_TOL * fmax(fabs(sh.grads[idx]), fabs(num)) + RENDER_ABS_TOL;
+            }
+            if (!agree) {
+                print_error("net %u layer %u g: analytic %g numeric %g\n", net, l, sh.grads[idx],
+                            num);
+                bad++;
+            }
+        }
+        assert_int_equal(bad, 0);
+    }
+    gm.shift = NULL;
+    cn_model_free(&sh);
+    cn_batch_free(&gb);
+    cn_model_free(&gm);
+}
+
 /* The photometric loss L = s/2 sum (x - y)^2 against its gradient s (x - y), at both of
  * the trainer's scales (cn_sq_error). */
 static void test_loss(void **state)
@@ -539,6 +625,7 @@ int main(void)
         cmocka_unit_test(test_render_grads_group),
         cmocka_unit_test(test_render_all_outside),
         cmocka_unit_test(test_compressed_kernels),
+        cmocka_unit_test(test_shared_shift),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -9,12 +9,15 @@
 #include "cn_gemm.h"
 #include <omp.h>
 
+#include "cn_export.h"
+#include "cn_joint.h"
 #include "cn_metrics.h"
+#include "cn_scales.h"
 #include "cn_stream.h"
 #include "cn_train.h"
 #include "testutil.h"
 
-static cn_dataset ds;
+static cn_dataset ds, fern; /* Lego, and Fern for two scenes in one stream */
 
 static int setup(void **state)
 {
@@ -24,7 +27,8 @@ static int setup(void **state)
     o.downscale = 16; /* 25 x 25 */
     o.max_views = 20;
     char err[512];
-    if (cn_dataset_load(CNERF_DATA_DIR "/lego", &o, &ds, err, sizeof err)) {
+    if (cn_dataset_load(CNERF_DATA_DIR "/lego", &o, &ds, err, sizeof err) ||
+        cn_dataset_load(CNERF_DATA_DIR "/fern", &o, &fern, err, sizeof err)) {
         print_error("%s\n", err);
         return -1;
     }
@@ -35,6 +39,7 @@ static int teardown(void **state)
 {
     (void)state;
     cn_dataset_free(&ds);
+    cn_dataset_free(&fern);
     return 0;
 }
 
@@ -51,19 +56,24 @@ static void small_opts(cn_train_opts *o)
     o->lr_decay_steps = 500000; /* the schedule the pinned trajectory was measured with */
 }
 
-static double mean_test_psnr(const cn_model *m, int views)
+static double scene_test_psnr(const cn_model *m, const cn_dataset *d, int views)
 {
     double s = 0;
     for (int i = 0; i < views; i++) {
-        const cn_view *v = &ds.test[i];
+        const cn_view *v = &d->test[i];
         float *rgb = malloc(sizeof(float) * 3 * (size_t)v->w * v->h);
         cn_camera cam;
         cn_view_camera(v, &cam);
-        assert_int_equal(cn_render_view(m, &cam, ds.ndc, rgb, 1024), 0);
+        assert_int_equal(cn_render_view(m, &cam, d->ndc, rgb, 1024), 0);
         s += cn_psnr_from_mse(cn_mse(rgb, v->rgb, 3 * (size_t)v->w * v->h));
         free(rgb);
     }
     return s / views;
+}
+
+static double mean_test_psnr(const cn_model *m, int views)
+{
+    return scene_test_psnr(m, &ds, views);
 }
 
 /* The first iterations' losses with seed 7 on one thread, measured once; a change of the
@@ -470,6 +480,103 @@ static void test_checkpoint_grids(void **state)
     remove(path);
 }
 
+/* Two scenes trained jointly (Lego, 360 degrees, and Fern, forward-facing in NDC): both
+ * improve, the shifts learn, a joint
+ * checkpoint resumes to the same bits, and the stream's float reference of each scene is
+ * the trained model (shifts included). */
+static void test_joint(void **state)
+{
+    (void)state;
+    cn_train_opts o;
+    small_opts(&o);
+    o.compress = 1;
+    o.lambda = 1e-3;
+    o.latent_lr_weight_units = 1;
+    o.iters = 60;
+    const cn_dataset two[2] = {ds, fern};
+    cn_joint j;
+    char err[512];
+    assert_int_equal(cn_joint_init(&j, two, 2, &o, o.lr_affine, err, sizeof err), 0);
+    double before[2];
+    for (unsigned m = 0; m < 2; m++) {
+        cn_model_materialize(&j.shift);
+        cn_model_materialize(&j.t[m].model);
+        before[m] = scene_test_psnr(&j.t[m].model, &two[m], 2);
+    }
+    const long half = 30;
+    for (long i = 0; i < half; i++)
+        assert_false(isnan(cn_joint_step(&j, NULL, NULL)));
+    char path[512];
+    snprintf(path, sizeof path, "%s/test_joint.ckpt", CNERF_BINARY_DIR);
+    assert_int_equal(cn_joint_save(&j, path, err, sizeof err), 0);
+    for (long i = half; i < o.iters; i++)
+        assert_false(isnan(cn_joint_step(&j, NULL, NULL)));
+    cn_joint k;
+    assert_int_equal(cn_joint_init(&k, two, 2, &o, o.lr_affine, err, sizeof err), 0);
+    assert_int_equal(cn_joint_resume(&k, path, err, sizeof err), 0);
+    assert_int_equal(k.step, half);
+    for (long i = half; i < o.iters; i++)
+        cn_joint_step(&k, NULL, NULL);
+    assert_memory_equal(k.shift.params, j.shift.params, sizeof(float) * j.shift.n_params);
+    for (unsigned m = 0; m < 2; m++)
+        assert_memory_equal(k.t[m].model.params, j.t[m].model.params,
+                            sizeof(float) * j.t[m].model.n_params);
+    cn_joint_free(&k);
+    /* a joint checkpoint of other scenes is refused with its reason */
+    const cn_dataset one_twice[2] = {fern, ds};
+    assert_int_equal(cn_joint_init(&k, one_twice, 2, &o, o.lr_affine, err, sizeof err), 0);
+    assert_int_equal(cn_joint_resume(&k, path, err, sizeof err), -1);
+    assert_non_null(strstr(err, "another dataset"));
+    cn_joint_free(&k);
+    remove(path);
+    unsigned moved = 0;
+    for (unsigned l = 0; l < j.shift.topo.n_layers; l++)
+        for (size_t i = 0; i < (size_t)j.shift.topo.layer[l].n_in * j.shift.topo.layer[l].n_out;
+             i++)
+            moved += cn_model_latent(&j.shift, l, i) != 0;
+    print_message("# joint: %u shifts away from 0 after %ld iterations\n", moved, o.iters);
+    assert_true(moved > 0);
+    /* export, one stream, each scene's float reference against the trained model */
+    cn_export e[3];
+    cn_stream_src src[2];
+    cn_shift_src sh[CNERF_MAX_LAYERS];
+    assert_int_equal(cn_model_snap(&j.shift, err, sizeof err), 0);
+    assert_int_equal(cn_export_compressed(&j.shift, NULL, &e[2], err, sizeof err), 0);
+    for (unsigned l = 0; l < j.shift.topo.n_layers; l++) {
+        const cn_layer_src *L = &e[2].src.layer[l];
+        sh[l] = (cn_shift_src){L->k, L->a_m, L->a_e, L->pmf, L->pmf_kmin, L->pmf_n};
+    }
+    for (unsigned m = 0; m < 2; m++) {
+        assert_int_equal(cn_model_snap(&j.t[m].model, err, sizeof err), 0);
+        assert_int_equal(cn_export_compressed(&j.t[m].model, NULL, &e[m], err, sizeof err), 0);
+        src[m] = e[m].src;
+    }
+    cn_buf b = {0};
+    assert_int_equal(cn_choose_scales_set(src, 2, sh, 1, NULL, err, sizeof err), 0);
+    assert_int_equal(cn_write_set(src, 2, sh, &b, NULL, NULL, err, sizeof err), 0);
+    cn_model_materialize(&j.shift);
+    for (unsigned m = 0; m < 2; m++) {
+        cnerf_decoder dec;
+        void *ws;
+        assert_int_equal(tu_open_scene(&dec, b.p, b.n, m, &ws), CNERF_OK);
+        cn_model ref;
+        assert_int_equal(cn_model_from_stream(&dec, &ref, err, sizeof err), 0);
+        cn_model_materialize(&j.t[m].model);
+        const double trained = scene_test_psnr(&j.t[m].model, &two[m], 2);
+        const double file = scene_test_psnr(&ref, &two[m], 2);
+        print_message("# joint scene %u: test psnr %.2f dB -> %.2f dB, the file's %.2f dB\n", m,
+                      before[m], trained, file);
+        assert_true(trained - before[m] >= 2.0);
+        assert_float_equal(file, trained, 0.01);
+        cn_model_free(&ref);
+        free(ws);
+    }
+    cn_buf_free(&b);
+    for (unsigned m = 0; m < 3; m++)
+        cn_export_free(&e[m]);
+    cn_joint_free(&j);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -479,6 +586,7 @@ int main(void)
         cmocka_unit_test(test_reproducible),
         cmocka_unit_test(test_resume_continues_exactly),
         cmocka_unit_test(test_checkpoint_grids),
+        cmocka_unit_test(test_joint),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -19,7 +19,8 @@ int main(int argc, char **argv)
 {
     if (argc != 7 && argc != 10 && argc != 11) {
         fprintf(stderr,
-                "usage: render_tile STREAM CAMERA X0 Y0 W H [N_COARSE N_FINE T_STOP [FLAGS]]\n");
+                "usage: [CNERF_SCENE=I] render_tile STREAM CAMERA X0 Y0 W H [N_COARSE N_FINE "
+                "T_STOP [FLAGS]]\n");
         return 2;
     }
     FILE *f = fopen(argv[1], "rb");
@@ -30,8 +31,11 @@ int main(int argc, char **argv)
     static uint8_t buf[1 << 22];
     const size_t len = fread(buf, 1, sizeof buf, f);
     fclose(f);
+    /* CNERF_SCENE in the environment: the scene of a stream of several (0 when unset) */
+    const char *scene_env = getenv("CNERF_SCENE");
+    const uint32_t scene = scene_env ? (uint32_t)strtoul(scene_env, NULL, 10) : 0u;
     static cnerf_decoder dec;
-    cnerf_status st = cnerf_peek(buf, len, &dec.info);
+    cnerf_status st = cnerf_peek_scene(buf, len, scene, &dec.info);
     if (st != CNERF_OK)
         return fail(argv[1], st);
     const size_t ws_n = cnerf_workspace_size(&dec.info);
@@ -39,7 +43,7 @@ int main(int argc, char **argv)
     uint64_t *ws = malloc(ws_n + 8), *sc = malloc(sc_n + 8);
     if (!ws || !sc)
         return 1;
-    st = cnerf_open(&dec, buf, len, ws, ws_n);
+    st = cnerf_open_scene(&dec, buf, len, scene, ws, ws_n);
     if (st != CNERF_OK)
         return fail(argv[1], st);
 
