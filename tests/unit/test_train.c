@@ -492,7 +492,7 @@ static void test_joint(void **state)
     o.compress = 1;
     o.lambda = 1e-3;
     o.latent_lr_weight_units = 1;
-    o.iters = 60;
+    o.iters = 40;
     const cn_dataset two[2] = {ds, fern};
     cn_joint j;
     char err[512];
@@ -503,7 +503,7 @@ static void test_joint(void **state)
         cn_model_materialize(&j.t[m].model);
         before[m] = scene_test_psnr(&j.t[m].model, &two[m], 2);
     }
-    const long half = 30;
+    const long half = 20;
     for (long i = 0; i < half; i++)
         assert_false(isnan(cn_joint_step(&j, NULL, NULL)));
     char path[512];
