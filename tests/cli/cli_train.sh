@@ -264,6 +264,10 @@ msg=$("$cnerf" render "$work/set.cnrf" --orbit 1 --size 8 --scene 2 2>&1); rc=$?
 [ $rc = 1 ] && grep -q "no scene 2: the stream has 2" <<<"$msg" || fail "render --scene 2: $rc $msg"
 msg=$("$cnerf" encode "$data/lego" "$data/mic" -o "$work/z.cnrf" --size 9000 2>&1); rc=$?
 [ $rc = 2 ] && grep -q "takes --lambda L or --quality Q" <<<"$msg" || fail "set --size: $rc $msg"
+msg=$("$cnerf" encode "$data/lego" "$data/mic" -o "$work/z.cnrf" --lambda 1 --prune on 2>&1); rc=$?
+[ $rc = 2 ] && grep -q "keeps every unit" <<<"$msg" || fail "set --prune on: $rc $msg"
+msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --shift-lr 0.01 2>&1); rc=$?
+[ $rc = 2 ] && grep -q "this encode has one" <<<"$msg" || fail "one scene --shift-lr: $rc $msg"
 msg=$("$cnerf" encode "$data/lego" "$data/lego" -o "$work/z.cnrf" --lambda 1 2>&1); rc=$?
 [ $rc = 2 ] && grep -q "is given twice" <<<"$msg" || fail "set of one dataset twice: $rc $msg"
 msg=$("$cnerf" encode "$data/lego" "$data/fern" -o "$work/z.cnrf" --lambda 1 --iters 1 \
