@@ -188,7 +188,8 @@ static inline uint32_t cn_grid_cell(uint64_t s, uint64_t r, uint32_t g)
 
 /* ---- container walk ---- */
 
-/* Parses a HEAD payload of clen bytes into info (render parameters, expanded topology). */
+/* Parses a HEAD payload of clen bytes into info (render parameters, expanded topology);
+ * info->version_minor says which values the HEAD may hold. */
 cnerf_status cn_parse_head(const uint8_t *p, uint32_t clen, cnerf_info *info);
 
 /* Parses the whole stream into `info`, describing scene `scene` (CNERF_E_ARG after a

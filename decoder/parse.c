@@ -136,9 +136,10 @@ static void read_render(cn_reader *r, head_render *h, uint8_t topo[3])
 }
 
 /* The rules on the render parameters, in the order the errors are reported. */
-static cnerf_status check_render(const head_render *h)
+static cnerf_status check_render(const head_render *h, uint16_t minor)
 {
-    if (h->coord > CNERF_COORD_NDC)
+    if (h->coord > CNERF_COORD_CONTRACT ||
+        (h->coord == CNERF_COORD_CONTRACT && minor < CNERF_VERSION_MINOR_CONTRACT))
         return CNERF_E_HEADER;
     if (h->n_coarse < 1u || h->n_coarse > CNERF_MAX_SAMPLES || h->n_fine > CNERF_MAX_SAMPLES)
         return CNERF_E_LIMIT;
@@ -151,6 +152,14 @@ static cnerf_status check_render(const head_render *h)
     for (int i = 0; i < 3; i++)
         if (h->aabb_q16[i] >= h->aabb_q16[i + 3])
             return CNERF_E_HEADER;
+    /* contracted scenes: the bounds are a cube whose inner half (a quarter of the width)
+     * is at least 2^-14 wide, so that the contraction's ratio has 31 bits to work with */
+    if (h->coord == CNERF_COORD_CONTRACT)
+        for (int i = 0; i < 3; i++) {
+            const int64_t w = (int64_t)h->aabb_q16[i + 3] - h->aabb_q16[i];
+            if (w != (int64_t)h->aabb_q16[3] - h->aabb_q16[0] || w < 16)
+                return CNERF_E_HEADER;
+        }
     return CNERF_OK;
 }
 
@@ -195,7 +204,7 @@ cnerf_status cn_parse_head(const uint8_t *p, uint32_t clen, cnerf_info *info)
     }
     if (r->err)
         return CNERF_E_CHUNK;
-    const cnerf_status st = check_render(&h);
+    const cnerf_status st = check_render(&h, info->version_minor);
     return st != CNERF_OK ? st : cnerf_expand_topology(info);
 }
 
@@ -221,7 +230,7 @@ static cnerf_status parse_scene_head(const uint8_t *p, uint32_t clen, const uint
     for (uint32_t i = 1; i < clen; i++)
         if ((i < 4u || i >= CNERF_HEAD_FIXED_BYTES - 1u) && p[i] != p0[i])
             return CNERF_E_HEADER; /* l_pos, l_dir, pe_flags, n_nets and the networks */
-    const cnerf_status st = check_render(&h);
+    const cnerf_status st = check_render(&h, info->version_minor);
     if (st == CNERF_OK && record)
         set_render(info, &h);
     return st;

@@ -534,6 +534,44 @@ static int occupied(const gridmap *gm, const int64_t p[3])
     return (int)cn_grid_bit(gm->bits, (c[2] * gm->g + c[1]) * gm->g + c[0]);
 }
 
+/* ---- contracted scenes (docs/rendering.md) ---- */
+
+/* The distance of sampling parameter s (Q32): s itself, or in contracted scenes
+ * near + s L on [0, 1] and near + L / (2 - s) beyond, L = far - near (Q32, < 2^54). */
+static int64_t ray_t(const cnerf_info *I, int64_t s)
+{
+    if (I->coord != CNERF_COORD_CONTRACT)
+        return s;
+    const int64_t near = (int64_t)I->near_q16 * 65536;
+    const uint64_t L = (uint64_t)((int64_t)I->far_q16 - I->near_q16); /* Q16, < 2^31 */
+    if (s <= ((int64_t)1 << 32)) /* L s < 2^63, Q48 */
+        return near + (int64_t)((L * (uint64_t)s + ((uint64_t)1 << 15)) >> 16);
+    /* 2 - s >= 2^(32 - CNERF_CONTRACT_SHIFT): the quotient is below L 2^22 < 2^53 */
+    return near + (int64_t)cn_udiv_frac(L, ((uint64_t)1 << 33) - (uint64_t)s, 48);
+}
+
+/* The point p (Q32, |p| < 2^58) as the networks see it: unchanged within the inner cube
+ * |p - c|_inf <= h (c the bounds' centre, h a quarter of their width), else
+ * c + (p - c) r (2 - r) with r = h / |p - c|_inf, in (0, 1). */
+static void contract(const cnerf_info *I, int64_t p[3])
+{
+    const uint64_t h = (uint64_t)((int64_t)I->aabb_q16[3] - I->aabb_q16[0]) << 14; /* Q32 */
+    int64_t c[3], q[3];
+    uint64_t m = 0;
+    for (unsigned a = 0; a < 3; a++) {
+        c[a] = ((int64_t)I->aabb_q16[a] + I->aabb_q16[a + 3]) * 32768;
+        q[a] = p[a] - c[a];
+        const uint64_t u = cn_abs64(q[a]);
+        m = u > m ? u : m;
+    }
+    if (m <= h)
+        return;
+    const uint64_t r = cn_udiv_frac(h, m, 31);                  /* Q31, < 2^31 */
+    const uint64_t k = (r * (((uint64_t)1 << 32) - r)) >> 31;  /* r (2 - r), Q31, < 2^31 */
+    for (unsigned a = 0; a < 3; a++)
+        p[a] = c[a] + cn_mul_exp(q[a], (int32_t)k, -31);
+}
+
 static int inside(const cnerf_info *I, const int64_t p[3])
 {
     for (unsigned a = 0; a < 3; a++)
@@ -564,6 +602,8 @@ static void march_ray(const cnerf_decoder *dec, unsigned net, const scratch *s, 
         int64_t p[3];
         for (unsigned a = 0; a < 3; a++)
             p[a] = r->o[a] + cn_mul_exp(t[i], r->d[a], -28);
+        if (I->coord == CNERF_COORD_CONTRACT)
+            contract(I, p);
         if (!inside(I, p))
             continue;
         stats->in_bounds++;
@@ -676,12 +716,18 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
     stats.rays = stats.evals = stats.in_bounds = stats.macs = 0;
     const unsigned nc = o.n_coarse, nf = I->n_nets > 1 ? o.n_fine : 0;
     const unsigned net = nf ? 1u : 0u;
-    const int64_t near = (int64_t)I->near_q16 * 65536, far = (int64_t)I->far_q16 * 65536;
-    /* bin width (far - near) / nc in Q32, floored: far - near < 2^31 in Q16 */
-    const int64_t step =
-        (int64_t)cn_udiv_frac((uint64_t)((int64_t)I->far_q16 - I->near_q16), nc, 16);
+    /* The sampling interval [near, far] in Q32; contracted scenes sample s in
+     * [0, 2 - 2^-CNERF_CONTRACT_SHIFT] and march at the distances ray_t(s). */
+    const int contracted = I->coord == CNERF_COORD_CONTRACT;
+    const int64_t near = contracted ? 0 : (int64_t)I->near_q16 * 65536;
+    const int64_t far_s = contracted
+                              ? ((int64_t)1 << 33) - ((int64_t)1 << (32 - CNERF_CONTRACT_SHIFT))
+                              : (int64_t)I->far_q16 * 65536;
+    const int64_t far = ray_t(I, far_s);
+    /* bin width (far - near) / nc in Q32, floored: far - near < 2^47 */
+    const int64_t step = (int64_t)cn_udiv_frac((uint64_t)(far_s - near), nc, 0);
     for (unsigned i = 0; i < nc; i++)
-        s.t_c[i] = near + (int64_t)i * step + step / 2;
+        s.t_c[i] = ray_t(I, near + (int64_t)i * step + step / 2);
     /* NDC scale factors fx / cx, fy / cy in Q28 (only used by NDC streams) */
     int64_t sx = 0, sy = 0;
     if (I->coord == CNERF_COORD_NDC) {
@@ -704,6 +750,9 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
                           &stats);
                 if (net == 1) {
                     sample_fine(s.t_f, nf, s.w_c, nc, near, step);
+                    if (contracted)
+                        for (unsigned j = 0; j < nf; j++)
+                            s.t_f[j] = ray_t(I, s.t_f[j]);
                     unsigned i = 0, j = 0, k = 0;
                     while (i < nc && j < nf)
                         s.t_all[k++] = s.t_c[i] <= s.t_f[j] ? s.t_c[i++] : s.t_f[j++];

@@ -105,6 +105,7 @@ int cn_ckpt_parse(const char *path, const uint8_t *data, size_t len, cn_ckpt *c,
         c->seed |= (uint64_t)cn_rd_u32(&r) << 32;
         c->compressed = cn_rd_u32(&r);
         uint32_t hl = cn_rd_u32(&r);
+        c->hdr.version_minor = CNERF_VERSION_MINOR; /* a model may use any HEAD value */
         if (version != CN_CKPT_VERSION && version != CN_CKPT_VERSION_NO_QUALITY &&
             version != CN_CKPT_VERSION_NO_RC &&
             version != CN_CKPT_VERSION_NO_RUN &&

@@ -36,6 +36,17 @@ void cn_sample_coarse(float *t, unsigned n, float near, float far, cn_rng *rng);
  * CDF. Writes nf increasing values. */
 void cn_sample_fine(float *t, unsigned nf, const float *w, unsigned nc, float near, float far,
                     cn_rng *rng);
+/* The interval the samples are drawn from: [near, far], or for contracted scenes
+ * [0, 2 - 2^-CNERF_CONTRACT_SHIFT] in s (cn_ray_t maps it to distances). */
+void cn_sample_range(const cnerf_info *T, float *lo, float *hi);
+/* Distances of n samples drawn in the sample range, in place (the identity but for
+ * contracted scenes), and the distance that ends the last sample's interval. */
+void cn_ray_t(const cnerf_info *T, float *t, unsigned n);
+float cn_ray_far(const cnerf_info *T);
+/* The point at distance t along o + t d as the networks see it: itself, or in contracted
+ * scenes with c the bounds' centre and h a quarter of their size, c + h u for
+ * u = (p - c) / h when |u|_inf <= 1, else c + h (2 - 1/|u|_inf) u / |u|_inf. */
+void cn_ray_point(const cnerf_info *T, const float o[3], const float d[3], float t, float p[3]);
 /* Merges two increasing lists into out (na + nb values). */
 void cn_merge_sorted(float *out, const float *a, unsigned na, const float *b, unsigned nb);
 

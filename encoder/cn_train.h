@@ -59,6 +59,11 @@ typedef struct cn_train_opts {
      * stream's occupancy grid then cannot skip. 1 on, 0 off, -1 (the default) on when
      * some training view has transparency. Rendering keeps the stream's background. */
     int random_bg;
+    /* 1: a 360-degree scene with a background (CNERF_COORD_CONTRACT): the inner box, of
+     * half-size 3/8 of the mean camera distance, in world space, all space beyond it
+     * contracted into a box twice its size (docs/rendering.md). 0 (the default): the scene
+     * ends at its bounds and the background is the constant colour. Refused for NDC scenes. */
+    int contract;
     /* Group penalty on the trunk's units (cn_model.group), in the units of D: mu times the
      * sum over units of their L2 norm over all training samples, estimated from the batch
      * as sqrt(pixels / rays) times the batch's norm. 0 (the default) is off. */

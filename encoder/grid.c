@@ -114,7 +114,8 @@ double cn_grid_eval_fraction(const cnerf_info *topo, int g, const uint8_t *occ,
     cn_occ o;
     if (n_views < 1 || cn_occ_init_stream(&o, topo, g, occ))
         return 1.0;
-    const float near = (float)topo->near_q16 / 65536.0f, far = (float)topo->far_q16 / 65536.0f;
+    float near, far;
+    cn_sample_range(topo, &near, &far);
     float lo[3], hi[3];
     for (int a = 0; a < 3; a++) {
         lo[a] = (float)topo->aabb_q16[a] / 65536.0f;
@@ -126,6 +127,7 @@ double cn_grid_eval_fraction(const cnerf_info *topo, int g, const uint8_t *occ,
     unsigned long long in = 0, hit = 0;
     float t[CNERF_MAX_SAMPLES];
     cn_sample_coarse(t, topo->n_coarse, near, far, NULL);
+    cn_ray_t(topo, t, topo->n_coarse);
     for (int v = 0; v < n_views; v++) {
         cn_camera cam;
         cn_view_camera(&views[v], &cam);
@@ -137,10 +139,9 @@ double cn_grid_eval_fraction(const cnerf_info *topo, int g, const uint8_t *occ,
             for (unsigned i = 0; i < topo->n_coarse; i++) {
                 float p[3];
                 int inside = 1;
-                for (int a = 0; a < 3; a++) {
-                    p[a] = ro[a] + t[i] * rd[a];
+                cn_ray_point(topo, ro, rd, t[i], p);
+                for (int a = 0; a < 3; a++)
                     inside &= p[a] >= lo[a] && p[a] <= hi[a];
-                }
                 if (!inside)
                     continue;
                 in++;

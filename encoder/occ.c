@@ -68,7 +68,10 @@ void cn_occ_free(cn_occ *o)
 
 float cn_occ_threshold(const cnerf_info *topo)
 {
-    const double len = (double)(topo->far_q16 - topo->near_q16) / 65536.0;
+    /* the spacing of the coarse samples: on the linear segment when contracted */
+    double len = (double)(topo->far_q16 - topo->near_q16) / 65536.0;
+    if (topo->coord == CNERF_COORD_CONTRACT)
+        len *= 2.0 - ldexp(1.0, -(int)CNERF_CONTRACT_SHIFT);
     return (float)(-log(0.99) * topo->n_coarse / len);
 }
 

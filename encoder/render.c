@@ -68,6 +68,55 @@ void cn_sample_fine(float *t, unsigned nf, const float *w, unsigned nc, float ne
     }
 }
 
+void cn_sample_range(const cnerf_info *T, float *lo, float *hi)
+{
+    if (T->coord == CNERF_COORD_CONTRACT) {
+        *lo = 0.0f;
+        *hi = 2.0f - ldexpf(1.0f, -(int)CNERF_CONTRACT_SHIFT);
+    } else {
+        *lo = (float)T->near_q16 / 65536.0f;
+        *hi = (float)T->far_q16 / 65536.0f;
+    }
+}
+
+void cn_ray_t(const cnerf_info *T, float *t, unsigned n)
+{
+    if (T->coord != CNERF_COORD_CONTRACT)
+        return;
+    const double near = T->near_q16 / 65536.0, L = (T->far_q16 - T->near_q16) / 65536.0;
+    for (unsigned i = 0; i < n; i++) {
+        const double s = t[i];
+        t[i] = (float)(s <= 1 ? near + s * L : near + L / (2 - s));
+    }
+}
+
+float cn_ray_far(const cnerf_info *T)
+{
+    if (T->coord != CNERF_COORD_CONTRACT)
+        return (float)T->far_q16 / 65536.0f;
+    float s = 2.0f - ldexpf(1.0f, -(int)CNERF_CONTRACT_SHIFT);
+    cn_ray_t(T, &s, 1);
+    return s;
+}
+
+void cn_ray_point(const cnerf_info *T, const float o[3], const float d[3], float t, float p[3])
+{
+    for (int a = 0; a < 3; a++)
+        p[a] = o[a] + t * d[a];
+    if (T->coord != CNERF_COORD_CONTRACT)
+        return;
+    double c[3], h[3], u[3], m = 0;
+    for (int a = 0; a < 3; a++) {
+        c[a] = ((double)T->aabb_q16[a] + T->aabb_q16[a + 3]) / 131072.0;
+        h[a] = ((double)T->aabb_q16[a + 3] - T->aabb_q16[a]) / 262144.0;
+        u[a] = (p[a] - c[a]) / h[a];
+        m = fmax(m, fabs(u[a]));
+    }
+    const double k = m > 1 ? (2 - 1 / m) / m : 1;
+    for (int a = 0; a < 3; a++)
+        p[a] = (float)(c[a] + h[a] * k * u[a]);
+}
+
 void cn_merge_sorted(float *out, const float *a, unsigned na, const float *b, unsigned nb)
 {
     unsigned i = 0, j = 0, k = 0;
@@ -230,10 +279,9 @@ static void prepare_net_inputs(const cnerf_info *T, unsigned net, cn_batch *b, s
         for (unsigned i = 0; i < n; i++) {
             float *p = b->pts + (r * n + i) * 3;
             int in = !sat || t[r * n + i] <= b->t_sat[r];
-            for (int a = 0; a < 3; a++) {
-                p[a] = b->o[r * 3 + a] + t[r * n + i] * b->d[r * 3 + a];
+            cn_ray_point(T, b->o + r * 3, b->d + r * 3, t[r * n + i], p);
+            for (int a = 0; a < 3; a++)
                 in &= p[a] >= lo[a] && p[a] <= hi[a];
-            }
             inside[r * n + i] = (uint8_t)(in && cn_occ_test(occ, p));
         }
     }
@@ -313,14 +361,17 @@ static void saturation_points(cn_batch *b, size_t R, float far)
 void cn_render_forward(const cn_model *m, cn_batch *b, size_t R, const uint64_t *seed)
 {
     const cnerf_info *T = &m->topo;
-    const float near = (float)T->near_q16 / 65536.0f, far = (float)T->far_q16 / 65536.0f;
+    float near, far_s;
+    cn_sample_range(T, &near, &far_s);
+    const float far = cn_ray_far(T);
     const unsigned nc = b->nc, nf = T->n_fine, ns = b->ns;
     float bg[3];
     bg_of(T, bg);
 #pragma omp parallel for schedule(static)
     for (size_t r = 0; r < R; r++) {
         cn_rng rng = cn_rng_seed(seed ? *seed * 0x9E3779B97F4A7C15ull + r : 0);
-        cn_sample_coarse(b->t_c + r * nc, nc, near, far, seed ? &rng : NULL);
+        cn_sample_coarse(b->t_c + r * nc, nc, near, far_s, seed ? &rng : NULL);
+        cn_ray_t(T, b->t_c + r * nc, nc);
     }
     prepare_net_inputs(T, 0, b, R, b->t_c, nc);
     cn_net_forward(m, 0, &b->nb[0], b->n_rows[0]);
@@ -339,7 +390,8 @@ void cn_render_forward(const cn_model *m, cn_batch *b, size_t R, const uint64_t 
         float tf[CNERF_MAX_SAMPLES];
         cn_rng rng = cn_rng_seed(seed ? (*seed ^ 0x5851F42D4C957F2Dull) * 0x9E3779B97F4A7C15ull + r
                                       : 0);
-        cn_sample_fine(tf, nf, b->w_c + r * nc, nc, near, far, seed ? &rng : NULL);
+        cn_sample_fine(tf, nf, b->w_c + r * nc, nc, near, far_s, seed ? &rng : NULL);
+        cn_ray_t(T, tf, nf);
         cn_merge_sorted(b->t_f + r * ns, b->t_c + r * nc, nc, tf, nf);
     }
     prepare_net_inputs(T, 1, b, R, b->t_f, ns);
@@ -355,7 +407,7 @@ void cn_render_forward(const cn_model *m, cn_batch *b, size_t R, const uint64_t 
 void cn_render_backward(cn_model *m, cn_batch *b, size_t R, float *const dcolor[2])
 {
     const cnerf_info *T = &m->topo;
-    const float far = (float)T->far_q16 / 65536.0f;
+    const float far = cn_ray_far(T);
     float bg[3];
     bg_of(T, bg);
     for (unsigned net = T->n_nets; net-- > 0;) {

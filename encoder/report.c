@@ -57,7 +57,10 @@ static uint64_t print_scenes(FILE *f, const uint8_t *buf, const cnerf_info *I)
         fprintf(f, "  scene %u: %" PRIu32 " bytes of its own, %.3f bits per latent; %s, "
                    "background #%02x%02x%02x, grid %s\n",
                 m, J->scene_bytes, 8.0 * J->scene_bytes / J->n_params,
-                J->coord == CNERF_COORD_NDC ? "NDC" : "world", J->background[0],
+                J->coord == CNERF_COORD_NDC        ? "NDC"
+                : J->coord == CNERF_COORD_CONTRACT ? "contracted"
+                                                   : "world",
+                J->background[0],
                 J->background[1], J->background[2], J->grid_g ? "yes" : "none");
     }
     free(J);
@@ -85,7 +88,11 @@ void cn_print_info(FILE *f, const char *name, const uint8_t *buf, const cnerf_in
     const uint64_t other = set ? print_scenes(f, buf, I) : 0;
     if (set)
         fprintf(f, "scene %u:\n", I->scene);
-    fprintf(f, "render: %s", I->coord == CNERF_COORD_NDC ? "NDC (forward-facing)" : "world (360)");
+    fprintf(f, "render: %s",
+            I->coord == CNERF_COORD_NDC        ? "NDC (forward-facing)"
+            : I->coord == CNERF_COORD_CONTRACT ? "contracted (360, inner half of the bounds in "
+                                                 "world space, all beyond in the outer half)"
+                                               : "world (360)");
     fprintf(f, ", near %g, far %g, background #%02x%02x%02x\n", q16(I->near_q16), q16(I->far_q16),
             I->background[0], I->background[1], I->background[2]);
     fprintf(f, "bounds: [%g, %g] x [%g, %g] x [%g, %g]\n", q16(I->aabb_q16[0]), q16(I->aabb_q16[3]),

@@ -70,6 +70,11 @@ int cn_header_for_dataset(const cn_dataset *ds, const cn_train_opts *o, cnerf_in
     hdr->n_nets = hdr->n_fine ? 2 : 1;
     for (int c = 0; c < 3; c++)
         hdr->background[c] = (uint8_t)lround(ds->bg[c] * 255.0);
+    if (ds->ndc && o->contract) {
+        snprintf(err, errlen, "a forward-facing scene is rendered in NDC, which reaches to "
+                 "infinity already: --background contract is for 360-degree scenes");
+        return -1;
+    }
     if (ds->ndc) {
         /* Rays live in [-1, 1]^3 after the NDC warp; the bounds clip nothing visible. */
         hdr->coord = CNERF_COORD_NDC;
@@ -78,6 +83,23 @@ int cn_header_for_dataset(const cn_dataset *ds, const cn_train_opts *o, cnerf_in
         for (int a = 0; a < 3; a++) {
             hdr->aabb_q16[a] = -2 * CNERF_Q16_ONE;
             hdr->aabb_q16[a + 3] = 2 * CNERF_Q16_ONE;
+        }
+    } else if (o->contract) {
+        /* The inner box is where the cameras look: 3/8 of their mean distance from the
+         * origin (1.5 for Blender's scenes at 4); the linear segment of the rays crosses it
+         * from the nearest bound (docs/rendering.md). */
+        double r = 0;
+        for (int i = 0; i < ds->n_train; i++) {
+            const double *c = &ds->train[i].c2w[0][3];
+            r += sqrt(c[0] * c[0] + c[4] * c[4] + c[8] * c[8]) / ds->n_train;
+        }
+        const double half = 0.375 * r;
+        hdr->coord = CNERF_COORD_CONTRACT;
+        hdr->near_q16 = q16(fmin(ds->near, r));
+        hdr->far_q16 = q16(r + sqrt(3.0) * half);
+        for (int a = 0; a < 3; a++) {
+            hdr->aabb_q16[a] = -q16(2 * half);
+            hdr->aabb_q16[a + 3] = q16(2 * half);
         }
     } else {
         hdr->coord = CNERF_COORD_WORLD;

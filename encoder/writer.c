@@ -334,7 +334,11 @@ int cn_write_set(const cn_stream_src *scenes, unsigned n_scenes, const cn_shift_
     cn_buf_put(out, sig, 4);
     const int pruned = cn_topology_pruned(info);
     cn_buf_u16(out, CNERF_VERSION_MAJOR);
-    cn_buf_u16(out, shift ? CNERF_VERSION_MINOR_SCENES : 0u); /* the lowest that fits */
+    unsigned minor = shift ? CNERF_VERSION_MINOR_SCENES : 0u; /* the lowest that fits */
+    for (unsigned m = 0; m < n_scenes; m++)
+        if (scenes[m].hdr.coord == CNERF_COORD_CONTRACT)
+            minor = CNERF_VERSION_MINOR_CONTRACT;
+    cn_buf_u16(out, (uint16_t)minor);
     cn_buf c = {0};
     cn_put_head(&c, info);
     put_chunk(out, CNERF_TAG_HEAD, &c);

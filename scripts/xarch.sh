@@ -59,8 +59,10 @@ $cnerf synth -o "$work/gridndc.cnrf" --preset tiny --seed 7 --ndc --grid 5 > /de
 $cnerf synth -o "$work/units.cnrf" --preset tiny --seed 8 --units 20,7,32,64:5 > /dev/null
 # two scenes sharing shifts (format 2.1): scene 1 is rendered (CNERF_SCENE), shifts included
 $cnerf synth -o "$work/scenes.cnrf" --preset tiny --seed 9 --scenes 2 > /dev/null
+# a contracted scene (format 2.2): all space beyond the inner cube drawn into the bounds
+$cnerf synth -o "$work/contract.cnrf" --preset tiny --seed 10 --contract > /dev/null
 streams=("$work/tiny.cnrf" "$work/small.cnrf" "$work/ndc.cnrf" "$work/grid.cnrf" "$work/gridndc.cnrf"
-         "$work/units.cnrf" "$work/scenes.cnrf")
+         "$work/units.cnrf" "$work/scenes.cnrf" "$work/contract.cnrf")
 [ -f out/lego.cnrf ] && streams+=(out/lego.cnrf)
 half=$((size / 2))
 f=$(( size * 65536 * 3 / 2 ))  # focal length 1.5 image widths: about 37 degrees

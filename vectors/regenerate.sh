@@ -163,6 +163,15 @@ SCENES="254" vector 026-max-scenes "the largest scene count (255): scenes 0 and 
   $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --scenes 255 --depth 1 --width 4 \
   --view-width 0 --coarse 4 --fine 0 --lpos 1 --ldir 0
 
+# Contracted scenes (format 2.2): all space beyond the inner cube drawn into the bounds.
+CAMS="--orbit 2 --size 24"
+vector 027-contract "a contracted scene (format 2.2): the inner half of the bounds in world space, all space beyond it drawn into the outer half" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --contract
+CAMS="--dataset $data/lego --downscale 8 --every 100"
+vector 028-lego-encode-contract "a real scene encoded contracted (Lego, 50x50, lambda 3, 300 iterations, --background contract)" \
+  $cnerf encode "$data/lego" -o "$tmp/s.cnrf" --lambda 3 --preset tiny --downscale 8 \
+  --iters 300 --seed $seed --threads 2 --every 100 --background contract
+
 # The table of docs/conformance.md, between its markers.
 python3 - <<'PY'
 import os, re

@@ -18,9 +18,11 @@
 /* The newest minor revision this code knows. Version 2.0 changed the layers' arithmetic
  * (int16 inputs at a per-layer scale, LAYR's f_in) and holds the GRID and UNIT chunks that
  * 1.1 and 1.2 added; 1.x streams are refused (CNERF_E_VERSION). 2.1 adds several scenes in
- * one stream (SCNS, SHFT). A writer stamps the lowest minor whose chunks its stream holds. */
-#define CNERF_VERSION_MINOR 1u
+ * one stream (SCNS, SHFT); 2.2 contracted scenes (HEAD coord 2). A writer stamps the lowest
+ * minor whose chunks and values its stream holds. */
+#define CNERF_VERSION_MINOR 2u
 #define CNERF_VERSION_MINOR_SCENES 1u
+#define CNERF_VERSION_MINOR_CONTRACT 2u
 
 /* Chunk framing: tag[4], u32 length, payload[length], u32 CRC-32 of tag+payload. */
 #define CNERF_CHUNK_OVERHEAD 12u
@@ -56,6 +58,13 @@
 /* Coordinate systems. */
 #define CNERF_COORD_WORLD 0u /* 360-degree scene, rays in world space between near and far */
 #define CNERF_COORD_NDC 1u   /* forward-facing scene, rays in normalized device coordinates */
+#define CNERF_COORD_CONTRACT 2u /* 360-degree scene with a background: the inner half of the
+                                   bounds as in world space, all space beyond it contracted
+                                   into the outer half (format 2.2, docs/rendering.md) */
+/* Contracted scenes: rays are sampled in s in [0, 2 - 2^-CONTRACT_SHIFT]; t = near + s L on
+ * [0, 1] and near + L / (2 - s) beyond (L = far - near), so the last sample lies at
+ * near + 2^CONTRACT_SHIFT L. */
+#define CNERF_CONTRACT_SHIFT 6u
 
 /* Positional-encoding flags. */
 #define CNERF_PE_INCLUDE_INPUT 0x01u

@@ -88,6 +88,9 @@ int cli_load_dataset(const char *cmd, const char *dir, long downscale, long max_
 /* --random-bg auto|on|off into cn_train_opts.random_bg (-1, 1, 0); prints the error and
  * returns 1 for another word. */
 int cli_random_bg(const char *cmd, const char *word, int *random_bg);
+/* --background constant|contract into cn_train_opts.contract (0, 1); prints the error and
+ * returns 2 for another word. */
+int cli_background(const char *cmd, const char *word, int *contract);
 /* After cn_trainer_init: one line saying whether training draws random backgrounds, and
  * on how many of the training views (those with transparency). */
 void cli_say_random_bg(const struct cn_trainer *t);

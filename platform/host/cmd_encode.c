@@ -29,7 +29,8 @@
     "       [--log-every N] [--depth D] [--width W] [--coarse N] [--fine N]\n"                \
     "       [--latent-lr latent|weight]\n"                                                   \
     "       [--eval-every N] [--prior-lr X] [--affine-lr X]\n"   \
-    "       [--skip-saturated EPS] [--grid G|0] [--grid-verbose] [--random-bg auto|on|off]\n"    \
+    "       [--skip-saturated EPS] [--grid G|0] [--grid-verbose] [--random-bg auto|on|off]\n" \
+    "       [--background constant|contract]\n"                                               \
     "       [--prune on|off] [--group-penalty MU]"
 
 /* --size and --bits-per-param: the file may miss its target by this fraction. */
@@ -73,7 +74,7 @@ int cmd_encode(int argc, char **argv)
     cn_train_defaults(&o);
     o.compress = 1;
     const char *out = NULL, *resume = NULL, *pos[CNERF_MAX_SCENES], *latent_lr = "weight";
-    const char *random_bg = "auto", *prune = "on";
+    const char *random_bg = "auto", *background = "constant", *prune = "on";
     long iters = o.iters, downscale = 1, max_size = 0, threads = 0, batch = o.batch, every = 1;
     long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 0, log_every = 100;
     double ckpt_secs = CLI_CKPT_SECS;
@@ -118,6 +119,7 @@ int cmd_encode(int argc, char **argv)
         {"--grid", CLI_LONG, &grid_g, -1, CNERF_MAX_GRID},
         {"--grid-verbose", CLI_FLAG, &grid_verbose, 0, 0},
         {"--random-bg", CLI_STR, &random_bg, 0, 0},
+        {"--background", CLI_STR, &background, 0, 0},
         {"--prune", CLI_STR, &prune, 0, 0},
         {"--shift-lr", CLI_DOUBLE, &lr_shift, 0, 1},
     };
@@ -150,6 +152,8 @@ int cmd_encode(int argc, char **argv)
         return cli_usage("encode", "--latent-lr takes 'latent' (Adam's step in latent units, "
                         "the paper's) or 'weight' (in weight units), not '%s'", latent_lr);
     o.latent_lr_weight_units = !strcmp(latent_lr, "weight");
+    if (cli_background("encode", background, &o.contract))
+        return 2;
     if (cli_random_bg("encode", random_bg, &o.random_bg))
         return 2;
     if (strcmp(prune, "on") && strcmp(prune, "off"))

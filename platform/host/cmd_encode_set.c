@@ -23,6 +23,7 @@
     "       [--lr X] [--lr-decay N] [--shift-lr X] [--prior-lr X] [--affine-lr X]\n"        \
     "       [--ckpt-every N | --ckpt-secs S] [--log-every N] [--eval-every N]\n"            \
     "       [--depth D] [--width W] [--coarse N] [--fine N] [--grid G|0] [--random-bg auto|on|off]\n" \
+    "       [--background constant|contract]\n"                                                       \
     "  Several scenes in one stream: one network topology, each scene's own latents,\n"    \
     "  affine decoders, biases, render parameters and grid, and shifts shared by all."
 
@@ -74,7 +75,7 @@ int cmd_encode_set(int argc, char **argv)
     cn_train_opts o;
     cn_train_defaults(&o);
     o.compress = 1;
-    const char *out = NULL, *resume = NULL, *pos[CNERF_MAX_SCENES], *random_bg = "auto";
+    const char *out = NULL, *resume = NULL, *pos[CNERF_MAX_SCENES], *random_bg = "auto", *background = "constant";
     long iters = o.iters, downscale = 1, max_size = 0, threads = 0, batch = o.batch, every = 1;
     long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 0, log_every = 100;
     long eval_every = 0, grid_g = -1;
@@ -116,6 +117,7 @@ int cmd_encode_set(int argc, char **argv)
         {"--affine-lr", CLI_DOUBLE, &o.lr_affine, 0, 1},
         {"--grid", CLI_LONG, &grid_g, -1, CNERF_MAX_GRID},
         {"--random-bg", CLI_STR, &random_bg, 0, 0},
+        {"--background", CLI_STR, &background, 0, 0},
     };
     if (cli_parse("encode", SET_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos,
                   CNERF_MAX_SCENES, &n_pos))
@@ -136,6 +138,8 @@ int cmd_encode_set(int argc, char **argv)
     if (grid_g > 0 && (grid_g < 16 || (grid_g & (grid_g - 1))))
         return cli_usage("encode", "--grid takes 16, 32, 64 or 128 cells per axis, or 0 for no "
                         "grid, not %ld", grid_g);
+    if (cli_background("encode", background, &o.contract))
+        return 2;
     if (cli_random_bg("encode", random_bg, &o.random_bg))
         return 2;
     if (iters == 0 && !resume)

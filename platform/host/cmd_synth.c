@@ -12,7 +12,7 @@
 #define SYNTH_USAGE                                                                          \
     "usage: cnerf synth -o FILE.cnrf [--preset tiny|small|paper] [--seed S] [--spread X]\n" \
     "       [--depth D] [--width W] [--view-width V] [--coarse N] [--fine N] [--lpos L]\n"  \
-    "       [--ldir L] [--ndc] [--black] [--grid G [--grid-shape ball|full|empty]]\n"     \
+    "       [--ldir L] [--ndc|--contract] [--black] [--grid G [--grid-shape ball|full|empty]]\n"     \
     "       [--units U1,U2,...[:V]] [--scenes N [--shift-spread X] [--shift-gain G]]"
 
 /* --units "U1,...,UD[:V]": units of each trunk layer (and of the view layer) of every
@@ -69,7 +69,7 @@ int cmd_synth(int argc, char **argv)
     long depth = -1, width = -1, view = -1, coarse = -1, fine = -1, lpos = -1, ldir = -1;
     long grid = 0;
     const char *shape = "ball", *units = NULL;
-    int ndc = 0, black = 0, n_pos;
+    int ndc = 0, contract = 0, black = 0, n_pos;
     long scenes = 0; /* 0: a one-scene stream; N: a set of N scenes with shared shifts */
     double shift_spread = 1.0, shift_gain = 0.5;
     const cli_opt opts[] = {
@@ -85,6 +85,7 @@ int cmd_synth(int argc, char **argv)
         {"--lpos", CLI_LONG, &lpos, 0, CNERF_MAX_L_POS},
         {"--ldir", CLI_LONG, &ldir, 0, CNERF_MAX_L_DIR},
         {"--ndc", CLI_FLAG, &ndc, 0, 0},
+        {"--contract", CLI_FLAG, &contract, 0, 0},
         {"--black", CLI_FLAG, &black, 0, 0},
         {"--grid", CLI_LONG, &grid, 0, CNERF_MAX_GRID},
         {"--grid-shape", CLI_STR, &shape, 0, 0},
@@ -125,10 +126,17 @@ int cmd_synth(int argc, char **argv)
         hdr.l_pos = (uint8_t)lpos;
     if (ldir >= 0)
         hdr.l_dir = (uint8_t)ldir;
+    if (ndc && contract)
+        return cli_usage("synth", "--ndc and --contract exclude each other");
     if (ndc) {
         hdr.coord = CNERF_COORD_NDC;
         hdr.near_q16 = 0;
         hdr.far_q16 = CNERF_Q16_ONE;
+    }
+    if (contract) { /* the bounds doubled: the inner cube is the usual box (format 2.2) */
+        hdr.coord = CNERF_COORD_CONTRACT;
+        for (int a = 0; a < 6; a++)
+            hdr.aabb_q16[a] *= 2;
     }
     if (black)
         memset(hdr.background, 0, sizeof hdr.background);

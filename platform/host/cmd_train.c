@@ -20,6 +20,7 @@
     "       [--near X] [--far X] [--ckpt-every N | --ckpt-secs S] [--log-every N] [--occupancy G]\n"     \
     "       [--eval-every N] [--every K]\n"                                              \
     "       [--occupancy-start N] [--skip-saturated EPS] [--random-bg auto|on|off]\n"    \
+    "       [--background constant|contract]\n"                                          \
     "       [--group-penalty MU] [--train-images DIR]"
 
 /* Stopping a training: Ctrl-C (SIGINT), and SIGTERM and SIGHUP as schedulers, service
@@ -123,6 +124,15 @@ int cli_random_bg(const char *cmd, const char *word, int *random_bg)
             return 0;
         }
     return cli_usage(cmd, "--random-bg takes auto, on or off, not '%s'", word);
+}
+
+int cli_background(const char *cmd, const char *word, int *contract)
+{
+    if (!strcmp(word, "constant") || !strcmp(word, "contract")) {
+        *contract = word[3] == 't' && word[4] == 'r';
+        return 0;
+    }
+    return cli_usage(cmd, "--background takes constant or contract, not '%s'", word);
 }
 
 void cli_say_random_bg(const cn_trainer *t)
@@ -283,7 +293,7 @@ int cmd_train(int argc, char **argv)
 {
     cn_train_opts o;
     cn_train_defaults(&o);
-    const char *out = NULL, *pos[1], *random_bg = "auto", *train_images = NULL;
+    const char *out = NULL, *pos[1], *random_bg = "auto", *background = "constant", *train_images = NULL;
     long iters = o.iters, downscale = 1, max_size = 0, threads = 0, batch = o.batch, depth = -1, width = -1;
     long coarse = -1, fine = -1, precrop = -1, ckpt_every = 0, log_every = 100;
     double ckpt_secs = CLI_CKPT_SECS;
@@ -322,6 +332,7 @@ int cmd_train(int argc, char **argv)
         {"--skip-saturated", CLI_DOUBLE, &o.sat_eps, 0, 1},
         {"--group-penalty", CLI_DOUBLE, &o.group, 0, 1000},
         {"--random-bg", CLI_STR, &random_bg, 0, 0},
+        {"--background", CLI_STR, &background, 0, 0},
         {"--train-images", CLI_STR, &train_images, 0, 0},
     };
     if (cli_parse("train", TRAIN_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos, 1,
@@ -329,6 +340,8 @@ int cmd_train(int argc, char **argv)
         return 2;
     if (n_pos != 1 || !out)
         return cli_usage("train", "need a dataset directory and -o FILE\n%s", TRAIN_USAGE);
+    if (cli_background("train", background, &o.contract))
+        return 2;
     if (cli_random_bg("train", random_bg, &o.random_bg))
         return 2;
     if (iters == 0 && !resume)

@@ -125,6 +125,13 @@ msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --random-bg some
 msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --prune yes 2>&1); rc=$?
 [ $rc = 2 ] && grep -q "\-\-prune takes on (remove dead units) or off, not 'yes'" <<<"$msg" \
   || fail "--prune yes: $rc $msg"
+msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --background far 2>&1); rc=$?
+[ $rc = 2 ] && grep -q -- "--background takes constant or contract, not 'far'" <<<"$msg" ||
+  fail "--background far: $rc $msg"
+msg=$("$cnerf" encode "$data/fern" -o "$work/z.cnrf" --lambda 1 --background contract \
+  "${common[@]}" 2>&1); rc=$?
+[ $rc = 1 ] && grep -q "forward-facing scene is rendered in NDC" <<<"$msg" ||
+  fail "--background contract on Fern: $rc $msg"
 msg=$("$cnerf" synth -o "$work/z.cnrf" --units 8,8 2>&1); rc=$?
 [ $rc = 2 ] && grep -q "2 trunk layers given, the networks have 4" <<<"$msg" \
   || fail "synth --units 8,8: $rc $msg"
@@ -244,6 +251,18 @@ cmp -s "$work/f1.ckpt" "$work/f2.ckpt" || fail "train --train-images on the view
 cp -r "$work/fv" "$work/fvx" && cp "$work/fv/0001.png" "$work/fvx/0000.png"
 "$cnerf" train "$data/fern" -o "$work/f3.ckpt" --train-images "$work/fvx" "${fern[@]}" > /dev/null
 cmp -s "$work/f1.ckpt" "$work/f3.ckpt" && fail "train --train-images: another view 0 changed nothing"
+# A contracted scene (format 2.2): encoded, described, its float reference evaluated and its
+# fixed-point render within a few grey levels of it.
+out=$("$cnerf" encode "$data/lego" -o "$work/c.cnrf" --lambda 1e-3 --iters 3 --every 100 \
+  --background contract "${common[@]}")
+info=$("$cnerf" info "$work/c.cnrf")
+grep -q "format version 2.2" <<<"$info" && grep -q "^render: contracted" <<<"$info" ||
+  fail "info of a contracted stream: $info"
+c_psnr=$(sed -n 's/^test: .* psnr \([0-9.]*\) dB.*/\1/p' <<<"$out")
+out=$("$cnerf" render "$work/c.cnrf" --dataset "$data/lego" --downscale 16 --every 100)
+grep -q "^mean over 2 views .*(float reference $c_psnr dB)" <<<"$out" ||
+  fail "render of a contracted stream ($c_psnr): $out"
+
 # Several scenes in one stream: Lego and Mic encoded jointly, each scene read back, rendered
 # and evaluated by index; the options that encode one scene only are refused.
 out=$("$cnerf" encode "$data/lego" "$data/mic" -o "$work/set.cnrf" --lambda 1e-3 --iters 3 \

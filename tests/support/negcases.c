@@ -196,7 +196,22 @@ static void e_ncoarse_big(chunks *c) { put16(c->c[HEAD].data + H_NCOARSE, CNERF_
 static void e_nnets3(chunks *c) { c->c[HEAD].data[H_NNETS] = 3; }
 static void e_near_far(chunks *c) { put32(c->c[HEAD].data + H_NEAR, 6u << 16); }
 static void e_neg_near(chunks *c) { put32(c->c[HEAD].data + H_NEAR, (uint32_t)-65536); }
-static void e_coord(chunks *c) { c->c[HEAD].data[H_COORD] = 2; }
+static void e_coord(chunks *c) { c->c[HEAD].data[H_COORD] = CNERF_COORD_CONTRACT + 1; }
+static void e_contract_v20(chunks *c) { c->c[HEAD].data[H_COORD] = CNERF_COORD_CONTRACT; }
+static void e_contract_ok(chunks *c) /* 2.2, bounds the cube [-2, 2]^3 */
+{
+    put16(c->sig + 6, CNERF_VERSION_MINOR_CONTRACT);
+    c->c[HEAD].data[H_COORD] = CNERF_COORD_CONTRACT;
+    for (int a = 0; a < 3; a++) {
+        put32(c->c[HEAD].data + H_AABB + 4 * a, (uint32_t)(-2 * 65536));
+        put32(c->c[HEAD].data + H_AABB + 12 + 4 * a, 2u << 16);
+    }
+}
+static void e_contract_box(chunks *c)
+{
+    e_contract_ok(c);
+    put32(c->c[HEAD].data + H_AABB + 20, 3u << 16);
+}
 static void e_ndc_near(chunks *c) { c->c[HEAD].data[H_COORD] = CNERF_COORD_NDC; }
 static void e_flags(chunks *c) { c->c[HEAD].data[H_FLAGS] |= 0x80; }
 static void e_nets_mismatch(chunks *c) { put16(c->c[HEAD].data + H_NFINE, 0); }
@@ -581,6 +596,12 @@ const neg_case neg_cases[] = {
      CNERF_E_PAYLOAD, 1, 1},
     {"second scene's payload changed, first opened", e_set_scene1_payload, NULL, CNERF_OK,
      CNERF_OK, 1, 0},
+    {"contracted coordinates in a 2.0 stream", e_contract_v20, NULL, CNERF_E_HEADER,
+     CNERF_E_HEADER, 0, 0},
+    {"contracted coordinates in a 2.2 stream are accepted", e_contract_ok, NULL, CNERF_OK,
+     CNERF_OK, 0, 0},
+    {"contracted scene whose bounds are not a cube", e_contract_box, NULL, CNERF_E_HEADER,
+     CNERF_E_HEADER, 0, 0},
 };
 
 const size_t neg_case_count = sizeof neg_cases / sizeof neg_cases[0];

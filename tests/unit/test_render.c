@@ -589,6 +589,69 @@ static void test_ndc(void **state)
     free_scene(&s);
 }
 
+/* A contracted scene (format 2.2): the samples reach 2^6 times the linear segment's length
+ * and every point, however far, is drawn into the bounds; the fixed-point render follows the
+ * float one from a camera inside the bounds, one outside them and one far beyond. */
+static void contract_header(cnerf_info *hdr)
+{
+    tu_small_header(hdr, 3, 16, 1);
+    hdr->n_coarse = 32; /* with 8, one sample spans half the background: flips of a density
+                           near 0 between the renderers move a pixel by up to 5 */
+    hdr->n_fine = 16;
+    hdr->coord = CNERF_COORD_CONTRACT;
+    hdr->near_q16 = 65536 / 2;
+    hdr->far_q16 = 5 * 65536;
+    for (int a = 0; a < 3; a++) {
+        hdr->aabb_q16[a] = -3 * 65536;
+        hdr->aabb_q16[a + 3] = 3 * 65536;
+    }
+}
+
+static void test_contract(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    contract_header(&hdr);
+    scene s;
+    density_e = -15; /* the fog of test_inside_and_axes, everywhere */
+    make_scene_edit(&s, &hdr, 3.0, 21, dense);
+    assert_int_equal(s.dec.info.version_minor, CNERF_VERSION_MINOR_CONTRACT);
+    hdr.coord = CNERF_COORD_WORLD; /* the same model, ending at its bounds */
+    scene w;
+    make_scene_edit(&w, &hdr, 3.0, 21, dense);
+    const double where[3][3] = {{0.8, -0.6, 0.3}, {2.5, -3.0, 2.0}, {60, 45, -20}};
+    for (int k = 0; k < 3; k++) {
+        cn_camera cam;
+        look_at(&cam, where[k][0], where[k][1], where[k][2], 20, 16, 60);
+        if (k == 2) /* the far camera looks away from the bounds */
+            for (int a = 0; a < 3; a++) {
+                cam.c2w[a][0] = -cam.c2w[a][0];
+                cam.c2w[a][2] = -cam.c2w[a][2];
+            }
+        const cmp c = compare(&s, &cam, 7, NULL);
+        printf("contracted, camera %d: fixed vs float %.2f dB, max diff %d, %zu of %d pixels "
+               "not the background\n", k, c.psnr, c.maxdiff, c.n_scene, cam.w * cam.h);
+        assert_true(c.psnr >= 50.0);
+        assert_true(c.maxdiff <= 2);
+        if (k == 2) { /* beyond the bounds: the fog when contracted, nothing in world space */
+            assert_int_equal(c.n_scene, (size_t)cam.w * cam.h);
+            assert_int_equal(compare(&w, &cam, 7, NULL).n_scene, 0);
+        }
+    }
+    free_scene(&w);
+    /* The float rule at the seams: a point on the inner cube's face stays, one beyond it is
+     * drawn in towards 2h, and the last sample's distance is near + 2^6 L. */
+    float o[3] = {0, 0, 0}, d[3] = {1, 0, 0}, p[3];
+    cn_ray_point(&s.ref.topo, o, d, 1.5f, p);
+    assert_float_equal(p[0], 1.5f, 1e-6f);
+    cn_ray_point(&s.ref.topo, o, d, 3.0f, p);
+    assert_float_equal(p[0], 2.25f, 1e-5f); /* u = 2: h (2 - 1/u) = 1.5 * 1.5 */
+    cn_ray_point(&s.ref.topo, o, d, 1e6f, p);
+    assert_true(p[0] < 3.0f && p[0] > 2.99f);
+    assert_float_equal(cn_ray_far(&s.ref.topo), 0.5f + 64 * 4.5f, 1e-3f);
+    free_scene(&s); /* the header's rules: tests/support/negcases.c */
+}
+
 /* ---- occupancy grids ---- */
 
 #define GRID_G 8
@@ -1011,6 +1074,7 @@ int main(void)
         cmocka_unit_test(test_bad_arguments),
         cmocka_unit_test(test_knobs),
         cmocka_unit_test(test_ndc),
+        cmocka_unit_test(test_contract),
         cmocka_unit_test(test_grid),
         cmocka_unit_test(test_macs_counted),
         cmocka_unit_test(test_grid_cell_mapping),
