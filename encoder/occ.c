@@ -68,10 +68,14 @@ void cn_occ_free(cn_occ *o)
 
 float cn_occ_threshold(const cnerf_info *topo)
 {
-    /* the spacing of the coarse samples: on the linear segment when contracted */
+    /* the coarse samples' spacing: over far - near, or in a contracted scene over the
+     * sample range in s, which the linear segment stretches by far - near */
     double len = (double)(topo->far_q16 - topo->near_q16) / 65536.0;
-    if (topo->coord == CNERF_COORD_CONTRACT)
-        len *= 2.0 - ldexp(1.0, -(int)CNERF_CONTRACT_SHIFT);
+    if (topo->coord == CNERF_COORD_CONTRACT) {
+        float lo, hi;
+        cn_sample_range(topo, &lo, &hi);
+        len *= (double)hi - lo;
+    }
     return (float)(-log(0.99) * topo->n_coarse / len);
 }
 

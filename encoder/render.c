@@ -92,11 +92,10 @@ void cn_ray_t(const cnerf_info *T, float *t, unsigned n)
 
 float cn_ray_far(const cnerf_info *T)
 {
-    if (T->coord != CNERF_COORD_CONTRACT)
-        return (float)T->far_q16 / 65536.0f;
-    float s = 2.0f - ldexpf(1.0f, -(int)CNERF_CONTRACT_SHIFT);
-    cn_ray_t(T, &s, 1);
-    return s;
+    float lo, hi;
+    cn_sample_range(T, &lo, &hi);
+    cn_ray_t(T, &hi, 1);
+    return hi;
 }
 
 void cn_ray_point(const cnerf_info *T, const float o[3], const float d[3], float t, float p[3])

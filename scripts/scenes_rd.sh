@@ -48,10 +48,32 @@ for l in $lambdas; do
   echo "$l,$(size "a-$l"),$(psnr "a-$l"),$(size "b-$l"),$(psnr "b-$l"),$(size "joint-$l"),${shared:-},$(jpsnr 0),$(jpsnr 1)" >> "$csv"
 done
 cat "$csv"
+# The last two columns compare at equal quality: the bytes the two streams would need for the
+# joint stream's mean PSNR, read off the two-stream curve linearly in PSNR against log bytes
+# between its neighbouring points (beyond its ends, along its first or last segment; "-"
+# with fewer than two points).
 {
-  echo "| λ | two streams (bytes) | mean PSNR (dB) | one stream (bytes) | of which shared | mean PSNR (dB) | one / two |"
-  echo "|---|---|---|---|---|---|---|"
-  tail -n +2 "$csv" | awk -F, '$2 && $6 { printf "| %s | %d | %.2f | %d | %d | %.2f | %.3f |\n", $1, $2 + $4, ($3 + $5) / 2, $6, $7, ($8 + $9) / 2, $6 / ($2 + $4) }'
+  echo "| λ | two streams (bytes) | mean PSNR (dB) | one stream (bytes) | of which shared | mean PSNR (dB) | one / two | two streams at the one stream's PSNR (bytes) | one / two at equal PSNR |"
+  echo "|---|---|---|---|---|---|---|---|---|"
+  tail -n +2 "$csv" | awk -F, '
+    $2 && $4 { n++; tb[n] = $2 + $4; tq[n] = ($3 + $5) / 2 }
+    $2 && $6 { m++; row[m] = $0 }
+    END {
+      for (i = 1; i <= n; i++) for (j = i + 1; j <= n; j++) if (tq[j] < tq[i]) {
+        x = tq[i]; tq[i] = tq[j]; tq[j] = x; x = tb[i]; tb[i] = tb[j]; tb[j] = x }
+      for (k = 1; k <= m; k++) {
+        split(row[k], f, ",")
+        q = (f[8] + f[9]) / 2; eq = "-"; ratio = "-"
+        if (n >= 2) {
+          i = 1
+          while (i < n - 1 && q > tq[i + 1]) i++
+          lb = log(tb[i]) + (q - tq[i]) * (log(tb[i + 1]) - log(tb[i])) / (tq[i + 1] - tq[i])
+          eq = sprintf("%d", exp(lb) + 0.5); ratio = sprintf("%.3f", f[6] / exp(lb))
+        }
+        printf "| %s | %d | %.2f | %d | %d | %.2f | %.3f | %s | %s |\n", f[1], f[2] + f[4],
+               (f[3] + f[5]) / 2, f[6], f[7], q, f[6] / (f[2] + f[4]), eq, ratio
+      }
+    }'
 } > "$out/scenes_rd.md"
 cat "$out/scenes_rd.md"
 if command -v gnuplot > /dev/null; then

@@ -129,7 +129,7 @@ int cli_random_bg(const char *cmd, const char *word, int *random_bg)
 int cli_background(const char *cmd, const char *word, int *contract)
 {
     if (!strcmp(word, "constant") || !strcmp(word, "contract")) {
-        *contract = word[3] == 't' && word[4] == 'r';
+        *contract = !strcmp(word, "contract");
         return 0;
     }
     return cli_usage(cmd, "--background takes constant or contract, not '%s'", word);

@@ -132,6 +132,9 @@ msg=$("$cnerf" encode "$data/fern" -o "$work/z.cnrf" --lambda 1 --background con
   "${common[@]}" 2>&1); rc=$?
 [ $rc = 1 ] && grep -q "forward-facing scene is rendered in NDC" <<<"$msg" ||
   fail "--background contract on Fern: $rc $msg"
+msg=$("$cnerf" synth -o "$work/z.cnrf" --ndc --contract 2>&1); rc=$?
+[ $rc = 2 ] && grep -q -- "--ndc and --contract exclude each other" <<<"$msg" ||
+  fail "synth --ndc --contract: $rc $msg"
 msg=$("$cnerf" synth -o "$work/z.cnrf" --units 8,8 2>&1); rc=$?
 [ $rc = 2 ] && grep -q "2 trunk layers given, the networks have 4" <<<"$msg" \
   || fail "synth --units 8,8: $rc $msg"
