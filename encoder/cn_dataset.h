@@ -81,6 +81,9 @@ typedef struct cn_dataset {
     cn_view *train, *val, *test;
     int n_train, n_val, n_test;
     int downscale;   /* the factor applied: the option's, or the one max_size chose */
+    int n_skipped;   /* frames left out because their image is missing (instant-ngp and
+                        nerfstudio layouts); the library prints nothing, the caller tells */
+    char skipped[300]; /* the first of them: "PATH: why" (truncated), or "" */
 } cn_dataset;
 
 typedef struct cn_dataset_opts {

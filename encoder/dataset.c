@@ -186,7 +186,8 @@ typedef struct cn_frames {
     int max_views;     /* per split, 0 = all */
     int factor;        /* downscale applied to every image file */
     int offered;       /* frames offered to cn_frames_add, kept or not */
-    int quiet;         /* 1: no warnings (a listing that only measures the first image) */
+    int skipped;       /* frames skipped for a missing image */
+    char first_skipped[sizeof(((cn_dataset *)0)->skipped)]; /* the first, "PATH: why" */
     double rmin, rmax; /* range of their camera distances from the origin */
 } cn_frames;
 
@@ -662,9 +663,10 @@ static int cn_json_add_frames(const cJSON *root, const char *file, const char *d
                            cn_not_file_why(path), l.frame,
                            file);
         if (!found) {
-            if (!L->quiet)
-                fprintf(stderr, "warning: %s: %s, frame skipped\n", path,
-                        cn_not_file_why(path));
+            /* (a path longer than the note is cut: it only names the frame) */
+            if (L->skipped++ == 0 && snprintf(L->first_skipped, sizeof L->first_skipped,
+                                              "%s: %s", path, cn_not_file_why(path)) < 0)
+                L->first_skipped[0] = '\0';
             continue;
         }
         int split = rule->split >= 0 ? rule->split
@@ -1609,6 +1611,8 @@ static int cn_dataset_take(cn_dataset *ds, cn_frames *L, char *err, size_t errle
         fr->v.rgb = NULL;
         fr->v.alpha = NULL;
     }
+    ds->n_skipped = L->skipped;
+    memcpy(ds->skipped, L->first_skipped, sizeof ds->skipped);
     return 0;
 }
 
@@ -1657,11 +1661,11 @@ int cn_dataset_load(const char *dir, const cn_dataset_opts *o, cn_dataset *ds, c
     int kind = cn_detect(dir, err, errlen);
     if (kind < 0)
         return -1;
-    cn_frames L = {.max_views = o->max_views, .factor = f, .quiet = o->max_size > 0};
+    cn_frames L = {.max_views = o->max_views, .factor = f};
     int rc = cn_load_layout(dir, kind, o, ds, &L, err, errlen);
     if (rc == 0 && o->max_size > 0 && L.n > 0) {
         /* The factor from the first image's upright size; then the frames again at it (an
-         * LLFF scene may hold images already reduced by it), this time with warnings. */
+         * LLFF scene may hold images already reduced by it). */
         int w, h;
         rc = cn_image_size(L.f[0].path, cn_ref_aspect(&L.f[0].in), &w, &h, err, errlen);
         const int big = w > h ? w : h;

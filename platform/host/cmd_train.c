@@ -107,6 +107,11 @@ int cli_load_dataset(const char *cmd, const char *dir, long downscale, long max_
     char err[1024];
     if (cn_dataset_load(dir, &o, ds, err, sizeof err))
         return cli_fail(cmd, "%s", err);
+    if (ds->n_skipped == 1)
+        fprintf(stderr, "cnerf %s: warning: %s, frame skipped\n", cmd, ds->skipped);
+    else if (ds->n_skipped > 1)
+        fprintf(stderr, "cnerf %s: warning: %d frames skipped for a missing image, the first: %s\n",
+                cmd, ds->n_skipped, ds->skipped);
     if (max_size > 0) {
         const cn_view *v = ds->n_train ? ds->train : ds->n_test ? ds->test : ds->val;
         printf("--max-size %ld: downscale %d, views %dx%d\n", max_size, ds->downscale,

@@ -217,6 +217,22 @@ wait
   fail "info FIFO: exit $rc: $(cat "$work/err.txt")"
 n=$((n + 1))
 
+# A frame whose image is missing is skipped with one warning on stderr, and the rest loads.
+mkdir -p "$work/ngp"
+cp "$work/v/0000.png" "$work/v/0001.png" "$work/v/0002.png" "$work/ngp/"
+python3 - "$work/ngp/transforms.json" <<'PY'
+import json, sys
+frames = [{"file_path": f, "transform_matrix": [[1, 0, 0, 0.1 * i], [0, 1, 0, 0], [0, 0, 1, 4], [0, 0, 0, 1]]}
+          for i, f in enumerate(["0000.png", "0001.png", "gone.png", "0002.png"])]
+json.dump({"camera_angle_x": 0.69, "frames": frames}, open(sys.argv[1], "w"))
+PY
+"$cnerf" views "$work/ngp" -o "$work/ngp_views" --split train > /dev/null 2> "$work/err.txt" ||
+  fail "missing frame: $(cat "$work/err.txt")"
+grep -q "^cnerf views: warning: .*gone.png: missing, frame skipped$" "$work/err.txt" &&
+  [ "$(wc -l < "$work/err.txt")" -eq 1 ] || fail "missing frame: $(cat "$work/err.txt")"
+[ "$(ls "$work/ngp_views"/*.png | wc -l)" -eq 2 ] || fail "missing frame: $(ls "$work/ngp_views")"
+n=$((n + 1))
+
 # Help is not an error: on standard output, status 0.
 for args in "help encode" "encode --help" "info -h" "help"; do
   read -r -a argv <<< "$args"
