@@ -9,7 +9,7 @@
 # Options default to "--preset tiny --downscale 4 --iters 3000 --every 40". For each QP:
 # OUT/qpQ.hevc (the raw HEVC stream, no container: its bytes are the rate), OUT/qpQ/ (the
 # decoded views) and OUT/qpQ.log (the training run; a complete log is not run again, so an
-# interrupted sweep resumes). Also OUT/uncoded.log: the same training on the 8-bit views
+# interrupted sweep resumes, a run from its checkpoint). Also OUT/uncoded.log: the same training on the 8-bit views
 # before coding. Writes OUT/hevc.csv and OUT/hevc.md (QP, bytes, PSNR of the decoded views
 # against the uncoded ones, the NeRF's test PSNR).
 set -euo pipefail
@@ -45,8 +45,11 @@ for k in "${!order[@]}"; do ln -s "../views/${order[$k]}" "$(printf '%s/seq/%04d
 train() { # LOG IMAGES
   if ! grep -q "^eval: iteration $iters," "$1" 2> /dev/null; then
     echo "hevc_views.sh: training on $2" >&2
+    # an interrupted training continues from its checkpoint (train writes it to -o)
+    local resume=()
+    [ -s "${1%.log}.ckpt" ] && resume=(--resume)
     "$cnerf" train "$data" -o "${1%.log}.ckpt" --train-images "$2" --eval-every "$iters" \
-      --log-every 250 --ckpt-secs 100000 "${opts[@]}" > "$1" 2>&1
+      --log-every 250 "${opts[@]}" "${resume[@]}" >> "$1" 2>&1
   fi
 }
 train "$out/uncoded.log" "$views"
