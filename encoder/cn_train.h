@@ -74,6 +74,22 @@ typedef struct cn_train_opts {
  * "small", 500 centre-crop iterations at 50% for 360-degree scenes. */
 void cn_train_defaults(cn_train_opts *o);
 
+/* --preset auto: of the presets whose rate-distortion curves were measured (tiny, then
+ * small), the largest whose latents get at least CN_AUTO_BITS bits each from the target's
+ * bytes beyond its floor (headers, affine decoders and biases, cn_stream_floor); tiny when
+ * none does. CN_AUTO_BITS is where small's curve overtakes tiny's on Lego at 3000
+ * iterations (scripts/preset_frontier.sh, docs/results.md "Which preset at which size").
+ * The scene enters through the floor (its render parameters): the presets share their
+ * sample counts. *bits is the chosen preset's bits per latent. Returns 0, or -1 with a
+ * message. */
+#define CN_AUTO_BITS 2.33
+int cn_preset_auto(const cn_dataset *ds, const cn_train_opts *o, double target,
+                   const char **preset, double *bits, char *err, size_t errlen);
+
+/* The floor (cn_stream_floor) and latent count of o's preset on this dataset. */
+int cn_preset_floor(const cn_dataset *ds, const cn_train_opts *o, size_t *floor_bytes,
+                    size_t *latents, char *err, size_t errlen);
+
 /* The stream header (render parameters and topology) for a dataset and options. */
 int cn_header_for_dataset(const cn_dataset *ds, const cn_train_opts *o, cnerf_info *hdr,
                           char *err, size_t errlen);

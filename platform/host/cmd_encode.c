@@ -23,7 +23,8 @@
     "       --shift-lr X; not --size, --bits-per-param, --rate-control or --prune on):\n"  \
     "       cnerf encode DATASET1 DATASET2 ... -o set.cnrf (--lambda L | --quality Q)\n"   \
     "       (--lambda L | --quality Q | --size BYTES | --bits-per-param X)\n"               \
-    "       [--preset tiny|small|paper] [--rate-control dual|pi] [--lr X] [--lr-decay N]\n"     \
+    "       [--preset tiny|small|paper|auto (the default with --size; else small)]\n"        \
+    "       [--rate-control dual|pi] [--lr X] [--lr-decay N]\n"                              \
     "       [--iters N] [--downscale F|--max-size N] [--threads T] [--seed S] [--resume CKPT]\n"          \
     "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N | --ckpt-secs S]\n" \
     "       [--log-every N] [--depth D] [--width W] [--coarse N] [--fine N]\n"                \
@@ -80,7 +81,7 @@ int cmd_encode(int argc, char **argv)
     double ckpt_secs = CLI_CKPT_SECS;
     long eval_every = 0, grid_g = -1;
     double lambda = -1, levels = o.levels, size = 0, bpp = 0, quality = -1, lr_shift = -1;
-    const char *scheme = "dual";
+    const char *scheme = "dual", *preset = NULL;
     uint64_t seed = o.seed;
     int black = 0, n_pos, grid_verbose = 0;
     const cli_opt opts[] = {
@@ -90,7 +91,7 @@ int cmd_encode(int argc, char **argv)
         {"--size", CLI_DOUBLE, &size, 1, 1e9},
         {"--bits-per-param", CLI_DOUBLE, &bpp, 1e-3, 32},
         {"--rate-control", CLI_STR, &scheme, 0, 0},
-        {"--preset", CLI_STR, &o.preset, 0, 0},
+        {"--preset", CLI_STR, &preset, 0, 0},
         {"--iters", CLI_LONG, &iters, 0, 1e9},
         {"--downscale", CLI_LONG, &downscale, 1, 64},
         {"--max-size", CLI_LONG, &max_size, 1, 1 << 20},
@@ -141,6 +142,20 @@ int cmd_encode(int argc, char **argv)
         return cli_usage("encode", "--rate-control takes dual (dual ascent, the default) or pi "
                          "(log-lambda PI control), not '%s'", scheme);
     const int controlled = size > 0 || bpp > 0;
+    if (preset)
+        o.preset = preset;
+    else if (size > 0)
+        o.preset = "auto";
+    if (strcmp(o.preset, "tiny") && strcmp(o.preset, "small") && strcmp(o.preset, "paper") &&
+        strcmp(o.preset, "auto"))
+        return cli_usage("encode", "unknown preset '%s' (tiny, small, paper, auto)", o.preset);
+    const int autop = !strcmp(o.preset, "auto");
+    if (autop && size == 0)
+        return cli_usage("encode", "--preset auto chooses the model from the file's size: give "
+                         "--size BYTES, or a preset (tiny, small, paper)");
+    if (autop && (depth > 0 || width > 0 || coarse > 0 || fine >= 0))
+        return cli_usage("encode", "--preset auto chooses depth, width and samples itself: "
+                         "give a preset to set them");
     if (controlled || quality >= 0)
         lambda = 0;
     if (quality >= 0)
@@ -190,6 +205,16 @@ int cmd_encode(int argc, char **argv)
         return 1;
     }
     char err[1024];
+    if (autop) {
+        double bits;
+        if (cn_preset_auto(&ds, &o, size, &o.preset, &bits, err, sizeof err)) {
+            cn_dataset_free(&ds);
+            cli_unlock_output(lk, lock);
+            return cli_fail("encode", "%s", err);
+        }
+        printf("preset auto: %s (%.2f bits per latent beyond the topology's floor; small from "
+               "%.2f)\n", o.preset, bits, CN_AUTO_BITS);
+    }
     cn_trainer t;
     if (cn_trainer_init(&t, &ds, &o, err, sizeof err)) {
         cn_dataset_free(&ds);

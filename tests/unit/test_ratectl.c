@@ -8,6 +8,7 @@
 #include "cn_nerf.h"
 #include "cn_ratectl.h"
 #include "cn_synth.h"
+#include "cn_train.h"
 #include "testutil.h"
 
 static cn_ratectl make(cn_rc_scheme scheme, double target, long iters)
@@ -176,6 +177,44 @@ static void test_stream_size(void **state)
     cn_model_free(&m);
 }
 
+/* --preset auto: small from exactly the size that gives its latents CN_AUTO_BITS each beyond
+ * its floor, tiny a byte below it and for any budget too small for either. */
+static void test_preset_auto(void **state)
+{
+    (void)state;
+    cn_dataset ds;
+    memset(&ds, 0, sizeof ds);
+    ds.kind = CN_DS_BLENDER;
+    ds.near = 2;
+    ds.far = 6;
+    ds.bg[0] = ds.bg[1] = ds.bg[2] = 1;
+    cn_train_opts o;
+    cn_train_defaults(&o);
+    o.compress = 1;
+    char err[256];
+    size_t floor_tiny, lat_tiny, floor_small, lat_small;
+    o.preset = "tiny";
+    assert_int_equal(cn_preset_floor(&ds, &o, &floor_tiny, &lat_tiny, err, sizeof err), 0);
+    o.preset = "small";
+    assert_int_equal(cn_preset_floor(&ds, &o, &floor_small, &lat_small, err, sizeof err), 0);
+    assert_true(lat_small > 2 * lat_tiny && floor_small > floor_tiny);
+    const double edge = (double)floor_small + CN_AUTO_BITS * (double)lat_small / 8;
+    const char *p = NULL;
+    double bits = 0;
+    o.preset = "auto";
+    assert_int_equal(cn_preset_auto(&ds, &o, ceil(edge), &p, &bits, err, sizeof err), 0);
+    assert_string_equal(p, "small");
+    assert_true(bits >= CN_AUTO_BITS && bits < CN_AUTO_BITS + 1e-3);
+    assert_int_equal(cn_preset_auto(&ds, &o, ceil(edge) - 1, &p, &bits, err, sizeof err), 0);
+    assert_string_equal(p, "tiny");
+    assert_true(fabs(bits - 8 * (ceil(edge) - 1 - (double)floor_tiny) / (double)lat_tiny) < 1e-9);
+    assert_int_equal(cn_preset_auto(&ds, &o, 100, &p, &bits, err, sizeof err), 0);
+    assert_string_equal(p, "tiny");
+    assert_true(bits < 0);
+    print_message("# tiny: floor %zu bytes, %zu latents; small: floor %zu, %zu latents; small "
+                  "from %.0f bytes\n", floor_tiny, lat_tiny, floor_small, lat_small, ceil(edge));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -184,6 +223,7 @@ int main(void)
         cmocka_unit_test(test_warm_up),
         cmocka_unit_test(test_floor),
         cmocka_unit_test(test_stream_size),
+        cmocka_unit_test(test_preset_auto),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
