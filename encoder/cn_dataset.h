@@ -21,8 +21,8 @@
  *   nerfstudio's per-frame keys (any of the above in a frame) replace the file's for that
  *   frame; its applied_transform is not read: the poses are used as the file gives them,
  *   which is how nerfstudio itself reads them. Frames whose image is missing are skipped
- *   (counted in n_skipped, for the caller to tell). Split: of the usable frames in file order, indices 0, 8, 16, ... are test
- *   views, the rest train (no val). near/far: with camera centres c_i, the scene centred at
+ *   (counted in n_skipped, for the caller to tell). Split: of the usable frames in file
+ *   order, indices 0, 8, 16, ... are test views, the rest train (no val). near/far: with camera centres c_i, the scene centred at
  *   the origin and s = aabb_scale (default 1), near = max(0.05, min |c_i| - sqrt(3) s),
  *   far = max |c_i| + sqrt(3) s, over all usable frames.
  * LLFF: images from images_<8*downscale>/ if it exists, else images_8/ area-downscaled by

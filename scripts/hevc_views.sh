@@ -9,8 +9,8 @@
 # Options default to "--preset tiny --downscale 4 --iters 3000 --every 40". For each QP:
 # OUT/qpQ.hevc (the raw HEVC stream, no container: its bytes are the rate), OUT/qpQ/ (the
 # decoded views) and OUT/qpQ.log (the training run; a complete log is not run again, so an
-# interrupted sweep resumes, a run from its checkpoint). Also OUT/uncoded.log: the same training on the 8-bit views
-# before coding. Writes OUT/hevc.csv and OUT/hevc.md (QP, bytes, PSNR of the decoded views
+# interrupted sweep resumes, a run from its checkpoint). Also OUT/uncoded.log: the same
+# training on the 8-bit views before coding. Writes OUT/hevc.csv and OUT/hevc.md (QP, bytes, PSNR of the decoded views
 # against the uncoded ones, the NeRF's test PSNR).
 set -euo pipefail
 cd "$(dirname "$0")/.."
