@@ -52,7 +52,6 @@ train() { # LOG IMAGES
       --log-every 250 "${opts[@]}" "${resume[@]}" >> "$1" 2>&1
   fi
 }
-train "$out/uncoded.log" "$views"
 for q in $qps; do
   s=$out/qp$q.hevc
   if [ ! -s "$s" ]; then
@@ -74,6 +73,7 @@ for q in $qps; do
   fi
   train "$out/qp$q.log" "$d"
 done
+train "$out/uncoded.log" "$views" # the control, last: an interrupted sweep has the QPs first
 csv=$out/hevc.csv
 echo "qp,hevc_bytes,views_psnr_db,test_psnr_db" > "$csv"
 psnr_of() { awk '/^eval: iteration/ { p = $9 } END { print p }' "$1"; }
