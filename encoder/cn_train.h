@@ -154,6 +154,11 @@ int cn_checkpoint_save(const cn_trainer *t, const char *path, char *err, size_t 
 /* The same bytes appended to a buffer (out->oom on allocation failure). */
 struct cn_buf;
 void cn_checkpoint_put(const cn_trainer *t, struct cn_buf *out);
+/* Starts an initialised compressed trainer from a float model (cnerf train's checkpoint of
+ * the same topology, trained on the same views): its kernels become the latents at each
+ * layer's initial decoder step, its biases are copied; moments, priors and the step start
+ * afresh. */
+int cn_trainer_init_from_float(cn_trainer *t, const char *path, char *err, size_t errlen);
 /* Restores parameters, moments, the step and the occupancy grids into an initialised
  * trainer whose topology matches; a grid that the checkpoint lacks (version 1) or has at
  * another size stays empty and is rebuilt from the model at the next step. */

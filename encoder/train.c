@@ -529,6 +529,29 @@ static void ckpt_fill(const cn_ckpt *c, cn_model *m)
     cn_get_f32s(m->adam_v, c->blocks + 8 * n, n);
 }
 
+/* Whether checkpoint c was trained on other views than the trainer's (another scene, or
+ * another --downscale); the message says to `verb` on the checkpoint's. */
+static int other_run(const cn_trainer *t, const cn_ckpt *c, const char *path, const char *verb,
+                     char *err, size_t errlen)
+{
+    if (!c->has_run)
+        return 0;
+    if (c->n_train != (uint32_t)t->ds->n_train || c->poses != poses_hash(t->ds)) {
+        snprintf(err, errlen, "%s was trained on another dataset (%u training views with "
+                 "other camera poses; this one has %d): %s on that dataset, or start a new "
+                 "run", path, c->n_train, t->ds->n_train, verb);
+        return -1;
+    }
+    if (t->ds->n_train &&
+        (c->w != (uint32_t)t->ds->train[0].w || c->h != (uint32_t)t->ds->train[0].h)) {
+        snprintf(err, errlen, "%s was trained on %ux%u images and this run has %dx%d: %s "
+                 "with that --downscale, or start a new run", path, c->w, c->h,
+                 t->ds->train[0].w, t->ds->train[0].h, verb);
+        return -1;
+    }
+    return 0;
+}
+
 int cn_checkpoint_resume(cn_trainer *t, const char *path, char *err, size_t errlen)
 {
     uint8_t *data;
@@ -559,17 +582,7 @@ int cn_checkpoint_resume_data(cn_trainer *t, const char *path, const uint8_t *da
         snprintf(err, errlen, "%s: checkpoint model differs from the requested one (preset, "
                  "depth, width, samples or compression)", path);
         rc = -1;
-    } else if (c.has_run && (c.n_train != (uint32_t)t->ds->n_train ||
-                             c.poses != poses_hash(t->ds))) {
-        snprintf(err, errlen, "%s was trained on another dataset (%u training views with "
-                 "other camera poses; this one has %d): resume on that dataset, or start a new "
-                 "run", path, c.n_train, t->ds->n_train);
-        rc = -1;
-    } else if (c.has_run && t->ds->n_train &&
-               (c.w != (uint32_t)t->ds->train[0].w || c.h != (uint32_t)t->ds->train[0].h)) {
-        snprintf(err, errlen, "%s was trained on %ux%u images and this run has %dx%d: resume "
-                 "with that --downscale, or start a new run", path, c.w, c.h,
-                 t->ds->train[0].w, t->ds->train[0].h);
+    } else if (other_run(t, &c, path, "resume", err, errlen)) {
         rc = -1;
     } else if (c.quality != t->opts.quality_slope || c.has_rc != t->rate_control) {
         if (c.quality > 0)
@@ -627,6 +640,63 @@ int cn_checkpoint_resume_data(cn_trainer *t, const char *path, const uint8_t *da
             t->occ_frac[n] = cn_occ_refresh(o, threshold);
         }
     }
+    return rc;
+}
+
+int cn_trainer_init_from_float(cn_trainer *t, const char *path, char *err, size_t errlen)
+{
+    cn_ckpt c;
+    uint8_t *data;
+    if (ckpt_read(path, &data, &c, err, errlen))
+        return -1;
+    const cnerf_info *a = &c.hdr, *b = &t->model.topo;
+    int rc = 0;
+    if (c.compressed) {
+        snprintf(err, errlen, "%s is a compressed model (from cnerf encode): --init takes a "
+                 "float model from cnerf train; to go on with this one, --resume it", path);
+        rc = -1;
+    } else if (memcmp(&a->net, &b->net, sizeof a->net) || a->n_coarse != b->n_coarse ||
+               a->n_fine != b->n_fine || a->n_nets != b->n_nets) {
+        snprintf(err, errlen, "%s is a model of depth %u, width %u and %u+%u samples; this "
+                 "encode asks for depth %u, width %u and %u+%u: give the preset (or --depth, "
+                 "--width, --coarse, --fine) it was trained with", path, a->net[0].depth,
+                 a->net[0].width, a->n_coarse, a->n_fine, b->net[0].depth, b->net[0].width,
+                 b->n_coarse, b->n_fine);
+        rc = -1;
+    } else if (a->coord != b->coord || a->l_pos != b->l_pos || a->l_dir != b->l_dir ||
+               a->pe_flags != b->pe_flags || a->near_q16 != b->near_q16 ||
+               a->far_q16 != b->far_q16 || memcmp(a->aabb_q16, b->aabb_q16, sizeof a->aabb_q16)) {
+        snprintf(err, errlen, "%s maps the scene otherwise (coordinates, encoding, near and far "
+                 "or bounds differ, as with another --background): encode with the options it "
+                 "was trained with", path);
+        rc = -1;
+    } else
+        rc = other_run(t, &c, path, "encode", err, errlen);
+    cn_model f;
+    if (rc == 0 && cn_model_init(&f, a, 0, err, errlen))
+        rc = -1;
+    if (rc == 0 && f.n_params != c.n_params) {
+        snprintf(err, errlen, "%s: parameter count does not match its header", path);
+        cn_model_free(&f);
+        rc = -1;
+    }
+    if (rc == 0) {
+        /* Each kernel onto its latents at the decoder's initial step a (b = 0): W = a Phi,
+         * rounded by the first step's materialization; the biases as they are. */
+        ckpt_fill(&c, &f);
+        cn_model *m = &t->model;
+        for (unsigned l = 0; l < m->topo.n_layers; l++) {
+            const cnerf_layer_info *L = &m->topo.layer[l];
+            const size_t n = (size_t)L->n_in * L->n_out;
+            const float unit = m->params[m->off_ab + 2 * l];
+            m->params[m->off_ab + 2 * l + 1] = 0.0f;
+            for (size_t i = 0; i < n; i++)
+                m->params[m->layer[l].w + i] = f.params[f.layer[l].w + i] / unit;
+            memcpy(m->params + m->layer[l].b, f.params + f.layer[l].b, L->n_out * sizeof(float));
+        }
+        cn_model_free(&f);
+    }
+    free(data);
     return rc;
 }
 

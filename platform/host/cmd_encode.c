@@ -14,6 +14,7 @@
 #include "cn_prune.h"
 #include "cn_ratectl.h"
 #include "cn_scales.h"
+#include "cn_synth.h"
 #include "cn_report.h"
 #include "cn_train.h"
 
@@ -69,12 +70,43 @@ static void print_pruning(const cnerf_info *T, const cn_prune_report *pr)
     printf("\n");
 }
 
+/* --init without a preset: the float model's depth, width and samples, under the name of
+ * the preset that has them (else small's, overridden) unless the command line sets them. */
+static int init_topology(const char *path, const char **preset, long *depth, long *width,
+                         long *coarse, long *fine)
+{
+    cn_model m;
+    char err[1024];
+    if (cn_checkpoint_load_model(path, &m, NULL, err, sizeof err))
+        return cli_fail("encode", "%s", err);
+    const cnerf_info *T = &m.topo;
+    static const char *const names[] = {"tiny", "small", "paper"};
+    *preset = "small";
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
+        cnerf_info p;
+        if (cn_preset_header(names[i], &p) == 0 && p.net[0].depth == T->net[0].depth &&
+            p.net[0].width == T->net[0].width && p.n_coarse == T->n_coarse &&
+            p.n_fine == T->n_fine)
+            *preset = names[i];
+    }
+    if (*depth < 0)
+        *depth = T->net[0].depth;
+    if (*width < 0)
+        *width = T->net[0].width;
+    if (*coarse < 0)
+        *coarse = T->n_coarse;
+    if (*fine < 0)
+        *fine = T->n_fine;
+    cn_model_free(&m);
+    return 0;
+}
+
 int cmd_encode(int argc, char **argv)
 {
     cn_train_opts o;
     cn_train_defaults(&o);
     o.compress = 1;
-    const char *out = NULL, *resume = NULL, *pos[CNERF_MAX_SCENES], *latent_lr = "weight";
+    const char *out = NULL, *resume = NULL, *init = NULL, *pos[CNERF_MAX_SCENES], *latent_lr = "weight";
     const char *random_bg = "auto", *background = "constant", *prune = "on";
     long iters = o.iters, downscale = 1, max_size = 0, threads = 0, batch = o.batch, every = 1;
     long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 0, log_every = 100;
@@ -98,6 +130,7 @@ int cmd_encode(int argc, char **argv)
         {"--threads", CLI_LONG, &threads, 1, 256},
         {"--seed", CLI_U64, &seed, 0, 0},
         {"--resume", CLI_STR, &resume, 0, 0},
+        {"--init", CLI_STR, &init, 0, 0},
         {"--levels", CLI_DOUBLE, &levels, 0.5, 10000},
         {"--batch", CLI_LONG, &batch, 1, 65536},
         {"--every", CLI_LONG, &every, 1, 1e6},
@@ -142,9 +175,20 @@ int cmd_encode(int argc, char **argv)
         return cli_usage("encode", "--rate-control takes dual (dual ascent, the default) or pi "
                          "(log-lambda PI control), not '%s'", scheme);
     const int controlled = size > 0 || bpp > 0;
+    if (init && resume)
+        return cli_usage("encode", "--init starts a run from a float model and --resume goes on "
+                         "with an encode's checkpoint: give one of them");
+    if (init && preset && !strcmp(preset, "auto"))
+        return cli_usage("encode", "--init takes the model of its checkpoint: leave out "
+                         "--preset auto");
     if (preset)
         o.preset = preset;
-    else if (size > 0)
+    else if (init) {
+        if (access(init, F_OK) != 0)
+            return cli_fail("encode", "%s: no such checkpoint", init);
+        if (init_topology(init, &o.preset, &depth, &width, &coarse, &fine))
+            return 1;
+    } else if (size > 0)
         o.preset = "auto";
     if (strcmp(o.preset, "tiny") && strcmp(o.preset, "small") && strcmp(o.preset, "paper") &&
         strcmp(o.preset, "auto"))
@@ -191,9 +235,9 @@ int cmd_encode(int argc, char **argv)
     snprintf(ckpt, sizeof ckpt, "%s", resume ? resume : out);
     if (!resume)
         strncat(ckpt, ".ckpt", sizeof ckpt - strlen(ckpt) - 1);
-    const char *inputs[1] = {resume};
-    if (cli_check_output("encode", out, inputs, 1, pos[0]) ||
-        cli_check_output("encode", ckpt, NULL, 0, pos[0]))
+    const char *inputs[2] = {resume, init};
+    if (cli_check_output("encode", out, inputs, 2, pos[0]) ||
+        cli_check_output("encode", ckpt, inputs + 1, 1, pos[0])) /* resume writes its own */
         return 1;
     char lock[4200];
     const int lk = cli_lock_output("encode", out, lock, sizeof lock);
@@ -251,9 +295,10 @@ int cmd_encode(int argc, char **argv)
         const int mlen = snprintf(meta0, sizeof meta0,
                                   "encoder=cnerf %s; command=encode; dataset=%s; preset=%s; "
                                   "iters=%ld; size=%.0f; lambda=%g; downscale=%ld; seed=%llu; "
-                                  "levels=%g; latent-lr=%s", CNERF_VERSION_STRING, pos[0],
-                                  o.preset, iters, target, 1.0, (long)ds.downscale,
-                                  (unsigned long long)seed, levels, latent_lr);
+                                  "levels=%g; latent-lr=%s%s%s", CNERF_VERSION_STRING,
+                                  pos[0], o.preset, iters, target, 1.0, (long)ds.downscale,
+                                  (unsigned long long)seed, levels, latent_lr,
+                                  init ? "; init=" : "", init ? init : "");
         cn_trainer_rate_control(&t, target, mlen + 16, strcmp(scheme, "dual") ? CN_RC_LOG_PI
                                                                                 : CN_RC_DUAL,
                                 (int)grid_g, !strcmp(prune, "on"));
@@ -265,6 +310,14 @@ int cmd_encode(int argc, char **argv)
             rc = cli_fail("encode", "%s: no such checkpoint", resume);
         else
             rc = cli_resume("encode", &t, resume);
+    }
+    if (init && rc == 0) {
+        if (access(init, F_OK) != 0)
+            rc = cli_fail("encode", "%s: no such checkpoint", init);
+        else if (cn_trainer_init_from_float(&t, init, err, sizeof err))
+            rc = cli_fail("encode", "%s", err);
+        else
+            printf("starting from the float model %s\n", init);
     }
     if (rc == 0) {
         char lam[80];
@@ -293,10 +346,10 @@ int cmd_encode(int argc, char **argv)
         snprintf(sizebuf, sizeof sizebuf, "quality=%g; ", quality);
     snprintf(meta, sizeof meta,
              "encoder=cnerf %s; command=encode; dataset=%s; preset=%s; iters=%ld; %slambda=%g; "
-             "downscale=%ld; seed=%llu; levels=%g; latent-lr=%s",
+             "downscale=%ld; seed=%llu; levels=%g; latent-lr=%s%s%s",
              CNERF_VERSION_STRING, pos[0], o.preset, t.step, sizebuf, t.opts.lambda,
              (long)ds.downscale,
-             (unsigned long long)seed, levels, latent_lr);
+             (unsigned long long)seed, levels, latent_lr, init ? "; init=" : "", init ? init : "");
     if (rc == 0 && (cn_model_snap(&t.model, err, sizeof err) ||
                     cn_export_compressed(&t.model, meta, &e, err, sizeof err)))
         rc = cli_fail("encode", "%s", err);

@@ -76,6 +76,65 @@ static double mean_test_psnr(const cn_model *m, int views)
     return scene_test_psnr(m, &ds, views);
 }
 
+/* encode --init: a compressed trainer started from the float model at `path` (trained with
+ * options o, test PSNR `psnr`) renders what the float model does, but for the rounding of
+ * its kernels to the decoder's initial step (measured once: 21.53 -> 21.51 dB); biases are
+ * copied. Other models are refused. */
+static void check_init_from_float(const char *path, const cn_train_opts *o, double psnr)
+{
+    char err[512];
+    cn_model f;
+    assert_int_equal(cn_checkpoint_load_model(path, &f, NULL, err, sizeof err), 0);
+    cn_train_opts oc = *o;
+    oc.compress = 1;
+    oc.lambda = 1;
+    cn_trainer c;
+    assert_int_equal(cn_trainer_init(&c, &ds, &oc, err, sizeof err), 0);
+    assert_int_equal(cn_trainer_init_from_float(&c, path, err, sizeof err), 0);
+    cn_model_materialize(&c.model);
+    const double init = mean_test_psnr(&c.model, 3);
+    print_message("# float %.2f dB, compressed from it %.2f dB\n", psnr, init);
+    assert_true(init > psnr - 0.5);
+    for (unsigned l = 0; l < f.topo.n_layers; l++) {
+        const cnerf_layer_info *L = &f.topo.layer[l];
+        const float a = c.model.params[c.model.off_ab + 2 * l];
+        assert_memory_equal(c.model.params + c.model.layer[l].b, f.params + f.layer[l].b,
+                            L->n_out * sizeof(float));
+        const float *w = f.params + f.layer[l].w, *k = cn_model_kernel(&c.model, l);
+        for (size_t i = 0; i < (size_t)L->n_in * L->n_out; i++)
+            assert_true(fabsf(k[i] - w[i]) <= 0.5f * a * (1 + 1e-5f));
+    }
+    cn_model_free(&f);
+    /* Refused: a compressed checkpoint, another topology, another scene. */
+    char cpath[600];
+    snprintf(cpath, sizeof cpath, "%s.compressed", path);
+    assert_int_equal(cn_checkpoint_save(&c, cpath, err, sizeof err), 0);
+    assert_int_equal(cn_trainer_init_from_float(&c, cpath, err, sizeof err), -1);
+    print_message("# %s\n", err);
+    assert_non_null(strstr(err, "is a compressed model"));
+    remove(cpath);
+    cn_trainer_free(&c);
+    oc.preset = "small";
+    assert_int_equal(cn_trainer_init(&c, &ds, &oc, err, sizeof err), 0);
+    assert_int_equal(cn_trainer_init_from_float(&c, path, err, sizeof err), -1);
+    print_message("# %s\n", err);
+    assert_non_null(strstr(err, "depth 4, width 64 and 16+16 samples"));
+    cn_trainer_free(&c);
+    oc.preset = o->preset;
+    cn_dataset_opts fo;
+    memset(&fo, 0, sizeof fo);
+    fo.downscale = 16;
+    fo.max_views = 19;
+    cn_dataset other;
+    assert_int_equal(cn_dataset_load(CNERF_DATA_DIR "/lego", &fo, &other, err, sizeof err), 0);
+    assert_int_equal(cn_trainer_init(&c, &other, &oc, err, sizeof err), 0);
+    assert_int_equal(cn_trainer_init_from_float(&c, path, err, sizeof err), -1);
+    print_message("# %s\n", err);
+    assert_non_null(strstr(err, "another dataset"));
+    cn_trainer_free(&c);
+    cn_dataset_free(&other);
+}
+
 /* The first iterations' losses with seed 7 on one thread, measured once; a change of the
  * sampling, the rendering, the backgrounds, the initialisation or the optimizer moves them. */
 static void test_pinned_trajectory(void **state)
@@ -188,6 +247,8 @@ static void test_end_to_end(void **state)
     assert_int_equal(cn_trainer_init(&t3, &ds, &o, err, sizeof err), 0);
     assert_int_equal(cn_checkpoint_resume(&t3, path, err, sizeof err), -1);
     assert_non_null(strstr(err, "differs"));
+    o.preset = "tiny";
+    check_init_from_float(path, &o, after);
     /* A truncated checkpoint is refused. */
     FILE *f = fopen(path, "r+b");
     assert_non_null(f);
