@@ -6,8 +6,11 @@
 #   scripts/rd.sh DATASET OUT [--downscale F] [--iters N] [--preset P] [--every N]
 #                 [--lambdas "L1 L2 ..."] [--sizes "S1 S2 ..."] [--bits "B1 B2 ..."]
 #                 [--jobs J] [--lr X] [--lr-decay N]
+#                 [--from-float "S1 S2 ..."] [--from-float-iters N] [--from-float-lr X]
 # --sizes adds cnerf points encoded to a file size with rate control (--size S) instead of
-# a lambda (--lambdas "" leaves the lambda sweep out).
+# a lambda (--lambdas "" leaves the lambda sweep out). --from-float adds points encoded to
+# a size from the float model (cnerf encode --init) in --from-float-iters more iterations
+# (1/10 of --iters by default) at --from-float-lr (encode's default by default).
 # (--lr and --lr-decay go to every training run; the tables in docs/results.md before the
 # learning rate became 5e-3 over the run used --lr 5e-4 --lr-decay 500000.)
 # Each run uses one thread when --jobs is 2 (two runs side by side), else every core.
@@ -17,17 +20,19 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 data=${1:?dataset directory}; out=${2:?output directory}; shift 2
 downscale=4 iters=1000 preset=small every=40 jobs=1
-lambdas="1e-3 1 3 5 10" sizes="" bits="4 5 6 8" lr=()
+lambdas="1e-3 1 3 5 10" sizes="" bits="4 5 6 8" lr=() ff_sizes="" ff_iters="" ff_lr=()
 while [ $# -gt 0 ]; do
   case $1 in
     --downscale) downscale=$2 ;; --iters) iters=$2 ;; --preset) preset=$2 ;;
     --every) every=$2 ;; --lambdas) lambdas=$2 ;; --sizes) sizes=$2 ;; --bits) bits=$2 ;;
     --jobs) jobs=$2 ;;
+    --from-float) ff_sizes=$2 ;; --from-float-iters) ff_iters=$2 ;; --from-float-lr) ff_lr=(--lr "$2") ;;
     --lr|--lr-decay) lr+=("$1" "$2") ;;
     *) echo "rd.sh: unknown option $1" >&2; exit 2 ;;
   esac
   shift 2
 done
+ff_iters=${ff_iters:-$((iters / 10))}
 cnerf=${CNERF:-build/cnerf}
 [ -x "$cnerf" ] || { echo "rd.sh: build first (scripts/test.sh or cmake --build build)" >&2; exit 1; }
 mkdir -p "$out/log"
@@ -42,14 +47,15 @@ bytes_of() { stat -c %s "$1"; }
 # picks up where it stopped; delete OUT to start over.
 done_run() { [ -s "$1" ] && [ -n "$(psnr_of "$2")" ]; }
 
-# run_encode NAME OPTION VALUE: one cnerf point, OUT/NAME.cnrf.
+# run_encode NAME OPTION VALUE [MORE OPTIONS]: one cnerf point, OUT/NAME.cnrf.
 run_encode() {
-  local name=$1
+  local name=$1 opt=$2 val=$3
+  shift 3
   if done_run "$out/$name.cnrf" "$out/log/$name.log"; then return 0; fi
-  local resume=()  # an interrupted encode continues from its last checkpoint
-  [ -s "$out/$name.cnrf.ckpt" ] && resume=(--resume "$out/$name.cnrf.ckpt")
-  $cnerf encode "$data" -o "$out/$name.cnrf" "$2" "$3" "${common[@]}" --every "$every" \
-    --log-every 250 "${resume[@]}" >> "$out/log/$name.log" 2>&1 ||
+  local start=("$@")  # an interrupted encode continues from its last checkpoint
+  [ -s "$out/$name.cnrf.ckpt" ] && start=(--resume "$out/$name.cnrf.ckpt")
+  $cnerf encode "$data" -o "$out/$name.cnrf" "$opt" "$val" "${common[@]}" --every "$every" \
+    --log-every 250 "${start[@]}" >> "$out/log/$name.log" 2>&1 ||
     echo "rd.sh: $name: cnerf encode failed (see $out/log/$name.log)" >&2
   rm -f "$out/$name.cnrf.ckpt"
 }
@@ -71,14 +77,20 @@ run_float() {
   done
 }
 
-# Jobs: the float model (and its quantized copies) first, then the lambdas, J at a time.
+# Jobs, J at a time: the float model (and its quantized copies) first, then the points from
+# it (with --from-float the float model is waited for), then the lambdas and the sizes.
 tasks=(float)
+[ -n "$ff_sizes" ] && tasks+=(wait)
+for b in $ff_sizes; do tasks+=("from-float:$b"); done
 for l in $lambdas; do tasks+=("lambda:$l"); done
 for b in $sizes; do tasks+=("size:$b"); done
 running=0
 for t in "${tasks[@]}"; do
   case $t in
+    wait) wait; running=0; continue ;;
     float) run_float & ;;
+    from-float:*) run_encode "from-float-${t#from-float:}" --size "${t#from-float:}" \
+                    --init "$out/float.ckpt" --iters "$ff_iters" ${ff_lr[@]+"${ff_lr[@]}"} & ;;
     lambda:*) run_encode "lambda-${t#lambda:}" --lambda "${t#lambda:}" & ;;
     size:*) run_encode "size-${t#size:}" --size "${t#size:}" & ;;
   esac
@@ -105,6 +117,10 @@ for b in $sizes; do
   read -r p s <<< "$(psnr_of "$out/log/size-$b.log")"
   echo "cnerf,size $b,$(bytes_of "$out/size-$b.cnrf"),$p,$s" >> "$csv"
 done
+for b in $ff_sizes; do
+  read -r p s <<< "$(psnr_of "$out/log/from-float-$b.log")"
+  echo "cnerf from float,size $b (+$ff_iters iterations),$(bytes_of "$out/from-float-$b.cnrf"),$p,$s" >> "$csv"
+done
 cat "$csv"
 # The same as a table, with each file's size and PSNR against the float32 model's.
 awk -F, 'NR == 2 { fb = $3; fp = $4 }
@@ -115,6 +131,8 @@ awk -F, 'NR == 2 { fb = $3; fp = $4 }
 cat "$out/rd.md"
 
 if command -v gnuplot > /dev/null; then
+  ff_plot=""
+  [ -n "$ff_sizes" ] && ff_plot="\"< grep '^cnerf from float,' $csv | sort -t, -k3 -n\" using 3:4 with linespoints lw 2 pt 11 title \"cnerf from the float model (+$ff_iters iterations)\","
   gnuplot <<GP
 set terminal pngcairo size 800,520 noenhanced
 set output "$out/rd.png"
@@ -126,6 +144,7 @@ set key bottom right
 set grid
 set title "$(basename "$data"), preset $preset, $iters iterations, downscale $downscale"
 plot "< grep '^cnerf,' $csv | sort -t, -k3 -n" using 3:4 with linespoints lw 2 pt 7 title "cnerf", \
+     $ff_plot \
      "< grep '^uniform,' $csv" using 3:4 with linespoints lw 2 pt 5 title "uniform quantization (4-8 bits) + same entropy coder", \
      "< grep '^float32,' $csv" using 3:4 with points pt 9 ps 2 title "float32"
 GP
