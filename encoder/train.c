@@ -273,12 +273,13 @@ double cn_trainer_pixels(const cn_trainer *t)
     return n;
 }
 
-/* From occ_start on, every occ_every iterations (and on the first step after a resume),
+/* From occ_start on (or earlier once a grid has an estimate, as a run from a trained model's
+ * has from its start), every occ_every iterations (and on the first step after a resume),
  * re-estimates each network's grid with the current model and lets the batch use it. */
 static void update_occupancy(cn_trainer *t)
 {
     const cn_train_opts *o = &t->opts;
-    if (t->step < o->occ_start)
+    if (t->step < o->occ_start && !t->occ[0].valid)
         return;
     t->batch.sat_eps = (float)o->sat_eps;
     if (o->occ_grid <= 0)
@@ -695,6 +696,13 @@ int cn_trainer_init_from_float(cn_trainer *t, const char *path, char *err, size_
             memcpy(m->params + m->layer[l].b, f.params + f.layer[l].b, L->n_out * sizeof(float));
         }
         cn_model_free(&f);
+        /* The model is trained: its empty space is known now, not only from occ_start. */
+        cn_model_materialize(m);
+        for (unsigned n = 0; n < m->topo.n_nets && t->occ[n].g; n++) {
+            cn_rng rng = cn_rng_seed(t->opts.seed * 0x9E3779B97F4A7C15ull + n);
+            t->occ_frac[n] = cn_occ_update(&t->occ[n], m, n, &t->batch.nb[n], &rng, 0.95f,
+                                           cn_occ_threshold(&m->topo));
+        }
     }
     free(data);
     return rc;

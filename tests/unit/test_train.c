@@ -79,7 +79,7 @@ static double mean_test_psnr(const cn_model *m, int views)
 /* encode --init: a compressed trainer started from the float model at `path` (trained with
  * options o, test PSNR `psnr`) renders what the float model does, but for the rounding of
  * its kernels to the decoder's initial step (measured once: 21.53 -> 21.51 dB); biases are
- * copied. Other models are refused. */
+ * copied, and the occupancy grids are estimated from the start. Other models are refused. */
 static void check_init_from_float(const char *path, const cn_train_opts *o, double psnr)
 {
     char err[512];
@@ -95,6 +95,9 @@ static void check_init_from_float(const char *path, const cn_train_opts *o, doub
     const double init = mean_test_psnr(&c.model, 3);
     print_message("# float %.2f dB, compressed from it %.2f dB\n", psnr, init);
     assert_true(init > psnr - 0.5);
+    /* Its empty space is estimated at once (a fresh run waits for occ_start). */
+    for (unsigned n = 0; n < c.model.topo.n_nets; n++)
+        assert_true(c.occ[n].valid && c.occ_frac[n] < 1.0);
     for (unsigned l = 0; l < f.topo.n_layers; l++) {
         const cnerf_layer_info *L = &f.topo.layer[l];
         const float a = c.model.params[c.model.off_ab + 2 * l];
