@@ -7,7 +7,8 @@
 # iterations as float32); scripts/hevc_views.sh gives the training views coded with HEVC
 # at each QP and a NeRF trained on the decoded views by the receiver.
 #   scripts/rd_converged.sh OUT [DATASET] [--from-float "S ..."] [--sizes "S ..."]
-#                           [--qps "Q ..."] [--jobs J] [-- RUN OPTIONS]
+#                           [--qps "Q ..."] [--jobs J] [--no-run] [-- RUN OPTIONS]
+# --no-run only assembles the table and chart from OUT/rd/rd.csv and OUT/hevc/hevc.csv.
 # Writes OUT/converged.csv, OUT/converged.md and OUT/converged.png; OUT/rd and OUT/hevc
 # hold the two sweeps. Both resume (finished runs are kept, interrupted trainings continue
 # from their checkpoints); with --jobs 2 the two sweeps run side by side.
@@ -16,23 +17,25 @@ cd "$(dirname "$0")/.."
 out=${1:?output directory}; shift
 data=../shared/data/lego
 if [ $# -gt 0 ] && [ "${1#-}" = "$1" ]; then data=$1; shift; fi
-ff="30000 45000 60000 90000" sizes="60000" qps="38 30 22" jobs=1
+ff="30000 45000 60000 90000 120000" sizes="" qps="38 30 22" jobs=1 sweep=1
 run=(--preset small --downscale 4 --iters 20000 --every 40)
 while [ $# -gt 0 ]; do
   case $1 in
     --from-float) ff=$2; shift 2 ;; --sizes) sizes=$2; shift 2 ;; --qps) qps=$2; shift 2 ;;
-    --jobs) jobs=$2; shift 2 ;;
+    --jobs) jobs=$2; shift 2 ;; --no-run) sweep=0; shift ;;
     --) shift; run=("$@"); break ;;
     *) echo "rd_converged.sh: unknown option $1" >&2; exit 2 ;;
   esac
 done
 mkdir -p "$out"
-scripts/rd.sh "$data" "$out/rd" "${run[@]}" --lambdas "" --sizes "$sizes" --from-float "$ff" \
-  > "$out/rd.out" 2>&1 &
-rd=$!
-[ "$jobs" -gt 1 ] || wait "$rd"
-scripts/hevc_views.sh "$out/hevc" "$data" "$qps" -- "${run[@]}" > "$out/hevc.out" 2>&1
-wait "$rd" || { echo "rd_converged.sh: rd.sh failed (see $out/rd.out)" >&2; exit 1; }
+if [ "$sweep" = 1 ]; then
+  scripts/rd.sh "$data" "$out/rd" "${run[@]}" --lambdas "" --sizes "$sizes" --from-float "$ff" \
+    > "$out/rd.out" 2>&1 &
+  rd=$!
+  [ "$jobs" -gt 1 ] || wait "$rd"
+  scripts/hevc_views.sh "$out/hevc" "$data" "$qps" -- "${run[@]}" > "$out/hevc.out" 2>&1
+  wait "$rd" || { echo "rd_converged.sh: rd.sh failed (see $out/rd.out)" >&2; exit 1; }
+fi
 
 csv=$out/converged.csv
 echo "method,setting,bytes,test_psnr_db" > "$csv"
