@@ -102,7 +102,9 @@ wait
 
 csv=$out/rd.csv
 echo "method,setting,bytes,psnr,ssim" > "$csv"
-params=$(sed -n 's/^float model: \([0-9]*\) parameters.*/\1/p' "$out/log/q$(set -- $bits; echo $1).log")
+# float32's bytes: 4 per parameter of the model that train reports
+params=$(sed -n 's/^model: .* \([0-9]*\) parameters$/\1/p' "$out/log/float.log" | head -1)
+[ -n "$params" ] || { echo "rd.sh: no parameter count in $out/log/float.log" >&2; exit 1; }
 read -r p s <<< "$(psnr_of "$out/log/float.log")"
 echo "float32,,$((4 * params)),$p,$s" >> "$csv"
 for b in $bits; do

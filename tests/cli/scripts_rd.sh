@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# scripts/rd.sh on the shared Lego at 25x25 for a few iterations: the table's rows and their
+# bytes, with and without the uniform-quantization rows, and a second run that keeps the
+# finished points instead of training them again.
+set -euo pipefail
+cnerf=$1 data=$2 work=$3 src=$4
+rm -rf "$work" && mkdir -p "$work"
+fail() { echo "FAIL: $*" >&2; exit 1; }
+export CNERF=$cnerf
+run=(--preset tiny --downscale 16 --iters 4 --every 100 --jobs 1)
+
+# --bits "": float32 and one lambda, no quantized copies to take the parameter count from.
+bash "$src/scripts/rd.sh" "$data/lego" "$work/a" "${run[@]}" --bits "" --lambdas "1" \
+  > "$work/a.out" 2>&1 || fail "rd.sh --bits \"\" failed: $(cat "$work/a.out")"
+params=$(sed -n 's/^model: .* \([0-9]*\) parameters$/\1/p' "$work/a/log/float.log")
+[ -n "$params" ] || fail "no parameter count in the float log"
+grep -q "^float32,,$((4 * params)),[0-9.]*,[0-9.]*$" "$work/a/rd.csv" ||
+  fail "float32 row of $params parameters: $(cat "$work/a/rd.csv")"
+grep -q "^cnerf,lambda 1,$(stat -c %s "$work/a/lambda-1.cnrf"),[0-9.]*,[0-9.]*$" "$work/a/rd.csv" ||
+  fail "lambda row: $(cat "$work/a/rd.csv")"
+[ "$(wc -l < "$work/a/rd.csv")" -eq 3 ] || fail "rows: $(cat "$work/a/rd.csv")"
+
+# With a uniform row; the float model and the lambda point are kept (their logs unchanged).
+cp "$work/a/log/float.log" "$work/float.log"
+bash "$src/scripts/rd.sh" "$data/lego" "$work/a" "${run[@]}" --bits "6" --lambdas "1" \
+  > "$work/b.out" 2>&1 || fail "rd.sh --bits 6 failed: $(cat "$work/b.out")"
+cmp -s "$work/float.log" "$work/a/log/float.log" || fail "the finished float model was trained again"
+grep -q "^float32,,$((4 * params))," "$work/a/rd.csv" || fail "float32 row: $(cat "$work/a/rd.csv")"
+grep -q "^uniform,6 bits,$(stat -c %s "$work/a/q6.cnrf"),[0-9.]*,[0-9.]*$" "$work/a/rd.csv" ||
+  fail "uniform row: $(cat "$work/a/rd.csv")"
+[ "$(wc -l < "$work/a/rd.csv")" -eq 4 ] || fail "rows: $(cat "$work/a/rd.csv")"
+echo "rd.sh: $params parameters, rows and resume as expected"
