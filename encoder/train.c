@@ -273,6 +273,14 @@ double cn_trainer_pixels(const cn_trainer *t)
     return n;
 }
 
+/* Network n's occupancy grid estimated afresh from the current (materialized) model. */
+static void estimate_occupancy(cn_trainer *t, unsigned n)
+{
+    cn_rng rng = cn_rng_seed(t->opts.seed * 0x9E3779B97F4A7C15ull + (uint64_t)t->step * 2 + n);
+    t->occ_frac[n] = cn_occ_update(&t->occ[n], &t->model, n, &t->batch.nb[n], &rng, 0.95f,
+                                   cn_occ_threshold(&t->model.topo));
+}
+
 /* From occ_start on (or earlier once a grid has an estimate, as a run from a trained model's
  * has from its start), every occ_every iterations (and on the first step after a resume),
  * re-estimates each network's grid with the current model and lets the batch use it. */
@@ -286,11 +294,8 @@ static void update_occupancy(cn_trainer *t)
         return;
     const long every = o->occ_every > 0 ? o->occ_every : 1;
     for (unsigned n = 0; n < t->model.topo.n_nets; n++) {
-        if (!t->occ[n].valid || (t->step - o->occ_start) % every == 0) {
-            cn_rng rng = cn_rng_seed(o->seed * 0x9E3779B97F4A7C15ull + (uint64_t)t->step * 2 + n);
-            t->occ_frac[n] = cn_occ_update(&t->occ[n], &t->model, n, &t->batch.nb[n], &rng,
-                                           0.95f, cn_occ_threshold(&t->model.topo));
-        }
+        if (!t->occ[n].valid || (t->step - o->occ_start) % every == 0)
+            estimate_occupancy(t, n);
         t->batch.occ[n] = &t->occ[n];
     }
 }
@@ -698,11 +703,8 @@ int cn_trainer_init_from_float(cn_trainer *t, const char *path, char *err, size_
         cn_model_free(&f);
         /* The model is trained: its empty space is known now, not only from occ_start. */
         cn_model_materialize(m);
-        for (unsigned n = 0; n < m->topo.n_nets && t->occ[n].g; n++) {
-            cn_rng rng = cn_rng_seed(t->opts.seed * 0x9E3779B97F4A7C15ull + n);
-            t->occ_frac[n] = cn_occ_update(&t->occ[n], m, n, &t->batch.nb[n], &rng, 0.95f,
-                                           cn_occ_threshold(&m->topo));
-        }
+        for (unsigned n = 0; n < m->topo.n_nets && t->occ[n].g; n++)
+            estimate_occupancy(t, n); /* at step 0, as update_occupancy would */
     }
     free(data);
     return rc;
