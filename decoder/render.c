@@ -365,6 +365,18 @@ void cnerf_render_defaults(const cnerf_info *info, cnerf_render_opts *opts)
     opts->flags = 0;
 }
 
+int cnerf_net_has_color(const cnerf_info *info, unsigned net)
+{
+    if (!info || net >= info->n_nets || info->net[net].view_width == 0)
+        return 1;
+    const unsigned l = info->net[net].first_layer + info->net[net].depth + 3u; /* rgb */
+    const cnerf_layer_info *L = &info->layer[l];
+    const cnerf_shift_info *S = &info->shift[l];
+    const int zero_kernel = L->kmin == L->kmax && (L->a_m == 0 || L->kmin == 0) && L->b_m == 0;
+    const int no_shift = S->smin == S->smax && (S->g_m == 0 || S->smin == 0);
+    return !(zero_kernel && no_shift && L->bias_bits == 0);
+}
+
 /* ---- one network at one point: raw (r, g, b, sigma) in Q16 ---- */
 
 /* The trunk and the density: raw[3], and with no view branch raw[0..2] as well (one layer
@@ -699,6 +711,8 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
     if (o.n_coarse < 1u || o.n_coarse > I->n_coarse || o.n_fine > I->n_fine ||
         (o.flags & ~CNERF_RENDER_NO_SKIP))
         return CNERF_E_ARG;
+    if (I->n_nets > 1 && o.n_fine == 0 && !cnerf_net_has_color(I, 0))
+        return CNERF_E_ARG; /* the coarse network's image, of a stream without its colour */
     if (w == 0 || h == 0 || x0 >= cam->width || y0 >= cam->height || w > cam->width - x0 ||
         h > cam->height - y0)
         return CNERF_E_ARG;

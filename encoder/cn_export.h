@@ -36,6 +36,12 @@ int cn_export_quantized(const cn_model *m, unsigned bits, const char *meta, cn_e
                         char *err, size_t errlen);
 void cn_export_free(cn_export *e);
 
+/* Writes network `net`'s colour layers as zero: latents, affine offset b and biases (a stays,
+ * 0 k = 0). The stream then carries no colour for it (cnerf_net_has_color); for the coarse
+ * network of a stream with a fine one this changes no pixel of any image with fine samples,
+ * whose colour only the fine network gives. Nothing happens without a view branch. */
+void cn_export_drop_color(cn_export *e, unsigned net);
+
 /* The float reference model of a decoded stream: a compressed cn_model whose latents,
  * affine decoders and biases are the stream's numbers. */
 int cn_model_from_stream(const cnerf_decoder *dec, cn_model *m, char *err, size_t errlen);

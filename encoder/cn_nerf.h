@@ -76,7 +76,16 @@ struct cn_model {
      * group * sum over trunk layers and units u of sqrt(sum over the P rows of h_u^2), which
      * drives whole units to output 0 on every sample, so that export can remove them. */
     float group;
+    /* Networks whose colour the stream does not carry (the coarse network of a model with a
+     * fine one, whose colour no image shows): their colour layers are written as zero
+     * (cn_export_drop_color) and are left out of the rate, so that λ spends nothing on them.
+     * They still train on the coarse loss, which is what teaches the coarse density. */
+    uint8_t drop_color[CNERF_MAX_NETS];
 };
+
+/* The colour layers of network `net` (feature, view, rgb: *count layers from *first), or 0
+ * when it has none (no view branch: one output layer gives density and colour). */
+int cn_color_layers(const cnerf_info *I, unsigned net, unsigned *first, unsigned *count);
 
 /* Glorot-uniform limit of a layer's kernel, sqrt(6 / (n_in + n_out)). */
 double cn_glorot_limit(const cnerf_layer_info *L);
@@ -89,6 +98,9 @@ int cn_model_init(cn_model *m, const cnerf_info *hdr, uint64_t seed, char *err, 
 int cn_model_init_compressed(cn_model *m, const cnerf_info *hdr, uint64_t seed, double levels,
                              char *err, size_t errlen);
 void cn_model_free(cn_model *m);
+
+/* Latents the stream carries: all but the dropped colour layers' (drop_color). */
+size_t cn_model_sent_latents(const cn_model *m);
 
 /* The kernel that the forward pass uses for layer l. Every linear kernel is read through
  * here, so the reparameterization (latents -> integer -> affine decoder) sits in one place. */

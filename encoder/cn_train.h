@@ -68,6 +68,15 @@ typedef struct cn_train_opts {
      * sum over units of their L2 norm over all training samples, estimated from the batch
      * as sqrt(pixels / rays) times the batch's norm. 0 (the default) is off. */
     double group;
+    /* 0: a compressed model with a fine network does not send the coarse network's colour
+     * (cn_model.drop_color); 1 (the default here; cnerf encode's default is 0) sends it,
+     * which lets a receiver render the coarse network's image alone. */
+    int coarse_color;
+    /* Weight of the coarse network's squared error in the objective (1, the default here, as
+     * NeRF; cnerf encode's is 0.1 when the coarse colour is not sent). The coarse colour is
+     * never shown when there is a fine network: below 1 the rate penalty spends less on the
+     * coarse network, whose density only places the fine samples. */
+    double coarse_weight;
 } cn_train_opts;
 
 /* 1024 rays, 5e-3 decaying tenfold over the run (NeRF: 5e-4 over 500k steps), preset

@@ -120,6 +120,9 @@ int cn_export_compressed(const cn_model *m, const char *meta, cn_export *e, char
         S->pmf_kmin = kmin;
         S->pmf_n = na;
     }
+    for (unsigned n = 0; n < m->topo.n_nets; n++)
+        if (m->drop_color[n])
+            cn_export_drop_color(e, n);
     return 0;
 }
 
@@ -157,6 +160,28 @@ int cn_export_quantized(const cn_model *m, unsigned bits, const char *meta, cn_e
         }
     }
     return 0;
+}
+
+void cn_export_drop_color(cn_export *e, unsigned net)
+{
+    unsigned first, count;
+    if (!cn_color_layers(&e->src.hdr, net, &first, &count))
+        return;
+    for (unsigned l = first; l < first + count; l++) {
+        const cnerf_layer_info *L = &e->src.hdr.layer[l];
+        cn_layer_src *S = &e->src.layer[l];
+        memset(e->k[l], 0, sizeof(int32_t) * L->n_in * L->n_out);
+        memset(e->bias[l], 0, sizeof(int32_t) * L->n_out);
+        S->b_m = 0;
+        S->b_e = 0;
+        S->bias_bits = 0;
+        S->bias_e = 0;
+        if (e->pmf[l]) { /* one symbol, 0: the layer is constant */
+            e->pmf[l][0] = 1.0;
+            S->pmf_kmin = 0;
+            S->pmf_n = 1;
+        }
+    }
 }
 
 void cn_export_free(cn_export *e)

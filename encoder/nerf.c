@@ -351,6 +351,33 @@ static size_t max_kernel(const cn_model *m)
     return max;
 }
 
+int cn_color_layers(const cnerf_info *I, unsigned net, unsigned *first, unsigned *count)
+{
+    if (net >= I->n_nets || I->net[net].view_width == 0)
+        return 0;
+    *first = I->net[net].first_layer + I->net[net].depth + 1u; /* feature, view, rgb */
+    *count = 3;
+    return 1;
+}
+
+/* 1 when layer l is written as zero (a colour layer of a network in drop_color). */
+static int dropped(const cn_model *m, unsigned l)
+{
+    const unsigned net = m->topo.layer[l].net;
+    unsigned first, count;
+    return m->drop_color[net] && cn_color_layers(&m->topo, net, &first, &count) &&
+           l >= first && l < first + count;
+}
+
+size_t cn_model_sent_latents(const cn_model *m)
+{
+    size_t n = 0;
+    for (unsigned l = 0; l < m->topo.n_layers; l++)
+        if (!dropped(m, l))
+            n += (size_t)m->topo.layer[l].n_in * m->topo.layer[l].n_out;
+    return n;
+}
+
 double cn_model_rate(cn_model *m, uint64_t seed, float scale)
 {
     if (!m->compressed)
@@ -361,6 +388,8 @@ double cn_model_rate(cn_model *m, uint64_t seed, float scale)
         return NAN;
     double bits = 0;
     for (unsigned l = 0; l < m->topo.n_layers; l++) {
+        if (dropped(m, l))
+            continue;
         const size_t n = (size_t)m->topo.layer[l].n_in * m->topo.layer[l].n_out;
         const float *phi = m->params + m->layer[l].w;
         cn_rng r = cn_rng_seed(seed * 0x9E3779B97F4A7C15ull + l);
@@ -385,6 +414,11 @@ double cn_model_latent_bits(const cn_model *m, double *per_layer)
         return NAN;
     double bits = 0;
     for (unsigned l = 0; l < m->topo.n_layers; l++) {
+        if (dropped(m, l)) {
+            if (per_layer)
+                per_layer[l] = 0;
+            continue;
+        }
         const size_t n = (size_t)m->topo.layer[l].n_in * m->topo.layer[l].n_out;
         for (size_t i = 0; i < n; i++)
             k[i] = (float)cn_model_latent(m, l, i);

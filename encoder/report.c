@@ -113,7 +113,8 @@ void cn_print_info(FILE *f, const char *name, const uint8_t *buf, const cnerf_in
             fprintf(f, ", view branch width %u", N->view_width);
         else
             fprintf(f, ", no view branch");
-        fprintf(f, ", %u linear layers\n", N->n_layers);
+        fprintf(f, ", %u linear layers%s\n", N->n_layers,
+                cnerf_net_has_color(I, n) ? "" : "; no colour (density only)");
     }
     if (I->unit_bytes) {
         fprintf(f, "units per layer (UNIT chunk, %" PRIu32 " bytes):", I->unit_bytes);

@@ -39,6 +39,8 @@ void cn_train_defaults(cn_train_opts *o)
     o->lr_prior = 5e-3;
     o->lr_affine = 5e-4;
     o->random_bg = -1;
+    o->coarse_color = 1;
+    o->coarse_weight = 1;
 }
 
 static int32_t q16(double v) { return (int32_t)lround(v * 65536.0); }
@@ -143,6 +145,7 @@ int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o,
     if (o->compress ? cn_model_init_compressed(&t->model, &hdr, o->seed, o->levels, err, errlen)
                     : cn_model_init(&t->model, &hdr, o->seed, err, errlen))
         return -1;
+    t->model.drop_color[0] = o->compress && !o->coarse_color && hdr.n_nets > 1;
     const size_t R = (size_t)o->batch;
     t->gt = malloc(sizeof(float) * R * 3);
     t->dcolor[0] = malloc(sizeof(float) * R * 3);
@@ -397,7 +400,9 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
     const float scale = m->compressed ? (float)(2.0 * cn_trainer_pixels(t) / (double)R)
                                       : 2.0f / (float)(3 * R);
     for (unsigned n = 0; n < nets; n++) {
-        mse = cn_sq_error(t->dcolor[n], t->batch.color[n], t->gt, 3 * R, scale) / (double)(3 * R);
+        const float w = n == 0 && nets > 1 ? (float)t->opts.coarse_weight : 1.0f;
+        mse = cn_sq_error(t->dcolor[n], t->batch.color[n], t->gt, 3 * R, scale * w) /
+              (double)(3 * R);
         loss += mse;
     }
     cn_render_backward(m, &t->batch, R, t->dcolor);

@@ -51,11 +51,15 @@ if [ -z "$settings" ]; then
   h=$((NF / 2)) q=$((NF / 4)) c=$((NC / 2))
   settings="$NC $NF 0; $NC $NF 0.000244140625; $NC $NF 0.0009765625; $NC $NF 0.00390625;"
   settings+=" $NC $NF 0.015625; $NC $h 0.000244140625; $NC $q 0.000244140625;"
-  settings+=" $c $h 0.000244140625; $NC 0 0.000244140625; $c 0 0.000244140625"
+  settings+=" $c $h 0.000244140625"
+  # the coarse network's image alone, when the stream carries its colour
+  coarse_color=1
+  grep -q "^network 0 (coarse):.*no colour" <<< "$(./build/cnerf info "$stream")" && coarse_color=0
+  [ $coarse_color -eq 1 ] && settings+="; $NC 0 0.000244140625; $c 0 0.000244140625"
   # a stream with an occupancy grid: the main settings again without it
   if grep -q "^occupancy grid: [0-9]" <<< "$(./build/cnerf info "$stream")"; then
-    settings+="; $NC $NF 0.000244140625 noskip; $NC $h 0.000244140625 noskip;"
-    settings+=" $NC 0 0.000244140625 noskip"
+    settings+="; $NC $NF 0.000244140625 noskip; $NC $h 0.000244140625 noskip"
+    [ $coarse_color -eq 1 ] && settings+="; $NC 0 0.000244140625 noskip"
   fi
 fi
 

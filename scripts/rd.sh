@@ -71,7 +71,7 @@ run_float() {
   fi
   for b in $bits; do
     if done_run "$out/q$b.cnrf" "$out/log/q$b.log"; then continue; fi
-    $cnerf quantize "$out/float.ckpt" -o "$out/q$b.cnrf" --bits "$b" > "$out/log/q$b.log" 2>&1
+    $cnerf quantize "$out/float.ckpt" -o "$out/q$b.cnrf" --bits "$b" --coarse-color off > "$out/log/q$b.log" 2>&1
     $cnerf eval "$out/q$b.cnrf" "$data" --downscale "$downscale" --every "$every" \
       --threads "$threads" >> "$out/log/q$b.log" 2>&1
   done

@@ -14,7 +14,8 @@ import sys
 
 ENTRIES = ["cnerf_peek", "cnerf_open", "cnerf_workspace_size", "cnerf_expand_topology",
            "cnerf_latent", "cnerf_crc32", "cnerf_status_str",
-           "cnerf_render_scratch_size", "cnerf_render_defaults", "cnerf_render_tile"]
+           "cnerf_render_scratch_size", "cnerf_render_defaults", "cnerf_render_tile",
+           "cnerf_net_has_color"]
 
 
 def load(build_dir):

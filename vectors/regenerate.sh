@@ -85,11 +85,11 @@ vector() {
 CAMS="--dataset $data/lego --downscale 8 --every 100"
 vector 001-lego-encode-tiny "a real 360-degree scene from cnerf encode (Blender Lego, 50x50; no grid)" \
   $cnerf encode "$data/lego" -o "$tmp/s.cnrf" --lambda 1e-3 --preset tiny --downscale 8 \
-  --iters 200 --seed $seed --threads 2 --every 100 --grid 0 --prune off
+  --iters 200 --seed $seed --threads 2 --every 100 --grid 0 --prune off --coarse-color on
 CAMS="--dataset $data/fern --downscale 8 --every 2"
 vector 002-fern-encode-tiny-ndc "a real forward-facing scene in NDC from cnerf encode (LLFF Fern, 63x47; no grid)" \
   $cnerf encode "$data/fern" -o "$tmp/s.cnrf" --lambda 1e-3 --preset tiny --downscale 8 \
-  --iters 200 --seed $seed --threads 2 --every 100 --grid 0 --prune off
+  --iters 200 --seed $seed --threads 2 --every 100 --grid 0 --prune off --coarse-color on
 
 # Features of the format, on random models (cnerf synth).
 CAMS="--orbit 2 --size 24"
@@ -126,7 +126,7 @@ vector 012-unknown-ancillary-chunk "an unknown ancillary chunk (skipped)" \
 CAMS="--dataset $data/lego --downscale 8 --every 100"
 vector 013-lego-encode-grid "a real scene's occupancy grid from cnerf encode (Lego, 50x50, lambda 3, 1000 iterations, 32^3 cells by --grid 32)" \
   $cnerf encode "$data/lego" -o "$tmp/s.cnrf" --lambda 3 --preset tiny --downscale 8 \
-  --iters 1000 --seed $seed --threads 2 --every 100 --grid 32 --prune off
+  --iters 1000 --seed $seed --threads 2 --every 100 --grid 32 --prune off --coarse-color on
 CAMS="--orbit 2 --size 24"
 vector 014-grid-16-ball "a 16^3 grid: a ball of occupied cells in a fog" \
   $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --grid 16
@@ -143,7 +143,7 @@ vector 019-grid-ndc "a grid in NDC space (forward-facing)" \
 CAMS="--dataset $data/lego --downscale 8 --every 100"
 vector 020-lego-encode-pruned "dead units removed by cnerf encode, with the automatic grid (Lego, 50x50, lambda 3, 1000 iterations)" \
   $cnerf encode "$data/lego" -o "$tmp/s.cnrf" --lambda 3 --preset tiny --downscale 8 \
-  --iters 1000 --seed $seed --threads 2 --every 100
+  --iters 1000 --seed $seed --threads 2 --every 100 --coarse-color on
 CAMS="--orbit 2 --size 24"
 vector 021-units "layers narrower than the width: trunk 20, 7 (into the skip), 32, 64 and a view layer of 5"  \
   $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --units 20,7,32,64:5
@@ -170,7 +170,7 @@ vector 027-contract "a contracted scene (format 2.2): the inner half of the boun
 CAMS="--dataset $data/lego --downscale 8 --every 100"
 vector 028-lego-encode-contract "a real scene encoded contracted (Lego, 50x50, lambda 3, 300 iterations, --background contract)" \
   $cnerf encode "$data/lego" -o "$tmp/s.cnrf" --lambda 3 --preset tiny --downscale 8 \
-  --iters 300 --seed $seed --threads 2 --every 100 --background contract
+  --iters 300 --seed $seed --threads 2 --every 100 --background contract --coarse-color on
 
 # The table of docs/conformance.md, between its markers.
 python3 - <<'PY'

@@ -245,7 +245,8 @@ typedef struct cnerf_camera {
 /* Speed-versus-error knobs; cnerf_render_defaults gives the quality setting. */
 typedef struct cnerf_render_opts {
     uint16_t n_coarse; /* 1 .. the stream's n_coarse */
-    uint16_t n_fine;   /* 0 .. the stream's n_fine; 0 renders the coarse network's image */
+    uint16_t n_fine;   /* 0 .. the stream's n_fine; 0 renders the coarse network's image
+                          (when it carries colour: cnerf_net_has_color) */
     uint32_t t_stop;   /* early ray termination: stop a ray once its transmittance is below
                           t_stop / 2^30 (the rest of the ray shows the background); 0 = never */
     uint32_t flags;    /* CNERF_RENDER_* */
@@ -268,6 +269,13 @@ typedef struct cnerf_render_stats {
 
 /* The stream's sample counts and t_stop = 2^30 / 4096 (an error below 1/4096 per channel). */
 void cnerf_render_defaults(const cnerf_info *info, cnerf_render_opts *opts);
+
+/* 1 when network `net` gives colour, 0 when it carries none: its rgb layer's kernel and
+ * biases are all zero (kmin = kmax, a kmin + b = 0, no biases, no shift; docs/bitstream.md
+ * §5). An encoder writes the coarse network's colour so when the fine network shows every
+ * pixel; cnerf_render_tile then refuses n_fine = 0 (CNERF_E_ARG). A network without a view
+ * branch always gives colour (its one output layer gives density too). */
+int cnerf_net_has_color(const cnerf_info *info, unsigned net);
 
 /* Caller scratch bytes that cnerf_render_tile needs for this stream with any options
  * (8-byte aligned, like the workspace). */

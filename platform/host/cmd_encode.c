@@ -33,7 +33,7 @@
     "       [--eval-every N] [--prior-lr X] [--affine-lr X]\n"   \
     "       [--skip-saturated EPS] [--grid G|0] [--grid-verbose] [--random-bg auto|on|off]\n" \
     "       [--background constant|contract]\n"                                               \
-    "       [--prune on|off] [--group-penalty MU]"
+    "       [--prune on|off] [--group-penalty MU] [--coarse-color off|on] [--coarse-weight W]"
 
 /* --size and --bits-per-param: the file may miss its target by this fraction. */
 #define CLI_SIZE_TOLERANCE 0.03
@@ -108,6 +108,8 @@ int cmd_encode(int argc, char **argv)
     o.compress = 1;
     const char *out = NULL, *resume = NULL, *init = NULL, *pos[CNERF_MAX_SCENES], *latent_lr = "weight";
     const char *random_bg = "auto", *background = "constant", *prune = "on";
+    const char *coarse_color = "off";
+    double coarse_weight = -1;
     long iters = o.iters, downscale = 1, max_size = 0, threads = 0, batch = o.batch, every = 1;
     long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 0, log_every = 100;
     double ckpt_secs = CLI_CKPT_SECS;
@@ -155,6 +157,8 @@ int cmd_encode(int argc, char **argv)
         {"--random-bg", CLI_STR, &random_bg, 0, 0},
         {"--background", CLI_STR, &background, 0, 0},
         {"--prune", CLI_STR, &prune, 0, 0},
+        {"--coarse-color", CLI_STR, &coarse_color, 0, 0},
+        {"--coarse-weight", CLI_DOUBLE, &coarse_weight, 1e-3, 10},
         {"--shift-lr", CLI_DOUBLE, &lr_shift, 0, 1},
     };
     if (cli_parse("encode", ENCODE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos,
@@ -218,6 +222,15 @@ int cmd_encode(int argc, char **argv)
     if (strcmp(prune, "on") && strcmp(prune, "off"))
         return cli_usage("encode", "--prune takes on (remove dead units) or off, not '%s'",
                         prune);
+    if (strcmp(coarse_color, "on") && strcmp(coarse_color, "off"))
+        return cli_usage("encode", "--coarse-color takes off (the default: the fine network "
+                         "gives every pixel's colour, so the coarse one's is not sent) or on "
+                         "(sent, for renders with --fine 0), not '%s'", coarse_color);
+    o.coarse_color = !strcmp(coarse_color, "on");
+    /* The coarse image is not shown: its error only has to teach the coarse density, and a
+     * tenth of the fine error's weight leaves the rate for the fine network (measured in
+     * docs/results.md, "At convergence"). */
+    o.coarse_weight = coarse_weight > 0 ? coarse_weight : o.coarse_color ? 1.0 : 0.1;
     if (iters == 0 && !resume)
         return cli_usage("encode", "--iters 0 trains nothing: give at least 1, or --resume a "
                          "checkpoint");
@@ -278,18 +291,19 @@ int cmd_encode(int argc, char **argv)
             return cli_fail("encode", "%s", err);
         }
         /* The smallest sensible file: the topology's floor and a tenth of a bit per latent
-         * (docs/results.md: below that the models lose several dB). */
-        const double least = (double)floor_bytes + 0.1 * latents / 8 + 300;
+         * sent (docs/results.md: below that the models lose several dB). */
+        const double sent = (double)cn_model_sent_latents(&t.model);
+        const double least = (double)floor_bytes + 0.1 * sent / 8 + 300;
         if (target < least) {
             cn_trainer_free(&t);
             cn_dataset_free(&ds);
             cli_unlock_output(lk, lock);
             return cli_fail("encode", "a %.0f-byte file is too small for preset %s on this "
                             "scene: its headers, affine decoders and biases alone take %zu "
-                            "bytes, and below about %.0f bytes (0.1 bit per latent for its "
-                            "%.0f latents, and a grid) the model collapses; ask for at least "
+                            "bytes, and below about %.0f bytes (0.1 bit per latent for the "
+                            "%.0f latents it sends, and a grid) the model collapses; ask for at least "
                             "%.0f bytes, or a smaller preset", target, o.preset, floor_bytes,
-                            least, latents, least);
+                            least, sent, least);
         }
         char meta0[1024];
         const int mlen = snprintf(meta0, sizeof meta0,
@@ -346,10 +360,11 @@ int cmd_encode(int argc, char **argv)
         snprintf(sizebuf, sizeof sizebuf, "quality=%g; ", quality);
     snprintf(meta, sizeof meta,
              "encoder=cnerf %s; command=encode; dataset=%s; preset=%s; iters=%ld; %slambda=%g; "
-             "downscale=%ld; seed=%llu; levels=%g; latent-lr=%s%s%s",
+             "downscale=%ld; seed=%llu; levels=%g; latent-lr=%s; coarse-color=%s; "
+             "coarse-weight=%g%s%s",
              CNERF_VERSION_STRING, pos[0], o.preset, t.step, sizebuf, t.opts.lambda,
-             (long)ds.downscale,
-             (unsigned long long)seed, levels, latent_lr, init ? "; init=" : "", init ? init : "");
+             (long)ds.downscale, (unsigned long long)seed, levels, latent_lr, coarse_color,
+             o.coarse_weight, init ? "; init=" : "", init ? init : "");
     if (rc == 0 && (cn_model_snap(&t.model, err, sizeof err) ||
                     cn_export_compressed(&t.model, meta, &e, err, sizeof err)))
         rc = cli_fail("encode", "%s", err);

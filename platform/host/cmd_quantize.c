@@ -11,22 +11,29 @@
 #include "cn_stream.h"
 #include "cn_train.h"
 
-#define QUANTIZE_USAGE "usage: cnerf quantize model.ckpt -o scene.cnrf [--bits B]"
+#define QUANTIZE_USAGE                                                                        \
+    "usage: cnerf quantize model.ckpt -o scene.cnrf [--bits B] [--coarse-color on|off]"
 
 int cmd_quantize(int argc, char **argv)
 {
     const char *out = NULL, *pos[1];
     long bits = 8;
+    const char *coarse_color = "on";
     int n_pos;
     const cli_opt opts[] = {
         {"-o", CLI_STR, &out, 0, 0},
         {"--bits", CLI_LONG, &bits, 2, 16},
+        {"--coarse-color", CLI_STR, &coarse_color, 0, 0},
     };
     if (cli_parse("quantize", QUANTIZE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos,
                   1, &n_pos))
         return 2;
     if (n_pos != 1 || !out)
         return cli_usage("quantize", "need a checkpoint and -o FILE\n%s", QUANTIZE_USAGE);
+    if (strcmp(coarse_color, "on") && strcmp(coarse_color, "off"))
+        return cli_usage("quantize", "--coarse-color takes on (the default: the coarse "
+                         "network's colour is sent) or off (not sent, as cnerf encode's "
+                         "default), not '%s'", coarse_color);
     if (cli_check_output("quantize", out, pos, 1, NULL))
         return 1;
     char err[1024];
@@ -40,14 +47,16 @@ int cmd_quantize(int argc, char **argv)
                       pos[0]);
     char meta[1024];
     snprintf(meta, sizeof meta,
-             "encoder=cnerf %s; command=quantize; checkpoint=%s; iters=%ld; bits=%ld",
-             CNERF_VERSION_STRING, pos[0], step, bits);
+             "encoder=cnerf %s; command=quantize; checkpoint=%s; iters=%ld; bits=%ld; "
+             "coarse-color=%s", CNERF_VERSION_STRING, pos[0], step, bits, coarse_color);
     cn_export e;
     cn_buf b = {0};
     cn_write_report rep;
     if (rc == 0 && cn_export_quantized(&m, (unsigned)bits, meta, &e, err, sizeof err))
         rc = cli_fail("quantize", "%s", err);
     else if (rc == 0) {
+        if (!strcmp(coarse_color, "off") && m.topo.n_nets > 1)
+            cn_export_drop_color(&e, 0);
         if (cn_choose_scales(&e.src, 1, NULL, err, sizeof err) ||
             cn_write_stream(&e.src, &b, &rep, err, sizeof err) ||
             cn_write_file_atomic(out, b.p, b.n, err, sizeof err))

@@ -217,7 +217,11 @@ int cmd_render(int argc, char **argv)
     }
     cnerf_render_stats stats = {0, 0, 0, 0};
     int rc = 0;
-    if (cfg.opts.n_coarse > I->n_coarse || cfg.opts.n_fine > I->n_fine)
+    if (rc == 0 && I->n_nets > 1 && cfg.opts.n_fine == 0 && !cnerf_net_has_color(I, 0))
+        rc = cli_fail("render", "%s does not carry the coarse network's colour (encoded with "
+                      "--coarse-color off, the default): --fine 0 has no image to show; give "
+                      "--fine 1 or more, or encode with --coarse-color on", pos[0]);
+    else if (cfg.opts.n_coarse > I->n_coarse || cfg.opts.n_fine > I->n_fine)
         rc = cli_fail("render", "%s has %u coarse and %u fine samples: --coarse %u --fine %u "
                       "asks for more", pos[0], I->n_coarse, I->n_fine, cfg.opts.n_coarse,
                       cfg.opts.n_fine);

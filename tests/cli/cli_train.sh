@@ -111,6 +111,42 @@ grep -q "^network evaluations per ray: \([0-9.]*\) (\1 without skipping; --no-sk
   || fail "render --no-skip: $out"
 info=$("$cnerf" info "$work/s.cnrf")
 grep -q "format version 2.0" <<<"$info" || fail "a stream without a grid is 2.0 too: $info"
+# --coarse-color: off (the default) sends no colour for the coarse network, so its image
+# alone (--fine 0) is refused with a reason; on sends it and renders that image.
+grep -q "^network 0 (coarse): .*; no colour (density only)$" <<<"$info" \
+  || fail "info: the coarse network's colour is not sent by default: $info"
+grep -q "^network 1 (fine): .*linear layers$" <<<"$info" || fail "info: the fine network: $info"
+set +e
+msg=$("$cnerf" render "$work/s.cnrf" --dataset "$data/lego" --downscale 16 --every 100 --fine 0 2>&1)
+rc=$?
+[ $rc = 1 ] && grep -q "does not carry the coarse network's colour (encoded with --coarse-color off" \
+  <<<"$msg" || fail "render --fine 0 of a stream without the coarse colour: $rc $msg"
+msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --coarse-color maybe 2>&1); rc=$?
+[ $rc = 2 ] && grep -q -- "--coarse-color takes off (the default" <<<"$msg" \
+  || fail "--coarse-color maybe: $rc $msg"
+[ ! -e "$work/z.cnrf" ] || fail "--coarse-color maybe wrote a file"
+set -e
+out=$("$cnerf" encode "$data/lego" -o "$work/cc.cnrf" --lambda 1e-3 --iters 3 --every 100 \
+  --coarse-color on "${common[@]}")
+! grep -q "no colour" <<<"$("$cnerf" info "$work/cc.cnrf")" || fail "info: --coarse-color on"
+out=$("$cnerf" render "$work/cc.cnrf" --dataset "$data/lego" --downscale 16 --every 100 --fine 0)
+grep -q "mean over 2 views (fixed point, 8+0 samples" <<<"$out" || fail "render --fine 0: $out"
+[ "$(stat -c %s "$work/cc.cnrf")" -gt "$(stat -c %s "$work/s.cnrf")" ] \
+  || fail "--coarse-color on is not larger than off"
+# quantize sends the coarse colour unless --coarse-color off; without it every image with
+# fine samples is the same bits, and the file is smaller.
+"$cnerf" quantize "$work/m.ckpt" -o "$work/q1.cnrf" --bits 6 > /dev/null
+"$cnerf" quantize "$work/m.ckpt" -o "$work/q0.cnrf" --bits 6 --coarse-color off > /dev/null
+! grep -q "no colour" <<<"$("$cnerf" info "$work/q1.cnrf")" || fail "quantize: coarse colour"
+grep -q "no colour" <<<"$("$cnerf" info "$work/q0.cnrf")" || fail "quantize --coarse-color off"
+[ "$(stat -c %s "$work/q0.cnrf")" -lt "$(stat -c %s "$work/q1.cnrf")" ] \
+  || fail "quantize --coarse-color off is not smaller"
+for q in q0 q1; do
+  out=$("$cnerf" render "$work/$q.cnrf" --dataset "$data/lego" --downscale 16 --every 100)
+  sed -n 's/^md5 of all frames: //p' <<<"$out" > "$work/$q.md5"
+done
+[ -s "$work/q0.md5" ] && cmp -s "$work/q0.md5" "$work/q1.md5" \
+  || fail "quantize --coarse-color off changed the images"
 set +e
 msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --grid 12 2>&1); rc=$?
 [ $rc = 2 ] && grep -q "\-\-grid takes 16, 32, 64 or 128" <<<"$msg" || fail "--grid 12: $rc $msg"

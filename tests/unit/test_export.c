@@ -347,6 +347,83 @@ static void test_rate_estimate_matches_payload(void **state)
     cn_model_free(&m);
 }
 
+/* --coarse-color off: the coarse network's colour layers go into the stream as zero. No
+ * image with fine samples changes (the fine network gives every colour), the file shrinks,
+ * the decoder says the coarse network carries no colour and refuses its image alone, and
+ * the rate leaves those layers out (no estimate, no gradient on their latents). */
+static void test_drop_coarse_color(void **state)
+{
+    (void)state;
+    cn_model m;
+    small_model(&m, 1);
+    char err[256];
+    assert_int_equal(cn_model_snap(&m, err, sizeof err), 0);
+    unsigned first, count;
+    assert_int_equal(cn_color_layers(&m.topo, 0, &first, &count), 1);
+    assert_int_equal(m.topo.layer[first].role, CNERF_ROLE_FEATURE);
+    assert_int_equal(m.topo.layer[first + 2].role, CNERF_ROLE_RGB);
+    cn_export e[2];
+    cn_buf b[2];
+    cnerf_decoder *dec[2];
+    void *ws[2];
+    cn_write_report rep;
+    uint8_t img[2][12 * 12 * 3];
+    double est[2], per[2][CNERF_MAX_LAYERS];
+    for (int d = 0; d < 2; d++) {
+        m.drop_color[0] = (uint8_t)d;
+        est[d] = cn_model_latent_bits(&m, per[d]);
+        assert_int_equal(cn_export_compressed(&m, NULL, &e[d], err, sizeof err), 0);
+        dec[d] = malloc(sizeof *dec[d]);
+        write_and_open(&e[d], &b[d], dec[d], &ws[d], &rep);
+        assert_int_equal(cnerf_net_has_color(&dec[d]->info, 0), !d);
+        assert_int_equal(cnerf_net_has_color(&dec[d]->info, 1), 1);
+        decode_view(dec[d], img[d]);
+    }
+    assert_memory_equal(img[0], img[1], sizeof img[0]);
+    print_message("stream with the coarse colour %zu bytes, without %zu\n", b[0].n, b[1].n);
+    assert_true(b[1].n < b[0].n);
+    for (unsigned l = 0; l < m.topo.n_layers; l++) {
+        const int colour = l >= first && l < first + count;
+        assert_true(colour ? per[1][l] == 0 && per[0][l] > 0 : per[1][l] == per[0][l]);
+        assert_int_equal(dec[1]->info.layer[l].kmin == dec[1]->info.layer[l].kmax, colour ||
+                         dec[0]->info.layer[l].kmin == dec[0]->info.layer[l].kmax);
+    }
+    assert_true(est[1] < est[0]);
+    /* The coarse network's image alone: refused without its colour, rendered with it. */
+    cn_camera cam = {{{1, 0, 0, 0.05}, {0, 1, 0, -0.03}, {0, 0, 1, 4}}, 10, 10, 6, 6, 12, 12};
+    cnerf_camera fc;
+    assert_int_equal(cnerf_camera_from_float(&cam, &fc, err, sizeof err), 0);
+    const size_t n = cnerf_render_scratch_size(&dec[0]->info);
+    void *scratch = aligned_alloc(8, (n + 7) & ~(size_t)7);
+    assert_non_null(scratch);
+    for (int d = 0; d < 2; d++) {
+        cnerf_render_opts o;
+        cnerf_render_defaults(&dec[d]->info, &o);
+        o.n_fine = 0;
+        assert_int_equal(cnerf_render_tile(dec[d], &fc, &o, 0, 0, 12, 12, img[d], 36, scratch, n),
+                         d ? CNERF_E_ARG : CNERF_OK);
+    }
+    free(scratch);
+    /* No rate gradient reaches the dropped layers' latents; the others get theirs. */
+    memset(m.grads, 0, sizeof(float) * m.n_params);
+    m.drop_color[0] = 1;
+    cn_model_rate(&m, 7, 1.0f);
+    for (unsigned l = 0; l < m.topo.n_layers; l++) {
+        const size_t k = (size_t)m.topo.layer[l].n_in * m.topo.layer[l].n_out;
+        double g = 0;
+        for (size_t i = 0; i < k; i++)
+            g += fabs(m.grads[m.layer[l].w + i]);
+        assert_true(l >= first && l < first + count ? g == 0 : g > 0);
+    }
+    for (int d = 0; d < 2; d++) {
+        cn_export_free(&e[d]);
+        cn_buf_free(&b[d]);
+        free(ws[d]);
+        free(dec[d]);
+    }
+    cn_model_free(&m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -355,6 +432,7 @@ int main(void)
         cmocka_unit_test(test_quantized_baseline),
         cmocka_unit_test(test_prior_tables),
         cmocka_unit_test(test_rate_estimate_matches_payload),
+        cmocka_unit_test(test_drop_coarse_color),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
