@@ -301,9 +301,9 @@ int cmd_encode(int argc, char **argv)
             return cli_fail("encode", "a %.0f-byte file is too small for preset %s on this "
                             "scene: its headers, affine decoders and biases alone take %zu "
                             "bytes, and below about %.0f bytes (0.1 bit per latent for the "
-                            "%.0f latents it sends, and a grid) the model collapses; ask for at least "
-                            "%.0f bytes, or a smaller preset", target, o.preset, floor_bytes,
-                            least, sent, least);
+                            "%.0f latents it sends, and a grid) the model collapses; ask for "
+                            "at least %.0f bytes, or a smaller preset", target, o.preset,
+                            floor_bytes, least, sent, least);
         }
         char meta0[1024];
         const int mlen = snprintf(meta0, sizeof meta0,
