@@ -29,6 +29,7 @@ static void layer_bounds(const cnerf_layer_info *L, const cn_layer_src *S, const
     for (unsigned o = 0; o < L->n_out; o++) {
         const int32_t *k = S->k + (size_t)o * L->n_in;
         double slo = 0, shi = 0, mag = 0, spread = 0;
+        int zero = 1; /* every coefficient exactly 0 */
         for (unsigned i = 0; i < L->n_in; i++) {
             const double xl = fmin(lo[i], fmin(fmax(lo[i], qmin), qmax) - step / 2);
             const double xh = fmax(hi[i], fmin(fmax(hi[i], qmin), qmax) + step / 2);
@@ -37,9 +38,12 @@ static void layer_bounds(const cnerf_layer_info *L, const cn_layer_src *S, const
             shi += fmax(p, q);
             mag += fmax(fabs(p), fabs(q));
             spread += fabs(c) * (hi[i] - lo[i]); /* constant inputs give constant x_q */
+            zero &= c == 0;
         }
         const double bias = bias_of(S, o);
-        const double margin = 4 * ULP + (L->n_in + 4.0) * 0x1p-22 * (mag + fabs(bias));
+        /* A row of zeros with no bias sums to exactly 0 in both renderers: no rounding. */
+        const double margin = zero && bias == 0 ? 0
+                              : 4 * ULP + (L->n_in + 4.0) * 0x1p-22 * (mag + fabs(bias));
         double vlo = slo + bias - margin, vhi = shi + bias + margin;
         vlo = fmax(vlo, -32768.0); /* the decoder clamps to int32 Q16 */
         vhi = fmin(vhi, 32768.0);

@@ -389,6 +389,24 @@ static void test_drop_coarse_color(void **state)
                          dec[0]->info.layer[l].kmin == dec[0]->info.layer[l].kmax);
     }
     assert_true(est[1] < est[0]);
+    /* Pruning removes the zero view units but one (their rows are exactly 0), and the
+     * decoder's image stays the same bits. */
+    cn_prune_report pr;
+    assert_int_equal(cn_export_prune(&e[1], &pr, err, sizeof err), 0);
+    assert_int_equal(e[1].src.hdr.net[0].view_units, 1);
+    assert_int_equal(e[1].src.hdr.net[1].view_units, m.topo.net[1].view_width);
+    {
+        cn_buf pb;
+        cnerf_decoder *pd = malloc(sizeof *pd);
+        void *pws;
+        uint8_t pimg[12 * 12 * 3];
+        write_and_open(&e[1], &pb, pd, &pws, &rep);
+        decode_view(pd, pimg);
+        assert_memory_equal(img[0], pimg, sizeof pimg);
+        cn_buf_free(&pb);
+        free(pws);
+        free(pd);
+    }
     /* The coarse network's image alone: refused without its colour, rendered with it. */
     cn_camera cam = {{{1, 0, 0, 0.05}, {0, 1, 0, -0.03}, {0, 0, 1, 4}}, 10, 10, 6, 6, 12, 12};
     cnerf_camera fc;
