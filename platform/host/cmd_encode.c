@@ -25,7 +25,7 @@
     "       cnerf encode DATASET1 DATASET2 ... -o set.cnrf (--lambda L | --quality Q)\n"   \
     "       (--lambda L | --quality Q | --size BYTES | --bits-per-param X)\n"               \
     "       [--preset tiny|small|paper|auto (the default with --size; else small)]\n"        \
-    "       [--rate-control dual|pi] [--lr X] [--lr-decay N]\n"                              \
+    "       [--rate-control dual|pi] [--lr X] [--lr-decay N] [--precrop-iters N]\n"          \
     "       [--iters N] [--downscale F|--max-size N] [--threads T] [--seed S] [--resume CKPT]\n"          \
     "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N | --ckpt-secs S]\n" \
     "       [--log-every N] [--depth D] [--width W] [--coarse N] [--fine N]\n"                \
@@ -113,7 +113,7 @@ int cmd_encode(int argc, char **argv)
     long iters = o.iters, downscale = 1, max_size = 0, threads = 0, batch = o.batch, every = 1;
     long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 0, log_every = 100;
     double ckpt_secs = CLI_CKPT_SECS;
-    long eval_every = 0, grid_g = -1;
+    long eval_every = 0, grid_g = -1, precrop = -1;
     double lambda = -1, levels = o.levels, size = 0, bpp = 0, quality = -1, lr_shift = -1;
     const char *scheme = "dual", *preset = NULL;
     uint64_t seed = o.seed;
@@ -148,6 +148,7 @@ int cmd_encode(int argc, char **argv)
         {"--latent-lr", CLI_STR, &latent_lr, 0, 0},
         {"--lr", CLI_DOUBLE, &o.lr, 1e-8, 1},
         {"--lr-decay", CLI_DOUBLE, &o.lr_decay_steps, 1, 1e12},
+        {"--precrop-iters", CLI_LONG, &precrop, 0, 1e9},
         {"--prior-lr", CLI_DOUBLE, &o.lr_prior, 0, 1},
         {"--skip-saturated", CLI_DOUBLE, &o.sat_eps, 0, 1},
         {"--group-penalty", CLI_DOUBLE, &o.group, 0, 1000},
@@ -244,6 +245,8 @@ int cmd_encode(int argc, char **argv)
     o.n_fine = (int)fine;
     o.lambda = lambda;
     o.levels = levels;
+    if (precrop >= 0)
+        o.precrop_iters = precrop;
     char ckpt[4096];
     snprintf(ckpt, sizeof ckpt, "%s", resume ? resume : out);
     if (!resume)

@@ -157,6 +157,7 @@ rows=(
   "1|ask for at least|encode $D -o $work/x.cnrf --bits-per-param 0.05 ${T[*]}"
   "2|--lr: expected a number in [1e-08, 1]|encode $D -o $work/x.cnrf --lambda 1 --lr 0"
   "2|--lr-decay: expected a number in [1, 1e+12]|train $D -o $work/x.ckpt --lr-decay 0"
+  "2|--precrop-iters: expected|encode $D -o $work/x.cnrf --lambda 1 --precrop-iters -1"
   "2|--iters 0 trains nothing|train $D -o $work/x.ckpt --iters 0"
   "2|--iters 0 trains nothing|encode $D -o $work/x.cnrf --lambda 1 --iters 0"
   "1|v_missing/0003.png|train $D -o $work/x.ckpt --train-images $work/v_missing ${T[*]}"

@@ -133,6 +133,11 @@ out=$("$cnerf" render "$work/cc.cnrf" --dataset "$data/lego" --downscale 16 --ev
 grep -q "mean over 2 views (fixed point, 8+0 samples" <<<"$out" || fail "render --fine 0: $out"
 [ "$(stat -c %s "$work/cc.cnrf")" -gt "$(stat -c %s "$work/s.cnrf")" ] \
   || fail "--coarse-color on is not larger than off"
+# --precrop-iters 0 draws the first iterations' rays from the whole views (a model from
+# --init needs no centre crop): the same command otherwise trains other latents.
+"$cnerf" encode "$data/lego" -o "$work/pc.cnrf" --lambda 1e-3 --iters 3 --every 100 \
+  --coarse-color on --precrop-iters 0 "${common[@]}" > /dev/null
+cmp -s "$work/pc.cnrf" "$work/cc.cnrf" && fail "encode --precrop-iters 0 changed nothing"
 # quantize sends the coarse colour unless --coarse-color off; without it every image with
 # fine samples is the same bits, and the file is smaller.
 "$cnerf" quantize "$work/m.ckpt" -o "$work/q1.cnrf" --bits 6 > /dev/null
