@@ -80,6 +80,9 @@ int cn_joint_init(cn_joint *j, const cn_dataset *ds, unsigned n, const cn_train_
         s->params[s->off_ab + 2 * l] = (float)(cn_glorot_limit(L) / o->levels);
         s->params[s->off_ab + 2 * l + 1] = 0.0f;
     }
+    /* Without the coarse colour the shifts of its layers are written as zero too, and their
+     * rate is not counted (cn_model.drop_color). */
+    s->drop_color[0] = j->t[0].model.drop_color[0];
     for (unsigned m = 0; m < n; m++)
         j->t[m].model.shift = s;
     return 0;

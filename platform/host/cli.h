@@ -11,6 +11,7 @@ struct cn_dataset;
 struct cn_view;
 struct cn_model;
 struct cn_trainer;
+struct cn_train_opts;
 
 int cmd_info(int argc, char **argv);
 int cmd_synth(int argc, char **argv);
@@ -91,6 +92,11 @@ int cli_random_bg(const char *cmd, const char *word, int *random_bg);
 /* --background constant|contract into cn_train_opts.contract (0, 1); prints the error and
  * returns 2 for another word. */
 int cli_background(const char *cmd, const char *word, int *contract);
+/* encode's --coarse-color off|on and --coarse-weight W (weight <= 0: not given) into
+ * cn_train_opts.coarse_color and .coarse_weight; prints the error and returns 2 for another
+ * word. */
+int cli_coarse_color(const char *cmd, const char *word, double weight,
+                     struct cn_train_opts *o);
 /* After cn_trainer_init: one line saying whether training draws random backgrounds, and
  * on how many of the training views (those with transparency). */
 void cli_say_random_bg(const struct cn_trainer *t);

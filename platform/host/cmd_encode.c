@@ -223,15 +223,8 @@ int cmd_encode(int argc, char **argv)
     if (strcmp(prune, "on") && strcmp(prune, "off"))
         return cli_usage("encode", "--prune takes on (remove dead units) or off, not '%s'",
                         prune);
-    if (strcmp(coarse_color, "on") && strcmp(coarse_color, "off"))
-        return cli_usage("encode", "--coarse-color takes off (the default: the fine network "
-                         "gives every pixel's colour, so the coarse one's is not sent) or on "
-                         "(sent, for renders with --fine 0), not '%s'", coarse_color);
-    o.coarse_color = !strcmp(coarse_color, "on");
-    /* The coarse image is not shown: its error only has to teach the coarse density, and a
-     * tenth of the fine error's weight leaves the rate for the fine network (measured in
-     * docs/results.md, "At convergence"). */
-    o.coarse_weight = coarse_weight > 0 ? coarse_weight : o.coarse_color ? 1.0 : 0.1;
+    if (cli_coarse_color("encode", coarse_color, coarse_weight, &o))
+        return 2;
     if (iters == 0 && !resume)
         return cli_usage("encode", "--iters 0 trains nothing: give at least 1, or --resume a "
                          "checkpoint");

@@ -23,7 +23,7 @@
     "       [--lr X] [--lr-decay N] [--shift-lr X] [--prior-lr X] [--affine-lr X]\n"        \
     "       [--ckpt-every N | --ckpt-secs S] [--log-every N] [--eval-every N]\n"            \
     "       [--depth D] [--width W] [--coarse N] [--fine N] [--grid G|0] [--random-bg auto|on|off]\n" \
-    "       [--background constant|contract]\n"                                                       \
+    "       [--background constant|contract] [--coarse-color off|on] [--coarse-weight W]\n"          \
     "  Several scenes in one stream: one network topology, each scene's own latents,\n"    \
     "  affine decoders, biases, render parameters and grid, and shifts shared by all."
 
@@ -81,7 +81,8 @@ int cmd_encode_set(int argc, char **argv)
     long eval_every = 0, grid_g = -1;
     double ckpt_secs = CLI_CKPT_SECS, lambda = -1, quality = -1, levels = o.levels;
     double lr_shift = o.lr_affine, size = 0, bpp = 0;
-    const char *prune = NULL, *scheme = NULL;
+    const char *prune = NULL, *scheme = NULL, *coarse_color = "off";
+    double coarse_weight = -1;
     uint64_t seed = o.seed;
     int n_pos;
     const cli_opt opts[] = {
@@ -118,6 +119,8 @@ int cmd_encode_set(int argc, char **argv)
         {"--grid", CLI_LONG, &grid_g, -1, CNERF_MAX_GRID},
         {"--random-bg", CLI_STR, &random_bg, 0, 0},
         {"--background", CLI_STR, &background, 0, 0},
+        {"--coarse-color", CLI_STR, &coarse_color, 0, 0},
+        {"--coarse-weight", CLI_DOUBLE, &coarse_weight, 1e-3, 10},
     };
     if (cli_parse("encode", SET_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos,
                   CNERF_MAX_SCENES, &n_pos))
@@ -141,6 +144,8 @@ int cmd_encode_set(int argc, char **argv)
     if (cli_background("encode", background, &o.contract))
         return 2;
     if (cli_random_bg("encode", random_bg, &o.random_bg))
+        return 2;
+    if (cli_coarse_color("encode", coarse_color, coarse_weight, &o))
         return 2;
     if (iters == 0 && !resume)
         return cli_usage("encode", "--iters 0 trains nothing: give at least 1, or --resume a "
@@ -229,8 +234,9 @@ int cmd_encode_set(int argc, char **argv)
     char meta[1024];
     snprintf(meta, sizeof meta,
              "encoder=cnerf %s; command=encode; scenes=%u; dataset=%s; preset=%s; iters=%ld; "
-             "lambda=%g; downscale=%ld; seed=%llu; levels=%g", CNERF_VERSION_STRING, M, pos[0],
-             o.preset, j.step, cn_joint_lambda(&j), downscale, (unsigned long long)seed, levels);
+             "lambda=%g; downscale=%ld; seed=%llu; levels=%g; coarse-color=%s; coarse-weight=%g",
+             CNERF_VERSION_STRING, M, pos[0], o.preset, j.step, cn_joint_lambda(&j), downscale,
+             (unsigned long long)seed, levels, coarse_color, o.coarse_weight);
     if (rc == 0 && (!e || !src || !grid))
         rc = cli_fail("encode", "out of memory");
     if (rc == 0 && (cn_model_snap(&j.shift, err, sizeof err) ||

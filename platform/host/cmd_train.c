@@ -140,6 +140,20 @@ int cli_background(const char *cmd, const char *word, int *contract)
     return cli_usage(cmd, "--background takes constant or contract, not '%s'", word);
 }
 
+int cli_coarse_color(const char *cmd, const char *word, double weight, cn_train_opts *o)
+{
+    if (strcmp(word, "on") && strcmp(word, "off"))
+        return cli_usage(cmd, "--coarse-color takes off (the default: the fine network "
+                         "gives every pixel's colour, so the coarse one's is not sent) or on "
+                         "(sent, for renders with --fine 0), not '%s'", word);
+    o->coarse_color = !strcmp(word, "on");
+    /* The coarse image is not shown: its error only has to teach the coarse density, and a
+     * tenth of the fine error's weight leaves the rate for the fine network (measured in
+     * docs/results.md, "At convergence"). */
+    o->coarse_weight = weight > 0 ? weight : o->coarse_color ? 1.0 : 0.1;
+    return 0;
+}
+
 void cli_say_random_bg(const cn_trainer *t)
 {
     int clear = 0;

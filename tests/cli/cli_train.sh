@@ -322,7 +322,27 @@ grep -q "^scenes: 2, sharing one topology" <<<"$info" || fail "info of a set: $i
 grep -q "file: [0-9]* bytes)$" <<<"$info" || fail "info of a set: totals: $info"
 out=$("$cnerf" eval "$work/set.cnrf" "$data/mic" --scene 1 --every 100 --downscale 16 --threads 2)
 grep -q "mean over 2 test views .* psnr $set_psnr dB" <<<"$out" || fail "eval --scene 1 ($set_psnr): $out"
+# A set sends no coarse colour either by default (neither the scenes' layers nor the shared
+# shifts of them): each scene's coarse image alone is refused; --coarse-color on sends it.
+for m in 0 1; do
+  grep -q "^network 0 (coarse): .*; no colour (density only)$" \
+    <<<"$("$cnerf" info --scene $m "$work/set.cnrf")" || fail "info of a set's scene $m: colour"
+done
+grep -q "coarse-color=off; coarse-weight=0.1" <<<"$("$cnerf" info "$work/set.cnrf")" \
+  || fail "set meta: coarse colour"
+"$cnerf" encode "$data/lego" "$data/mic" -o "$work/setc.cnrf" --lambda 1e-3 --iters 3 \
+  --every 100 --coarse-color on "${common[@]}" > /dev/null
+! grep -q "no colour" <<<"$("$cnerf" info --scene 1 "$work/setc.cnrf")" || fail "set: --coarse-color on"
+[ "$(stat -c %s "$work/setc.cnrf")" -gt "$(stat -c %s "$work/set.cnrf")" ] \
+  || fail "set: --coarse-color on is not larger than off"
 set +e
+msg=$("$cnerf" render "$work/set.cnrf" --scene 1 --dataset "$data/mic" --downscale 16 --every 100 \
+  --fine 0 2>&1); rc=$?
+[ $rc = 1 ] && grep -q "does not carry the coarse network's colour" <<<"$msg" \
+  || fail "render --fine 0 of a set's scene: $rc $msg"
+msg=$("$cnerf" encode "$data/lego" "$data/mic" -o "$work/z.cnrf" --lambda 1 --coarse-color maybe \
+  2>&1); rc=$?
+[ $rc = 2 ] && grep -q -- "--coarse-color takes off" <<<"$msg" || fail "set --coarse-color maybe: $rc $msg"
 msg=$("$cnerf" render "$work/set.cnrf" --orbit 1 --size 8 --scene 2 2>&1); rc=$?
 [ $rc = 1 ] && grep -q "no scene 2: the stream has 2" <<<"$msg" || fail "render --scene 2: $rc $msg"
 msg=$("$cnerf" encode "$data/lego" "$data/mic" -o "$work/z.cnrf" --size 9000 2>&1); rc=$?

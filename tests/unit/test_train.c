@@ -641,6 +641,70 @@ static void test_joint(void **state)
     cn_joint_free(&j);
 }
 
+/* A set without the coarse colour: the shared shifts of the coarse colour layers are left
+ * out of the rate and written as zero like the scenes' own, so every scene of the stream
+ * reads as a coarse network without colour, however far those shifts had moved; with the
+ * colour on, the same shifts are sent. */
+static void test_joint_coarse_color(void **state)
+{
+    (void)state;
+    for (int color = 0; color <= 1; color++) {
+        cn_train_opts o;
+        small_opts(&o);
+        o.compress = 1;
+        o.lambda = 1e-3;
+        o.latent_lr_weight_units = 1;
+        o.coarse_color = color;
+        const cn_dataset two[2] = {ds, fern};
+        cn_joint j;
+        char err[512];
+        assert_int_equal(cn_joint_init(&j, two, 2, &o, o.lr_affine, err, sizeof err), 0);
+        assert_int_equal(j.shift.drop_color[0], !color);
+        unsigned first, count;
+        assert_true(cn_color_layers(&j.shift.topo, 0, &first, &count));
+        const double rate0 = cn_model_rate(&j.shift, 5, 1.0f);
+        for (unsigned l = first; l < first + count; l++) /* shifts far from 0 */
+            for (size_t i = 0; i < (size_t)j.shift.topo.layer[l].n_in *
+                                       j.shift.topo.layer[l].n_out; i++)
+                j.shift.params[j.shift.layer[l].w + i] = (float)(3 + i % 5);
+        const double rate1 = cn_model_rate(&j.shift, 5, 1.0f);
+        if (color)
+            assert_true(rate1 > rate0 + 100);
+        else
+            assert_float_equal(rate1, rate0, 1e-9 * rate0);
+        cn_export e[3];
+        cn_stream_src src[2];
+        cn_shift_src sh[CNERF_MAX_LAYERS];
+        assert_int_equal(cn_model_snap(&j.shift, err, sizeof err), 0);
+        assert_int_equal(cn_export_compressed(&j.shift, NULL, &e[2], err, sizeof err), 0);
+        for (unsigned l = 0; l < j.shift.topo.n_layers; l++) {
+            const cn_layer_src *L = &e[2].src.layer[l];
+            sh[l] = (cn_shift_src){L->k, L->a_m, L->a_e, L->pmf, L->pmf_kmin, L->pmf_n};
+        }
+        for (unsigned m = 0; m < 2; m++) {
+            assert_int_equal(cn_model_snap(&j.t[m].model, err, sizeof err), 0);
+            assert_int_equal(cn_export_compressed(&j.t[m].model, NULL, &e[m], err, sizeof err),
+                             0);
+            src[m] = e[m].src;
+        }
+        cn_buf b = {0};
+        assert_int_equal(cn_choose_scales_set(src, 2, sh, 1, NULL, err, sizeof err), 0);
+        assert_int_equal(cn_write_set(src, 2, sh, &b, NULL, NULL, err, sizeof err), 0);
+        for (unsigned m = 0; m < 2; m++) {
+            cnerf_decoder dec;
+            void *ws;
+            assert_int_equal(tu_open_scene(&dec, b.p, b.n, m, &ws), CNERF_OK);
+            assert_int_equal(cnerf_net_has_color(&dec.info, 0), color);
+            assert_int_equal(cnerf_net_has_color(&dec.info, 1), 1);
+            free(ws);
+        }
+        cn_buf_free(&b);
+        for (unsigned m = 0; m < 3; m++)
+            cn_export_free(&e[m]);
+        cn_joint_free(&j);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -651,6 +715,7 @@ int main(void)
         cmocka_unit_test(test_resume_continues_exactly),
         cmocka_unit_test(test_checkpoint_grids),
         cmocka_unit_test(test_joint),
+        cmocka_unit_test(test_joint_coarse_color),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
