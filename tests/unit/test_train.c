@@ -544,6 +544,28 @@ static void test_checkpoint_grids(void **state)
     remove(path);
 }
 
+/* The stream of a two-scene joint model as cnerf encode writes it (without grids): the
+ * shifts and each scene snapped and exported into e[2] and e[0..1], written into b. */
+static void joint_stream(cn_joint *j, cn_export e[3], cn_buf *b)
+{
+    char err[512];
+    cn_stream_src src[2];
+    cn_shift_src sh[CNERF_MAX_LAYERS];
+    assert_int_equal(cn_model_snap(&j->shift, err, sizeof err), 0);
+    assert_int_equal(cn_export_compressed(&j->shift, NULL, &e[2], err, sizeof err), 0);
+    for (unsigned l = 0; l < j->shift.topo.n_layers; l++) {
+        const cn_layer_src *L = &e[2].src.layer[l];
+        sh[l] = (cn_shift_src){L->k, L->a_m, L->a_e, L->pmf, L->pmf_kmin, L->pmf_n};
+    }
+    for (unsigned m = 0; m < 2; m++) {
+        assert_int_equal(cn_model_snap(&j->t[m].model, err, sizeof err), 0);
+        assert_int_equal(cn_export_compressed(&j->t[m].model, NULL, &e[m], err, sizeof err), 0);
+        src[m] = e[m].src;
+    }
+    assert_int_equal(cn_choose_scales_set(src, 2, sh, 1, NULL, err, sizeof err), 0);
+    assert_int_equal(cn_write_set(src, 2, sh, b, NULL, NULL, err, sizeof err), 0);
+}
+
 /* Two scenes trained jointly (Lego, 360 degrees, and Fern, forward-facing in NDC): both
  * improve, the shifts learn, a joint
  * checkpoint resumes to the same bits, and the stream's float reference of each scene is
@@ -602,22 +624,8 @@ static void test_joint(void **state)
     assert_true(moved > 0);
     /* export, one stream, each scene's float reference against the trained model */
     cn_export e[3];
-    cn_stream_src src[2];
-    cn_shift_src sh[CNERF_MAX_LAYERS];
-    assert_int_equal(cn_model_snap(&j.shift, err, sizeof err), 0);
-    assert_int_equal(cn_export_compressed(&j.shift, NULL, &e[2], err, sizeof err), 0);
-    for (unsigned l = 0; l < j.shift.topo.n_layers; l++) {
-        const cn_layer_src *L = &e[2].src.layer[l];
-        sh[l] = (cn_shift_src){L->k, L->a_m, L->a_e, L->pmf, L->pmf_kmin, L->pmf_n};
-    }
-    for (unsigned m = 0; m < 2; m++) {
-        assert_int_equal(cn_model_snap(&j.t[m].model, err, sizeof err), 0);
-        assert_int_equal(cn_export_compressed(&j.t[m].model, NULL, &e[m], err, sizeof err), 0);
-        src[m] = e[m].src;
-    }
     cn_buf b = {0};
-    assert_int_equal(cn_choose_scales_set(src, 2, sh, 1, NULL, err, sizeof err), 0);
-    assert_int_equal(cn_write_set(src, 2, sh, &b, NULL, NULL, err, sizeof err), 0);
+    joint_stream(&j, e, &b);
     cn_model_materialize(&j.shift);
     for (unsigned m = 0; m < 2; m++) {
         cnerf_decoder dec;
@@ -673,23 +681,8 @@ static void test_joint_coarse_color(void **state)
         else
             assert_float_equal(rate1, rate0, 1e-9 * rate0);
         cn_export e[3];
-        cn_stream_src src[2];
-        cn_shift_src sh[CNERF_MAX_LAYERS];
-        assert_int_equal(cn_model_snap(&j.shift, err, sizeof err), 0);
-        assert_int_equal(cn_export_compressed(&j.shift, NULL, &e[2], err, sizeof err), 0);
-        for (unsigned l = 0; l < j.shift.topo.n_layers; l++) {
-            const cn_layer_src *L = &e[2].src.layer[l];
-            sh[l] = (cn_shift_src){L->k, L->a_m, L->a_e, L->pmf, L->pmf_kmin, L->pmf_n};
-        }
-        for (unsigned m = 0; m < 2; m++) {
-            assert_int_equal(cn_model_snap(&j.t[m].model, err, sizeof err), 0);
-            assert_int_equal(cn_export_compressed(&j.t[m].model, NULL, &e[m], err, sizeof err),
-                             0);
-            src[m] = e[m].src;
-        }
         cn_buf b = {0};
-        assert_int_equal(cn_choose_scales_set(src, 2, sh, 1, NULL, err, sizeof err), 0);
-        assert_int_equal(cn_write_set(src, 2, sh, &b, NULL, NULL, err, sizeof err), 0);
+        joint_stream(&j, e, &b);
         for (unsigned m = 0; m < 2; m++) {
             cnerf_decoder dec;
             void *ws;
