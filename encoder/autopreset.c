@@ -14,7 +14,8 @@ int cn_preset_floor(const cn_dataset *ds, const cn_train_opts *o, size_t *floor_
     cn_model m;
     if (cn_model_init_compressed(&m, &hdr, o->seed, o->levels, err, errlen))
         return -1;
-    *latents = m.topo.n_params;
+    cn_train_drop_color(&m, o);
+    *latents = cn_model_sent_latents(&m);
     const int rc = cn_stream_floor(&m, o->seed, floor_bytes, err, errlen);
     cn_model_free(&m);
     return rc;

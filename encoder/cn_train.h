@@ -84,7 +84,7 @@ typedef struct cn_train_opts {
 void cn_train_defaults(cn_train_opts *o);
 
 /* --preset auto: of the presets whose rate-distortion curves were measured (tiny, then
- * small), the largest whose latents get at least CN_AUTO_BITS bits each from the target's
+ * small), the largest whose latents sent get at least CN_AUTO_BITS bits each from the target's
  * bytes beyond its floor (headers, affine decoders and biases, cn_stream_floor); tiny when
  * none does. CN_AUTO_BITS is where small's curve overtakes tiny's on Lego at 3000
  * iterations (scripts/preset_frontier.sh, docs/results.md "Which preset at which size").
@@ -95,9 +95,14 @@ void cn_train_defaults(cn_train_opts *o);
 int cn_preset_auto(const cn_dataset *ds, const cn_train_opts *o, double target,
                    const char **preset, double *bits, char *err, size_t errlen);
 
-/* The floor (cn_stream_floor) and latent count of o's preset on this dataset. */
+/* The floor (cn_stream_floor) and the latents sent (cn_model_sent_latents) of o's preset on
+ * this dataset, with the colour layers that o leaves out (cn_train_drop_color) left out. */
 int cn_preset_floor(const cn_dataset *ds, const cn_train_opts *o, size_t *floor_bytes,
                     size_t *latents, char *err, size_t errlen);
+
+/* Marks in m.drop_color the networks whose colour a run with options o does not send: the
+ * coarse network's of a compressed model with two networks and coarse_color off. */
+void cn_train_drop_color(cn_model *m, const cn_train_opts *o);
 
 /* The stream header (render parameters and topology) for a dataset and options. */
 int cn_header_for_dataset(const cn_dataset *ds, const cn_train_opts *o, cnerf_info *hdr,
@@ -135,20 +140,21 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits);
 double cn_sq_error(float *grad, const float *x, const float *y, size_t n, float gscale);
 /* Pixels in the training views (the distortion's scale). */
 double cn_trainer_pixels(const cn_trainer *t);
-/* lambda's scene-independent unit, 3 x training pixels / latents: the summed squared error
- * is 3 pixels times the MSE, the rate latents times the bits per latent. */
+/* lambda's scene-independent unit, 3 x training pixels / latents sent: the summed squared
+ * error is 3 pixels times the MSE, the rate the latents sent (cn_model_sent_latents) times
+ * the bits per latent. */
 double cn_trainer_lambda_unit(const cn_trainer *t);
 /* Turns on rate control towards target_bytes (the whole file) from the current step to the
  * end of the run; reserved_bytes are the bytes the in-memory stream lacks (metadata). */
 void cn_trainer_rate_control(cn_trainer *t, double target_bytes, double reserved_bytes,
                              cn_rc_scheme scheme, int grid_g, int prune);
 /* --quality Q (0..100) as the slope k of cn_train_opts.quality_slope, in dB per bit per
- * latent: 1 at Q = 50, halving with each 10 more (Q 100: 1/32, Q 0: 32). */
+ * latent sent: 1 at Q = 50, halving with each 10 more (Q 100: 1/32, Q 0: 32). */
 double cn_quality_slope(double q);
 /* Its inverse, for messages. */
 double cn_quality_from_slope(double k);
 /* The lambda that quality slope k gives at a step whose networks' mean squared errors sum
- * to mse_sum: k ln(10)/10 x mse_sum x 3 pixels / latents. */
+ * to mse_sum: k ln(10)/10 x mse_sum x 3 pixels / latents sent. */
 double cn_quality_lambda(const cn_trainer *t, double k, double mse_sum);
 /* Current learning rate. */
 double cn_trainer_lr(const cn_trainer *t);

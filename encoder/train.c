@@ -145,7 +145,7 @@ int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o,
     if (o->compress ? cn_model_init_compressed(&t->model, &hdr, o->seed, o->levels, err, errlen)
                     : cn_model_init(&t->model, &hdr, o->seed, err, errlen))
         return -1;
-    t->model.drop_color[0] = o->compress && !o->coarse_color && hdr.n_nets > 1;
+    cn_train_drop_color(&t->model, o);
     const size_t R = (size_t)o->batch;
     t->gt = malloc(sizeof(float) * R * 3);
     t->dcolor[0] = malloc(sizeof(float) * R * 3);
@@ -331,9 +331,14 @@ void cn_trainer_rate_control(cn_trainer *t, double target_bytes, double reserved
     t->rc_prune = prune;
 }
 
+void cn_train_drop_color(cn_model *m, const cn_train_opts *o)
+{
+    m->drop_color[0] = o->compress && !o->coarse_color && m->topo.n_nets > 1;
+}
+
 double cn_trainer_lambda_unit(const cn_trainer *t)
 {
-    return 3 * cn_trainer_pixels(t) / (double)t->model.topo.n_params;
+    return 3 * cn_trainer_pixels(t) / (double)cn_model_sent_latents(&t->model);
 }
 
 double cn_quality_slope(double q)
@@ -351,7 +356,7 @@ double cn_quality_from_slope(double k)
 double cn_quality_lambda(const cn_trainer *t, double k, double mse_sum)
 {
     return k * log(10.0) / 10.0 * mse_sum * 3.0 * cn_trainer_pixels(t) /
-           (double)t->model.topo.n_params;
+           (double)cn_model_sent_latents(&t->model);
 }
 
 /* Rate control's work at this step: the grid's bytes once, and lambda every rc.every. */

@@ -277,7 +277,7 @@ int cmd_encode(int argc, char **argv)
     cli_say_random_bg(&t);
     int rc = 0, stopped = 0;
     if (controlled) {
-        const double latents = (double)t.model.topo.n_params;
+        const double latents = (double)cn_model_sent_latents(&t.model);
         const double target = size > 0 ? size : bpp * latents / 8;
         size_t floor_bytes;
         if (cn_stream_floor(&t.model, seed, &floor_bytes, err, sizeof err)) {
@@ -288,8 +288,7 @@ int cmd_encode(int argc, char **argv)
         }
         /* The smallest sensible file: the topology's floor and a tenth of a bit per latent
          * sent (docs/results.md: below that the models lose several dB). */
-        const double sent = (double)cn_model_sent_latents(&t.model);
-        const double least = (double)floor_bytes + 0.1 * sent / 8 + 300;
+        const double least = (double)floor_bytes + 0.1 * latents / 8 + 300;
         if (target < least) {
             cn_trainer_free(&t);
             cn_dataset_free(&ds);
@@ -299,7 +298,7 @@ int cmd_encode(int argc, char **argv)
                             "bytes, and below about %.0f bytes (0.1 bit per latent for the "
                             "%.0f latents it sends, and a grid) the model collapses; ask for "
                             "at least %.0f bytes, or a smaller preset", target, o.preset,
-                            floor_bytes, least, sent, least);
+                            floor_bytes, least, latents, least);
         }
         char meta0[1024];
         const int mlen = snprintf(meta0, sizeof meta0,
@@ -338,7 +337,7 @@ int cmd_encode(int argc, char **argv)
             snprintf(lam, sizeof lam, controlled ? "controlled" : "%g", lambda);
         printf("encoding %s: %d train views %dx%d, lambda %s, %zu latents, checkpoint %s\n",
                pos[0], ds.n_train, ds.train[0].w, ds.train[0].h, lam,
-               (size_t)t.model.topo.n_params, ckpt);
+               cn_model_sent_latents(&t.model), ckpt);
         rc = cli_run_training("encode", &t, ckpt, ckpt_every, ckpt_secs, log_every, eval_every,
                               every, &stopped);
     }

@@ -212,7 +212,7 @@ int cmd_encode_set(int argc, char **argv)
     if (rc == 0) {
         printf("encoding %u scenes jointly, shifts shared: lambda %s, %zu latents per scene, "
                "checkpoint %s\n", M, quality >= 0 ? "from --quality" : "fixed",
-               (size_t)j.t[0].model.topo.n_params, ckpt);
+               cn_model_sent_latents(&j.t[0].model), ckpt);
         for (unsigned m = 0; m < M; m++)
             printf("  scene %u: %s, %d train views %dx%d, %s\n", m, pos[m], ds[m].n_train,
                    ds[m].train[0].w, ds[m].train[0].h, ds[m].ndc ? "NDC" : "world");

@@ -213,6 +213,30 @@ static void test_preset_auto(void **state)
     assert_true(bits < 0);
     print_message("# tiny: floor %zu bytes, %zu latents; small: floor %zu, %zu latents; small "
                   "from %.0f bytes\n", floor_tiny, lat_tiny, floor_small, lat_small, ceil(edge));
+    /* Without the coarse colour (encode's default) the rule counts the latents sent: the
+     * coarse feature, view and rgb layers' are not, and their zeros leave the floor too. */
+    o.coarse_color = 0;
+    size_t floor_off, lat_off;
+    o.preset = "small";
+    assert_int_equal(cn_preset_floor(&ds, &o, &floor_off, &lat_off, err, sizeof err), 0);
+    cnerf_info hdr;
+    assert_int_equal(cn_header_for_dataset(&ds, &o, &hdr, err, sizeof err), 0);
+    assert_int_equal(cnerf_expand_topology(&hdr), CNERF_OK);
+    unsigned first, count;
+    assert_true(cn_color_layers(&hdr, 0, &first, &count));
+    size_t colour = 0;
+    for (unsigned l = first; l < first + count; l++)
+        colour += (size_t)hdr.layer[l].n_in * hdr.layer[l].n_out;
+    assert_int_equal(lat_off, lat_small - colour);
+    assert_true(floor_off < floor_small);
+    const double edge_off = (double)floor_off + CN_AUTO_BITS * (double)lat_off / 8;
+    o.preset = "auto";
+    assert_int_equal(cn_preset_auto(&ds, &o, ceil(edge_off), &p, &bits, err, sizeof err), 0);
+    assert_string_equal(p, "small");
+    assert_int_equal(cn_preset_auto(&ds, &o, ceil(edge_off) - 1, &p, &bits, err, sizeof err), 0);
+    assert_string_equal(p, "tiny");
+    print_message("# without the coarse colour: small sends %zu latents, floor %zu bytes; small "
+                  "from %.0f bytes\n", lat_off, floor_off, ceil(edge_off));
 }
 
 int main(void)

@@ -649,6 +649,28 @@ static void test_joint(void **state)
     cn_joint_free(&j);
 }
 
+/* Without the coarse colour the rate counts only the latents sent, and so do lambda's unit
+ * and --quality's lambda (bits per latent sent): dividing by every latent of the preset
+ * would price a bit lower the more latents are left out. */
+static void test_units_count_latents_sent(void **state)
+{
+    (void)state;
+    cn_train_opts o;
+    small_opts(&o);
+    o.compress = 1;
+    o.coarse_color = 0;
+    char err[512];
+    cn_trainer t;
+    assert_int_equal(cn_trainer_init(&t, &ds, &o, err, sizeof err), 0);
+    const double sent = (double)cn_model_sent_latents(&t.model);
+    assert_true(sent < (double)t.model.topo.n_params);
+    const double px = cn_trainer_pixels(&t), unit = 3 * px / sent;
+    assert_true(fabs(cn_trainer_lambda_unit(&t) / unit - 1) < 1e-12);
+    assert_true(fabs(cn_quality_lambda(&t, 2.0, 0.01) / (2.0 * log(10.0) / 10 * 0.01 * unit) - 1) <
+                1e-12);
+    cn_trainer_free(&t);
+}
+
 /* A set without the coarse colour: the shared shifts of the coarse colour layers are left
  * out of the rate and written as zero like the scenes' own, so every scene of the stream
  * reads as a coarse network without colour, however far those shifts had moved; with the
@@ -709,6 +731,7 @@ int main(void)
         cmocka_unit_test(test_checkpoint_grids),
         cmocka_unit_test(test_joint),
         cmocka_unit_test(test_joint_coarse_color),
+        cmocka_unit_test(test_units_count_latents_sent),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
