@@ -356,6 +356,30 @@ msg=$("$cnerf" encode "$data/lego" "$data/lego" -o "$work/z.cnrf" --lambda 1 2>&
 msg=$("$cnerf" encode "$data/lego" "$data/fern" -o "$work/z.cnrf" --lambda 1 --iters 1 \
   --every 100 "${common[@]}" 2>&1); rc=$?
 [ $rc = 0 ] || fail "a 360-degree and a forward-facing scene in one set: $rc $msg"
+# --bits-per-param X asks for X bits per latent the stream sends, the whole file counted: the
+# coarse colour's latents count only when they are sent. Two iterations cannot reach the
+# target (exit status 1 after writing the file); the target is what is checked.
+latents() { sed -n 's/^encoding .*, \([0-9]*\) latents, checkpoint.*/\1/p' <<<"$1"; }
+target() { sed -n 's/^rate control (dual): a file of \([0-9]*\) bytes (3.000 bits per latent).*/\1/p' <<<"$1"; }
+for cc in off on; do
+  msg=$("$cnerf" encode "$data/lego" -o "$work/bpp-$cc.cnrf" --bits-per-param 3 --coarse-color $cc \
+    --iters 2 --every 100 "${common[@]}" 2>&1); rc=$?
+  [ $rc -le 1 ] && [ -n "$(latents "$msg")" ] && [ -n "$(target "$msg")" ] ||
+    fail "--bits-per-param 3 --coarse-color $cc: $rc $msg"
+  [ "$(target "$msg")" = "$(awk -v n="$(latents "$msg")" 'BEGIN { printf "%.0f", 3 * n / 8 }')" ] ||
+    fail "--bits-per-param 3 --coarse-color $cc: the target is not 3 bits per latent sent: $msg"
+  eval "n_$cc=$(latents "$msg")"
+done
+[ "$n_off" -lt "$n_on" ] || fail "--bits-per-param counts the unsent coarse colour: $n_off, $n_on"
+# --size without --preset: --preset auto gives the bits per latent sent beyond the floor.
+msg=$("$cnerf" encode "$data/lego" -o "$work/auto.cnrf" --size 30000 --iters 2 --every 100 \
+  --downscale 16 --batch 64 --threads 2 2>&1); rc=$?
+bits=$(sed -n 's/^preset auto: tiny (\([0-9.]*\) bits per latent beyond.*/\1/p' <<<"$msg")
+floor=$(sed -n 's/^rate control .* the topology alone takes \([0-9]*\)$/\1/p' <<<"$msg")
+[ $rc -le 1 ] && [ -n "$bits" ] && [ -n "$floor" ] || fail "--size 30000, preset auto: $rc $msg"
+awk -v b="$bits" -v f="$floor" -v n="$(latents "$msg")" \
+  'BEGIN { d = b - 8 * (30000 - f) / n; exit !(d < 0.006 && d > -0.006) }' ||
+  fail "--preset auto's bits are not per latent sent beyond the floor: $msg"
 set -e
 [ ! -e "$work/z.cnrf.ckpt.tmp" ] || fail "a set left a temporary checkpoint"
 echo "cli_train: all checks passed"
