@@ -153,8 +153,9 @@ void cn_trainer_rate_control(cn_trainer *t, double target_bytes, double reserved
 double cn_quality_slope(double q);
 /* Its inverse, for messages. */
 double cn_quality_from_slope(double k);
-/* The lambda that quality slope k gives at a step whose networks' mean squared errors sum
- * to mse_sum: k ln(10)/10 x mse_sum x 3 pixels / latents sent. */
+/* The lambda that quality slope k gives at a step whose networks' mean squared errors, the
+ * coarse network's at its weight (cn_train_opts.coarse_weight), sum to mse_sum:
+ * k ln(10)/10 x mse_sum x 3 pixels / latents sent. */
 double cn_quality_lambda(const cn_trainer *t, double k, double mse_sum);
 /* Current learning rate. */
 double cn_trainer_lr(const cn_trainer *t);

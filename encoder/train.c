@@ -399,7 +399,7 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
     m->group = (float)(t->opts.group * sqrt((double)cn_trainer_pixels(t) / (double)R));
     update_occupancy(t);
     cn_render_forward(m, &t->batch, R, &seed);
-    double loss = 0, mse = 0;
+    double loss = 0, mse = 0, weighted = 0;
     /* Plain training: mean squared error. Compression: the summed squared error over all
      * training pixels, estimated from the batch, so that lambda has the paper's units. */
     const float scale = m->compressed ? (float)(2.0 * cn_trainer_pixels(t) / (double)R)
@@ -409,11 +409,14 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
         mse = cn_sq_error(t->dcolor[n], t->batch.color[n], t->gt, 3 * R, scale * w) /
               (double)(3 * R);
         loss += mse;
+        weighted += w * mse;
     }
     cn_render_backward(m, &t->batch, R, t->dcolor);
     cn_model_kernels_backward(m);
+    /* --quality: D is the distortion whose gradient this step takes, the coarse error at
+     * its weight (the returned loss is the plain sum, for the progress line). */
     if (m->compressed && t->opts.quality_slope > 0)
-        t->opts.lambda = cn_quality_lambda(t, t->opts.quality_slope, loss);
+        t->opts.lambda = cn_quality_lambda(t, t->opts.quality_slope, weighted);
     double rate = 0;
     if (m->compressed && t->opts.lambda > 0)
         rate = cn_model_rate(m, seed ^ 0xA5A5A5A5ull, (float)t->opts.lambda);

@@ -671,6 +671,31 @@ static void test_units_count_latents_sent(void **state)
     cn_trainer_free(&t);
 }
 
+/* --quality's objective is 10 log10(D) + k b with D the distortion whose gradient the step
+ * takes: the coarse network's error enters it at --coarse-weight, so lambda must come from
+ * that same weighted sum and not from the plain sum of the two networks' errors. */
+static void test_quality_lambda_weighs_coarse(void **state)
+{
+    (void)state;
+    cn_train_opts o;
+    small_opts(&o);
+    o.compress = 1;
+    o.quality_slope = cn_quality_slope(50);
+    o.coarse_weight = 0.1;
+    char err[512];
+    cn_trainer t;
+    assert_int_equal(cn_trainer_init(&t, &ds, &o, err, sizeof err), 0);
+    double fine = 0;
+    const double sum = cn_trainer_step(&t, &fine, NULL); /* coarse + fine MSE, unweighted */
+    const double coarse = sum - fine;
+    assert_true(coarse > 0 && fine > 0);
+    const double want = cn_quality_lambda(&t, o.quality_slope, fine + 0.1 * coarse);
+    print_message("# quality lambda %g, from the weighted error %g, from the plain sum %g\n",
+                  t.opts.lambda, want, cn_quality_lambda(&t, o.quality_slope, sum));
+    assert_true(fabs(t.opts.lambda / want - 1) < 1e-6);
+    cn_trainer_free(&t);
+}
+
 /* A set without the coarse colour: the shared shifts of the coarse colour layers are left
  * out of the rate and written as zero like the scenes' own, so every scene of the stream
  * reads as a coarse network without colour, however far those shifts had moved; with the
@@ -732,6 +757,7 @@ int main(void)
         cmocka_unit_test(test_joint),
         cmocka_unit_test(test_joint_coarse_color),
         cmocka_unit_test(test_units_count_latents_sent),
+        cmocka_unit_test(test_quality_lambda_weighs_coarse),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
