@@ -372,14 +372,18 @@ for cc in off on; do
 done
 [ "$n_off" -lt "$n_on" ] || fail "--bits-per-param counts the unsent coarse colour: $n_off, $n_on"
 # --size without --preset: --preset auto gives the bits per latent sent beyond the floor.
-msg=$("$cnerf" encode "$data/lego" -o "$work/auto.cnrf" --size 30000 --iters 2 --every 100 \
-  --downscale 16 --batch 64 --threads 2 2>&1); rc=$?
-bits=$(sed -n 's/^preset auto: tiny (\([0-9.]*\) bits per latent beyond.*/\1/p' <<<"$msg")
-floor=$(sed -n 's/^rate control .* the topology alone takes \([0-9]*\)$/\1/p' <<<"$msg")
-[ $rc -le 1 ] && [ -n "$bits" ] && [ -n "$floor" ] || fail "--size 30000, preset auto: $rc $msg"
-awk -v b="$bits" -v f="$floor" -v n="$(latents "$msg")" \
-  'BEGIN { d = b - 8 * (30000 - f) / n; exit !(d < 0.006 && d > -0.006) }' ||
-  fail "--preset auto's bits are not per latent sent beyond the floor: $msg"
+for size in 12000 40000; do
+  msg=$("$cnerf" encode "$data/lego" -o "$work/auto.cnrf" --size $size --iters 2 --every 100 \
+    --downscale 16 --batch 64 --threads 2 2>&1); rc=$?
+  bits=$(sed -n 's/^preset auto: [a-z]* (\([0-9.]*\) bits per latent beyond.*/\1/p' <<<"$msg")
+  floor=$(sed -n 's/^rate control .* the topology alone takes \([0-9]*\)$/\1/p' <<<"$msg")
+  [ $rc -le 1 ] && [ -n "$bits" ] && [ -n "$floor" ] || fail "--size $size, preset auto: $rc $msg"
+  awk -v b="$bits" -v f="$floor" -v n="$(latents "$msg")" -v s=$size \
+    'BEGIN { d = b - 8 * (s - f) / n; exit !(d < 0.006 && d > -0.006) }' ||
+    fail "--preset auto's bits are not per latent sent beyond the floor: $msg"
+  want=tiny && [ $size = 12000 ] || want=small
+  grep -q "^preset auto: $want " <<<"$msg" || fail "--size $size did not take $want: $msg"
+done
 set -e
 [ ! -e "$work/z.cnrf.ckpt.tmp" ] || fail "a set left a temporary checkpoint"
 echo "cli_train: all checks passed"
