@@ -84,18 +84,14 @@ int main(int argc, char **argv)
                 (unsigned long long)ck.n_params, m.n_params);
         return 1;
     }
-    /* The checkpoint's blocks are little-endian f32; read and write them bytewise. */
+    /* The parameter block (little-endian f32) is read out, rounded and written back. */
     uint8_t *block = data + (ck.blocks - data);
     float *p = malloc(sizeof(float) * (m.n_params ? m.n_params : 1));
     if (!p) {
         fprintf(stderr, "round_steps: out of memory\n");
         return 1;
     }
-    for (size_t i = 0; i < m.n_params; i++) {
-        const uint8_t *b = block + 4 * i;
-        const uint32_t u = b[0] | b[1] << 8 | b[2] << 16 | (uint32_t)b[3] << 24;
-        memcpy(&p[i], &u, 4);
-    }
+    cn_get_f32s(p, block, m.n_params);
     unsigned first = 0, count = 0;
     const int colour = cn_color_layers(&m.topo, 0, &first, &count);
     double bits = 0, step_bits = 0;
@@ -129,13 +125,14 @@ int main(int argc, char **argv)
         }
         bits += b;
     }
-    for (size_t i = 0; i < m.n_params; i++) {
-        uint32_t u;
-        memcpy(&u, &p[i], 4);
-        uint8_t *b = block + 4 * i;
-        b[0] = (uint8_t)u, b[1] = (uint8_t)(u >> 8), b[2] = (uint8_t)(u >> 16),
-        b[3] = (uint8_t)(u >> 24);
+    cn_buf out = {0};
+    cn_buf_f32s(&out, p, m.n_params);
+    if (out.oom) {
+        fprintf(stderr, "round_steps: out of memory\n");
+        return 1;
     }
+    memcpy(block, out.p, out.n);
+    cn_buf_free(&out);
     const uint32_t crc = cnerf_crc32(0, data, len - 4);
     for (int i = 0; i < 4; i++)
         data[len - 4 + i] = (uint8_t)(crc >> 8 * i);
