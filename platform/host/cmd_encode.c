@@ -300,6 +300,19 @@ int cmd_encode(int argc, char **argv)
                             "at least %.0f bytes, or a smaller preset", target, o.preset,
                             floor_bytes, least, latents, least);
         }
+        /* The most: every latent sent at 32 bits, as float32 weights would take. Nothing
+         * above can be reached (the latents' range is bounded far below that). */
+        const double most = (double)floor_bytes + 4 * latents;
+        if (target > most) {
+            cn_trainer_free(&t);
+            cn_dataset_free(&ds);
+            cli_unlock_output(lk, lock);
+            return cli_fail("encode", "a %.0f-byte file is more than preset %s can use on this "
+                            "scene: its %.0f latents at 32 bits each, as float32 weights, and its "
+                            "headers, affine decoders and biases take %.0f bytes; ask for at most "
+                            "%.0f bytes, or a larger preset", target, o.preset, latents, most,
+                            most);
+        }
         char meta0[1024];
         const int mlen = snprintf(meta0, sizeof meta0,
                                   "encoder=cnerf %s; command=encode; dataset=%s; preset=%s; "
