@@ -308,10 +308,10 @@ int cmd_encode(int argc, char **argv)
             cn_dataset_free(&ds);
             cli_unlock_output(lk, lock);
             return cli_fail("encode", "a %.0f-byte file is more than preset %s can use on this "
-                            "scene: its %.0f latents at 32 bits each, as float32 weights, and its "
-                            "headers, affine decoders and biases take %.0f bytes; ask for at most "
-                            "%.0f bytes, or a larger preset", target, o.preset, latents, most,
-                            most);
+                            "scene: %.0f bytes hold its %.0f latents at 32 bits each, as float32 "
+                            "weights, with its headers, affine decoders and biases; ask for at "
+                            "most %.0f bytes, or a larger preset", target, o.preset, most,
+                            latents, most);
         }
         char meta0[1024];
         const int mlen = snprintf(meta0, sizeof meta0,

@@ -150,7 +150,7 @@ rows=(
   "2|--rate-control takes dual (dual ascent, the default) or pi (log-lambda PI control), not 'p'|encode $D -o $work/x.cnrf --size 9000 --rate-control p"
   "1|a 2500-byte file is too small for preset tiny on this scene: its headers, affine decoders and biases alone take|encode $D -o $work/x.cnrf --size 2500 ${T[*]}"
   "1|a 2500-byte file is too small for preset tiny on this scene|encode $D -o $work/x.cnrf --size 2500 --downscale 16 --iters 100000"
-  "1|a 1000000-byte file is more than preset tiny can use on this scene: its 47936 latents at 32 bits each|encode $D -o $work/x.cnrf --size 1000000 ${T[*]}"
+  "1|a 1000000-byte file is more than preset tiny can use on this scene: 193618 bytes hold its 47936 latents at 32 bits each, as float32 weights|encode $D -o $work/x.cnrf --size 1000000 ${T[*]}"
   "1|a 900000000-byte file is more than preset small can use on this scene|encode $D -o $work/x.cnrf --size 9e8 --downscale 16 --iters 100000"
   "2|--preset auto chooses the model from the file's size: give --size BYTES|encode $D -o $work/x.cnrf --preset auto --lambda 1"
   "2|--preset auto chooses the model from the file's size: give --size BYTES|encode $D -o $work/x.cnrf --preset auto --bits-per-param 2"
