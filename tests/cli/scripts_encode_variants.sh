@@ -11,7 +11,7 @@ run=(--preset tiny --downscale 16 --iters 4 --every 100 --batch 64)
 go() {
   bash "$src/scripts/encode_variants.sh" "$work" "$data/lego" --threads 2 \
     --variant "base --lambda 1" --variant "pc0 --lambda 1 --precrop-iters 0" \
-    --variant "l30 --lambda 1 --lambda 30" --variant "big --size 200000" -- "${run[@]}"
+    --variant "l30 --lambda 1 --lambda 30" --variant "big --size 150000" -- "${run[@]}"
 }
 go > "$work/a.out" 2>&1 || fail "encode_variants.sh failed: $(cat "$work/a.out")"
 md=$work/variants.md
@@ -19,7 +19,7 @@ md=$work/variants.md
 grep -q "big: encode exited non-zero, the row is kept" "$work/a.out" ||
   fail "no warning for the file under its size: $(cat "$work/a.out")"
 for v in "base | --lambda 1" "pc0 | --lambda 1 --precrop-iters 0" "l30 | --lambda 1 --lambda 30" \
-  "big | --size 200000"; do
+  "big | --size 150000"; do
   name=${v%% *}
   grep -q "^| $v | $(stat -c %s "$work/$name.cnrf") | [0-9.]* | -\?[0-9.]* |$" "$md" ||
     fail "row $name: $(cat "$md")"
