@@ -110,21 +110,23 @@ int main(int argc, char **argv)
     }
     static cnerf_info info;
     static cnerf_decoder dec;
+    int32_t *k = NULL;
+    void *ws = NULL;
+    int rc = 1;
     cnerf_status st = cnerf_peek(buf, len, &info);
     const size_t ws_size = st == CNERF_OK ? cnerf_workspace_size(&info) : 0;
-    void *ws = st == CNERF_OK ? aligned_alloc(CNERF_WS_ALIGN,
-                                              (ws_size + CNERF_WS_ALIGN - 1) /
-                                                  CNERF_WS_ALIGN * CNERF_WS_ALIGN)
-                              : NULL;
-    if (st == CNERF_OK && !ws) {
-        fprintf(stderr, "latent_context: out of memory\n");
-        return 1;
-    }
-    if (st == CNERF_OK)
+    if (st == CNERF_OK) {
+        ws = aligned_alloc(CNERF_WS_ALIGN,
+                           (ws_size + CNERF_WS_ALIGN - 1) / CNERF_WS_ALIGN * CNERF_WS_ALIGN);
+        if (!ws) {
+            fprintf(stderr, "latent_context: out of memory\n");
+            goto done;
+        }
         st = cnerf_open(&dec, buf, len, ws, ws_size);
+    }
     if (st != CNERF_OK) {
         fprintf(stderr, "latent_context: %s: %s\n", argv[1], cnerf_status_str(st));
-        return 1;
+        goto done;
     }
     printf("| layer | net | latents | coded | static | adaptive | column | left | both |\n");
     printf("|---|---|---|---|---|---|---|---|---|\n");
@@ -135,20 +137,20 @@ int main(int argc, char **argv)
         if (L->kmin == L->kmax)
             continue;
         const size_t n = (size_t)L->n_out * L->n_in;
-        int32_t *k = malloc(sizeof *k * n);
         double bits[N_CODES];
+        free(k);
+        k = malloc(sizeof *k * n);
         if (!k) {
             fprintf(stderr, "latent_context: out of memory\n");
-            return 1;
+            goto done;
         }
         for (unsigned o = 0; o < L->n_out; o++)
             for (unsigned i = 0; i < L->n_in; i++)
                 k[(size_t)o * L->n_in + i] = cnerf_latent(&dec, l, o, i);
         if (layer_bits(k, L->n_out, L->n_in, L->kmin, L->kmax, bits)) {
             fprintf(stderr, "latent_context: out of memory\n");
-            return 1;
+            goto done;
         }
-        free(k);
         const unsigned long c = (unsigned long)L->table_bytes + L->payload_bytes;
         coded += c;
         printf("| %u | %s | %zu | %lu |", l, L->net ? "fine" : "coarse", n, c);
@@ -174,7 +176,10 @@ int main(int argc, char **argv)
            100.0 * (total[1] - (double)coded) / (double)coded);
     printf("the best of the four for each layer: %.0f bytes (%+.2f%%)\n", per_layer_best,
            100.0 * (per_layer_best - (double)coded) / (double)coded);
+    rc = 0;
+done:
+    free(k);
     free(ws);
     free(buf);
-    return 0;
+    return rc;
 }
