@@ -15,8 +15,9 @@
  * The adaptive costs are ideal code lengths (-log2 of each probability); an arithmetic
  * coder comes within a few bytes a layer. The last lines give each column's total, the
  * best context's saving against the stream, and the saving when each layer takes the best
- * of the four adaptive codes (its choice, two bits a layer, not counted). Layers that code nothing are left out; so are
- * the shared shifts of several-scene streams (scene 0's latents only). */
+ * of the four adaptive codes (its choice, two bits a layer, not counted). Layers that code
+ * nothing are left out; so are the shared shifts of several-scene streams (scene 0's
+ * latents only). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -172,7 +173,8 @@ int main(int argc, char **argv)
     }
     printf("\n\nbest context model: %s, %.0f bytes against %lu coded (%+.2f%%); without a "
            "context: %+.2f%%\n",
-           code_name[best], total[best], coded, 100.0 * (total[best] - (double)coded) / (double)coded,
+           code_name[best], total[best], coded,
+           100.0 * (total[best] - (double)coded) / (double)coded,
            100.0 * (total[1] - (double)coded) / (double)coded);
     printf("the best of the four for each layer: %.0f bytes (%+.2f%%)\n", per_layer_best,
            100.0 * (per_layer_best - (double)coded) / (double)coded);
