@@ -279,39 +279,32 @@ int cmd_encode(int argc, char **argv)
     if (controlled) {
         const double latents = (double)cn_model_sent_latents(&t.model);
         const double target = size > 0 ? size : bpp * latents / 8;
-        size_t floor_bytes;
-        if (cn_stream_floor(&t.model, seed, &floor_bytes, err, sizeof err)) {
+        /* The sizes a preset can reach on this scene: at least the topology's floor and a
+         * tenth of a bit per latent sent (docs/results.md: below that the models lose several
+         * dB); at most every latent sent at 32 bits, as float32 weights would take (the
+         * latents' range is bounded far below that). */
+        size_t floor_bytes = 0;
+        int bad = cn_stream_floor(&t.model, seed, &floor_bytes, err, sizeof err);
+        const double least = (double)floor_bytes + 0.1 * latents / 8 + 300;
+        const double most = (double)floor_bytes + 4 * latents;
+        if (!bad && target < least)
+            bad = snprintf(err, sizeof err, "a %.0f-byte file is too small for preset %s on "
+                           "this scene: its headers, affine decoders and biases alone take %zu "
+                           "bytes, and below about %.0f bytes (0.1 bit per latent for the %.0f "
+                           "latents it sends, and a grid) the model collapses; ask for at least "
+                           "%.0f bytes, or a smaller preset", target, o.preset, floor_bytes,
+                           least, latents, least) > 0;
+        else if (!bad && target > most)
+            bad = snprintf(err, sizeof err, "a %.0f-byte file is more than preset %s can use "
+                           "on this scene: %.0f bytes hold its %.0f latents at 32 bits each, "
+                           "as float32 weights, with its headers, affine decoders and biases; "
+                           "ask for at most %.0f bytes, or a larger preset", target, o.preset,
+                           most, latents, most) > 0;
+        if (bad) {
             cn_trainer_free(&t);
             cn_dataset_free(&ds);
             cli_unlock_output(lk, lock);
             return cli_fail("encode", "%s", err);
-        }
-        /* The smallest sensible file: the topology's floor and a tenth of a bit per latent
-         * sent (docs/results.md: below that the models lose several dB). */
-        const double least = (double)floor_bytes + 0.1 * latents / 8 + 300;
-        if (target < least) {
-            cn_trainer_free(&t);
-            cn_dataset_free(&ds);
-            cli_unlock_output(lk, lock);
-            return cli_fail("encode", "a %.0f-byte file is too small for preset %s on this "
-                            "scene: its headers, affine decoders and biases alone take %zu "
-                            "bytes, and below about %.0f bytes (0.1 bit per latent for the "
-                            "%.0f latents it sends, and a grid) the model collapses; ask for "
-                            "at least %.0f bytes, or a smaller preset", target, o.preset,
-                            floor_bytes, least, latents, least);
-        }
-        /* The most: every latent sent at 32 bits, as float32 weights would take. Nothing
-         * above can be reached (the latents' range is bounded far below that). */
-        const double most = (double)floor_bytes + 4 * latents;
-        if (target > most) {
-            cn_trainer_free(&t);
-            cn_dataset_free(&ds);
-            cli_unlock_output(lk, lock);
-            return cli_fail("encode", "a %.0f-byte file is more than preset %s can use on this "
-                            "scene: %.0f bytes hold its %.0f latents at 32 bits each, as float32 "
-                            "weights, with its headers, affine decoders and biases; ask for at "
-                            "most %.0f bytes, or a larger preset", target, o.preset, most,
-                            latents, most);
         }
         char meta0[1024];
         const int mlen = snprintf(meta0, sizeof meta0,
