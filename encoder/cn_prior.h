@@ -31,6 +31,16 @@ double cn_prior_logit(const float *p, double x);
 double cn_prior_bits(const float *p, const float *x, size_t n, float scale, float *dx,
                      float *dp);
 
+/* cn_prior_bits for many values at once, the rate of a training step: f and f' are
+ * computed at nodes CN_PRIOR_TABLE_PER_UNIT to a unit apart over the values' range and
+ * interpolated between them (cubic Hermite), so that the cost no longer grows with the
+ * prior's network per value. dx is the derivative of the interpolated rate; dp spreads each
+ * value's d bits / d f onto its two nearest nodes (linearly). With fewer values than twice
+ * the nodes, the exact cn_prior_bits. */
+#define CN_PRIOR_TABLE_PER_UNIT 8
+double cn_prior_rate(const float *p, const float *x, size_t n, float scale, float *dx,
+                     float *dp);
+
 /* The discretized PMF over the integers kmin .. kmin + n - 1 (not normalised: the
  * interval masses c(k + 1/2) - c(k - 1/2)). */
 void cn_prior_pmf(const float *p, int kmin, unsigned n, double *pmf);

@@ -397,7 +397,7 @@ double cn_model_rate(cn_model *m, uint64_t seed, float scale)
             x[i] = phi[i] + (float)(cn_rng_uniform(&r) - 0.5);
         const size_t po = m->off_prior + CN_PRIOR_PARAMS * (size_t)l;
         /* d x / d Phi = 1: the rate's gradient lands on the latents directly. */
-        bits += cn_prior_bits(m->params + po, x, n, scale, m->grads + m->layer[l].w,
+        bits += cn_prior_rate(m->params + po, x, n, scale, m->grads + m->layer[l].w,
                               m->grads + po);
     }
     free(x);

@@ -1,6 +1,9 @@
 /* The factorized prior: cumulative network, likelihoods, rate and gradients. */
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
+
+#include <omp.h>
 
 #include "cn_prior.h"
 
@@ -170,6 +173,124 @@ double cn_prior_bits(const float *p, const float *x, size_t n, float scale, floa
     if (want_p)
         for (int j = 0; j < CN_PRIOR_PARAMS; j++)
             dp[j] += (float)dp_total[j];
+    return bits;
+}
+
+/* ---- the rate of many values from a table of the logit ---- */
+
+/* f and h f' at the nodes x0 + j h, and the cubic Hermite interpolant between them: f at x
+ * and f'(x); *j and *t locate x (node j, fraction t of the way to node j + 1). */
+typedef struct table {
+    double x0, h, inv_h;
+    size_t nodes;
+    double *f, *hd;
+} table;
+
+static double interp(const table *T, double x, double *dfdx, size_t *j, double *t)
+{
+    double s = (x - T->x0) * T->inv_h;
+    size_t k = s <= 0 ? 0 : (size_t)s;
+    if (k > T->nodes - 2)
+        k = T->nodes - 2;
+    const double u = s - (double)k, u2 = u * u, u3 = u2 * u;
+    const double f0 = T->f[k], f1 = T->f[k + 1], d0 = T->hd[k], d1 = T->hd[k + 1];
+    *dfdx = ((6 * u2 - 6 * u) * (f0 - f1) + (3 * u2 - 4 * u + 1) * d0 + (3 * u2 - 2 * u) * d1) *
+            T->inv_h;
+    *j = k;
+    *t = u;
+    return (2 * u3 - 3 * u2 + 1) * f0 + (u3 - 2 * u2 + u) * d0 + (3 * u2 - 2 * u3) * f1 +
+           (u3 - u2) * d1;
+}
+
+double cn_prior_rate(const float *p, const float *x, size_t n, float scale, float *dx,
+                     float *dp)
+{
+    if (n == 0)
+        return 0;
+    float lo = x[0], hi = x[0];
+    for (size_t i = 1; i < n; i++) {
+        lo = x[i] < lo ? x[i] : lo;
+        hi = x[i] > hi ? x[i] : hi;
+    }
+    table T;
+    T.h = 1.0 / CN_PRIOR_TABLE_PER_UNIT;
+    T.inv_h = CN_PRIOR_TABLE_PER_UNIT;
+    T.x0 = floor((double)lo) - 1; /* the nodes cover [lo - 1/2, hi + 1/2] with a margin */
+    const double span = ceil((double)hi) + 1 - T.x0;
+    /* Worth it only when the values outnumber the nodes: otherwise (and without memory,
+     * or with values that are not finite) every value is evaluated exactly. */
+    if (!(span * CN_PRIOR_TABLE_PER_UNIT * 2 < (double)n))
+        return cn_prior_bits(p, x, n, scale, dx, dp);
+    T.nodes = (size_t)(span * CN_PRIOR_TABLE_PER_UNIT) + 2;
+    const int threads = omp_get_max_threads();
+    const int want_p = dp != NULL;
+    double *mem = malloc(sizeof(double) * T.nodes * (2 + (want_p ? (size_t)threads : 0)));
+    if (!mem)
+        return cn_prior_bits(p, x, n, scale, dx, dp);
+    T.f = mem;
+    T.hd = mem + T.nodes;
+    double *w = mem + 2 * T.nodes; /* per thread: d bits / d f at each node, linearly */
+    coef c;
+    coef_init(&c, p);
+#pragma omp parallel for schedule(static)
+    for (size_t j = 0; j < T.nodes; j++) {
+        trace t;
+        double d = 0;
+        T.f[j] = forward(&c, T.x0 + (double)j * T.h, &t);
+        backward(&c, &t, 1.0, &d, NULL);
+        T.hd[j] = d * T.h;
+    }
+    if (want_p)
+        memset(w, 0, sizeof(double) * T.nodes * (size_t)threads);
+    double bits = 0;
+#pragma omp parallel reduction(+ : bits)
+    {
+        double *wl = want_p ? w + T.nodes * (size_t)omp_get_thread_num() : NULL;
+#pragma omp for schedule(static)
+        for (size_t i = 0; i < n; i++) {
+            double dlo, dup, t_lo, t_up;
+            size_t j_lo, j_up;
+            const double flo = interp(&T, (double)x[i] - 0.5, &dlo, &j_lo, &t_lo);
+            const double fup = interp(&T, (double)x[i] + 0.5, &dup, &j_up, &t_up);
+            double d_lo, d_up;
+            const double L = likelihood(flo, fup, &d_lo, &d_up);
+            const double Lb = L > CN_PRIOR_LIKELIHOOD_MIN ? L : CN_PRIOR_LIKELIHOOD_MIN;
+            bits += -log2(Lb);
+            const double g = -(double)scale / (Lb * M_LN2);
+            if (dx)
+                dx[i] += (float)(g * (d_up * dup + d_lo * dlo));
+            if (wl) {
+                wl[j_up] += g * d_up * (1 - t_up);
+                wl[j_up + 1] += g * d_up * t_up;
+                wl[j_lo] += g * d_lo * (1 - t_lo);
+                wl[j_lo + 1] += g * d_lo * t_lo;
+            }
+        }
+    }
+    if (want_p) {
+        for (int k = 1; k < threads; k++)
+            for (size_t j = 0; j < T.nodes; j++)
+                w[j] += w[T.nodes * (size_t)k + j];
+        double dp_total[CN_PRIOR_PARAMS] = {0};
+#pragma omp parallel
+        {
+            double dpl[CN_PRIOR_PARAMS] = {0};
+#pragma omp for schedule(static)
+            for (size_t j = 0; j < T.nodes; j++) {
+                if (w[j] == 0)
+                    continue;
+                trace t;
+                forward(&c, T.x0 + (double)j * T.h, &t);
+                backward(&c, &t, w[j], NULL, dpl);
+            }
+#pragma omp critical
+            for (int k = 0; k < CN_PRIOR_PARAMS; k++)
+                dp_total[k] += dpl[k];
+        }
+        for (int k = 0; k < CN_PRIOR_PARAMS; k++)
+            dp[k] += (float)dp_total[k];
+    }
+    free(mem);
     return bits;
 }
 

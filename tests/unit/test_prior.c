@@ -123,6 +123,87 @@ static void test_bits_match_pmf(void **state)
     assert_float_equal(cn_prior_bits(p, x, 21, 1, NULL, NULL), ideal, 1e-9 * ideal + 1e-9);
 }
 
+/* The tabulated rate of a training step against the exact one, on priors from about a
+ * third of a unit to a hundred units wide (the first layer's slopes scaled) and values
+ * across the body and the tails: the bits, every value's gradient and the prior's. */
+static void test_table_matches_exact(void **state)
+{
+    (void)state;
+    enum { N = 6000 };
+    float *x = malloc(sizeof(float) * N), *dx_t = malloc(sizeof(float) * N),
+          *dx_e = malloc(sizeof(float) * N);
+    assert_non_null(x);
+    assert_non_null(dx_t);
+    assert_non_null(dx_e);
+    const double widen[] = {-3.0, -1.0, 0.0, 1.5, 3.0}; /* added to the first layer's H */
+    for (int s = 0; s < 5; s++) {
+        float p[CN_PRIOR_PARAMS];
+        init_prior(p, 10 + (uint64_t)s, 1);
+        for (int i = 0; i < 3; i++)
+            p[i] += (float)widen[s];
+        cn_rng r = cn_rng_seed(20 + (uint64_t)s);
+        const double spread = fmin(60.0 * exp(-widen[s]), 300.0); /* the table, not the fallback */
+        for (int i = 0; i < N; i++)
+            x[i] = (float)((cn_rng_uniform(&r) - 0.5) * spread);
+        float dp_t[CN_PRIOR_PARAMS] = {0}, dp_e[CN_PRIOR_PARAMS] = {0};
+        for (int i = 0; i < N; i++)
+            dx_t[i] = dx_e[i] = 0;
+        const double bt = cn_prior_rate(p, x, N, 0.5f, dx_t, dp_t);
+        const double be = cn_prior_bits(p, x, N, 0.5f, dx_e, dp_e);
+        double gmax = 0, ex = 0, pmax = 0, ep = 0;
+        for (int i = 0; i < N; i++) {
+            gmax = fmax(gmax, fabs(dx_e[i]));
+            ex = fmax(ex, fabs(dx_t[i] - dx_e[i]));
+        }
+        for (int j = 0; j < CN_PRIOR_PARAMS; j++) {
+            pmax = fmax(pmax, fabs(dp_e[j]));
+            ep = fmax(ep, fabs(dp_t[j] - dp_e[j]));
+        }
+        print_message("width shift %+.1f: bits %.9g / %.9g (rel %.2e), dx %.2e of %.2e, dp %.2e of %.2e\n",
+                      widen[s], bt, be, fabs(bt - be) / be, ex, gmax, ep, pmax);
+        assert_true(fabs(bt - be) <= 1e-6 * be);
+        assert_true(ex <= 1e-4 * gmax);
+        assert_true(ep <= 1e-3 * pmax);
+    }
+    free(x);
+    free(dx_t);
+    free(dx_e);
+}
+
+/* The tabulated rate's gradient with respect to the values is the derivative of the
+ * tabulated rate itself (finite differences of cn_prior_rate). */
+static void test_table_gradients(void **state)
+{
+    (void)state;
+    float p[CN_PRIOR_PARAMS];
+    init_prior(p, 6, 1);
+    enum { N = 2000 };
+    float *x = malloc(sizeof(float) * N), *dx = calloc(N, sizeof(float));
+    assert_non_null(x);
+    assert_non_null(dx);
+    cn_rng r = cn_rng_seed(7);
+    for (int i = 0; i < N; i++)
+        x[i] = (float)((cn_rng_uniform(&r) - 0.5) * 40.0);
+    cn_prior_rate(p, x, N, 1, dx, NULL);
+    int bad = 0;
+    for (int i = 0; i < N; i += 97) {
+        const float keep = x[i], h = 1e-2f;
+        x[i] = keep + h;
+        const double bp = cn_prior_rate(p, x, N, 1, NULL, NULL);
+        x[i] = keep - h;
+        const double bm = cn_prior_rate(p, x, N, 1, NULL, NULL);
+        x[i] = keep;
+        const double num = (bp - bm) / (2.0 * h);
+        if (!agree(dx[i], num)) {
+            print_error("dx[%d] at x=%g: analytic %g numeric %g\n", i, keep, dx[i], num);
+            bad++;
+        }
+    }
+    assert_int_equal(bad, 0);
+    free(x);
+    free(dx);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -130,6 +211,8 @@ int main(void)
         cmocka_unit_test(test_monotone_and_mass),
         cmocka_unit_test(test_lower_bound_pass_through),
         cmocka_unit_test(test_bits_match_pmf),
+        cmocka_unit_test(test_table_matches_exact),
+        cmocka_unit_test(test_table_gradients),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
