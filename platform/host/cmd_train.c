@@ -284,8 +284,12 @@ static double trainer_step(void *ctx, double *psnr, char *extra, size_t n, char 
         snprintf(extra, n, "  rate %.1f kB, lambda %.3g", bits / 8000.0, t->opts.lambda);
     else if (t->model.compressed)
         snprintf(extra, n, "  rate %.1f kB", bits / 8000.0);
-    else if (t->occ[0].valid)
-        snprintf(extra, n, "  occupied %.0f%%", 100.0 * t->occ_frac[t->model.topo.n_nets - 1]);
+    else
+        extra[0] = 0;
+    const size_t k = strlen(extra);
+    if (t->occ[0].valid && k < n)
+        snprintf(extra + k, n - k, "  occupied %.0f%%",
+                 100.0 * t->occ_frac[t->model.topo.n_nets - 1]);
     return loss;
 }
 
