@@ -25,6 +25,10 @@ int cn_scale_for(double max_abs);
 int cn_choose_scales(cn_stream_src *src, uint64_t seed, double *max_abs, char *err,
                      size_t errlen);
 
+/* cn_choose_scales from `points` points instead of CN_SCALE_POINTS (points >= 1). */
+int cn_choose_scales_points(cn_stream_src *src, uint64_t seed, size_t points, double *max_abs,
+                            char *err, size_t errlen);
+
 /* The same for each scene of a set (cn_write_set's arguments): each scene's scales from
  * its own float model, shifts included. max_abs, when not NULL, gets n_scenes rows of
  * CNERF_MAX_LAYERS values. */

@@ -15,7 +15,7 @@ int cn_stream_size(const cn_model *m, uint64_t seed, int prune, size_t *bytes, c
     cn_export e;
     if (cn_export_compressed(m, NULL, &e, err, errlen))
         return -1;
-    int rc = cn_choose_scales(&e.src, seed, NULL, err, errlen);
+    int rc = cn_choose_scales_points(&e.src, seed, CN_RC_SCALE_POINTS, NULL, err, errlen);
     cn_prune_report pr;
     if (rc == 0 && prune)
         rc = cn_export_prune(&e, &pr, err, errlen);

@@ -66,13 +66,13 @@ static int net_maxima(const cn_model *m, unsigned net, const float *pts, const f
 
 /* The layers' largest inputs of scene `scene` of the stream b (its float model over points
  * spread through that scene's bounds). */
-static int scene_maxima(const cn_buf *b, unsigned scene, uint64_t seed, double *mx, char *err,
-                        size_t errlen)
+static int scene_maxima(const cn_buf *b, unsigned scene, uint64_t seed, size_t points,
+                        double *mx, char *err, size_t errlen)
 {
     cnerf_decoder *dec = calloc(1, sizeof *dec);
     void *ws = NULL;
-    float *pts = malloc(sizeof(float) * 3 * CN_SCALE_POINTS);
-    float *dirs = malloc(sizeof(float) * 3 * CN_SCALE_POINTS);
+    float *pts = malloc(sizeof(float) * 3 * points);
+    float *dirs = malloc(sizeof(float) * 3 * points);
     cn_model m;
     int have_model = 0, rc = -1;
     if (!dec || !pts || !dirs) {
@@ -96,7 +96,7 @@ static int scene_maxima(const cn_buf *b, unsigned scene, uint64_t seed, double *
     have_model = 1;
     const cnerf_info *T = &m.topo;
     cn_rng r = cn_rng_seed(seed);
-    for (size_t p = 0; p < CN_SCALE_POINTS; p++) {
+    for (size_t p = 0; p < points; p++) {
         double d[3], n2 = 0;
         for (unsigned a = 0; a < 3; a++) {
             const double lo = T->aabb_q16[a] / 65536.0, hi = T->aabb_q16[a + 3] / 65536.0;
@@ -110,7 +110,7 @@ static int scene_maxima(const cn_buf *b, unsigned scene, uint64_t seed, double *
     }
     cn_model_materialize(&m);
     for (unsigned net = 0; net < T->n_nets; net++)
-        if (net_maxima(&m, net, pts, dirs, CN_SCALE_POINTS, mx)) {
+        if (net_maxima(&m, net, pts, dirs, points, mx)) {
             snprintf(err, errlen, "out of memory");
             goto done;
         }
@@ -125,8 +125,8 @@ done:
     return rc;
 }
 
-int cn_choose_scales_set(cn_stream_src *scenes, unsigned n_scenes, const cn_shift_src *shift,
-                         uint64_t seed, double *max_abs, char *err, size_t errlen)
+static int choose_set(cn_stream_src *scenes, unsigned n_scenes, const cn_shift_src *shift,
+                      uint64_t seed, size_t points, double *max_abs, char *err, size_t errlen)
 {
     /* The float models of the stream as it is, whatever scales it holds now. */
     for (unsigned m = 0; m < n_scenes; m++)
@@ -139,7 +139,7 @@ int cn_choose_scales_set(cn_stream_src *scenes, unsigned n_scenes, const cn_shif
     }
     for (unsigned m = 0; m < n_scenes; m++) {
         double mx[CNERF_MAX_LAYERS] = {0};
-        if (scene_maxima(&b, m, seed, mx, err, errlen)) {
+        if (scene_maxima(&b, m, seed, points, mx, err, errlen)) {
             cn_buf_free(&b);
             return -1;
         }
@@ -153,14 +153,26 @@ int cn_choose_scales_set(cn_stream_src *scenes, unsigned n_scenes, const cn_shif
     return 0;
 }
 
-int cn_choose_scales(cn_stream_src *src, uint64_t seed, double *max_abs, char *err,
-                     size_t errlen)
+int cn_choose_scales_set(cn_stream_src *scenes, unsigned n_scenes, const cn_shift_src *shift,
+                         uint64_t seed, double *max_abs, char *err, size_t errlen)
+{
+    return choose_set(scenes, n_scenes, shift, seed, CN_SCALE_POINTS, max_abs, err, errlen);
+}
+
+int cn_choose_scales_points(cn_stream_src *src, uint64_t seed, size_t points, double *max_abs,
+                            char *err, size_t errlen)
 {
     double mx[CNERF_MAX_LAYERS];
-    if (cn_choose_scales_set(src, 1, NULL, seed, mx, err, errlen))
+    if (choose_set(src, 1, NULL, seed, points, mx, err, errlen))
         return -1;
     if (max_abs)
         for (unsigned l = 0; l < CNERF_MAX_LAYERS; l++)
             max_abs[l] = mx[l];
     return 0;
+}
+
+int cn_choose_scales(cn_stream_src *src, uint64_t seed, double *max_abs, char *err,
+                     size_t errlen)
+{
+    return cn_choose_scales_points(src, seed, CN_SCALE_POINTS, max_abs, err, errlen);
 }

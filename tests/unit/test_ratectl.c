@@ -5,8 +5,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "cn_export.h"
 #include "cn_nerf.h"
+#include "cn_prune.h"
 #include "cn_ratectl.h"
+#include "cn_scales.h"
 #include "cn_synth.h"
 #include "cn_train.h"
 #include "testutil.h"
@@ -151,16 +154,23 @@ static void test_floor(void **state)
     assert_true(up > lambda);
 }
 
+/* Preset tiny at initialisation (seed 5, 8 levels). */
+static void tiny_model(cn_model *m)
+{
+    cnerf_info hdr;
+    char err[256];
+    assert_int_equal(cn_preset_header("tiny", &hdr), 0);
+    assert_int_equal(cn_model_init_compressed(m, &hdr, 5, 8.0, err, sizeof err), 0);
+}
+
 /* A real model: its stream's size without and with dead units removed, and the floor of
  * its topology; none of them changes the model. */
 static void test_stream_size(void **state)
 {
     (void)state;
-    cnerf_info hdr;
-    assert_int_equal(cn_preset_header("tiny", &hdr), 0);
     cn_model m;
     char err[256];
-    assert_int_equal(cn_model_init_compressed(&m, &hdr, 5, 8.0, err, sizeof err), 0);
+    tiny_model(&m);
     float *before = malloc(sizeof(float) * m.n_params);
     assert_non_null(before);
     memcpy(before, m.params, sizeof(float) * m.n_params);
@@ -174,6 +184,41 @@ static void test_stream_size(void **state)
     assert_true(least < pruned / 4);
     assert_memory_equal(before, m.params, sizeof(float) * m.n_params);
     free(before);
+    cn_model_free(&m);
+}
+
+/* The size rate control measures (scales from CN_RC_SCALE_POINTS points) against the
+ * stream written with scales from CN_SCALE_POINTS, with dead units removed in both: a model
+ * at initialisation, and the same with a third of its units' biases far below zero (dead). */
+static void test_size_with_fewer_scale_points(void **state)
+{
+    (void)state;
+    cn_model m;
+    char err[256];
+    tiny_model(&m);
+    for (int pass = 0; pass < 2; pass++) {
+        if (pass)
+            for (unsigned l = 0; l < m.topo.n_layers; l++)
+                for (unsigned o = 0; o < m.topo.layer[l].n_out; o += 3)
+                    m.params[m.layer[l].b + o] = -50.0f;
+        cn_model_materialize(&m);
+        size_t fast;
+        assert_int_equal(cn_stream_size(&m, 1, 1, &fast, err, sizeof err), 0);
+        cn_export e;
+        assert_int_equal(cn_export_compressed(&m, NULL, &e, err, sizeof err), 0);
+        assert_int_equal(cn_choose_scales(&e.src, 1, NULL, err, sizeof err), 0);
+        cn_prune_report pr;
+        assert_int_equal(cn_export_prune(&e, &pr, err, sizeof err), 0);
+        cn_buf b = {0};
+        cn_write_report rep;
+        assert_int_equal(cn_write_stream(&e.src, &b, &rep, err, sizeof err), 0);
+        print_message("# pass %d: %zu bytes measured, %zu written (latents %u of %u kept)\n",
+                      pass, fast, b.n, pr.params_after, pr.params_before);
+        assert_int_equal(fast, b.n);
+        assert_true(pass ? pr.params_after < pr.params_before : pr.params_after > 0);
+        cn_buf_free(&b);
+        cn_export_free(&e);
+    }
     cn_model_free(&m);
 }
 
@@ -247,6 +292,7 @@ int main(void)
         cmocka_unit_test(test_warm_up),
         cmocka_unit_test(test_floor),
         cmocka_unit_test(test_stream_size),
+        cmocka_unit_test(test_size_with_fewer_scale_points),
         cmocka_unit_test(test_preset_auto),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
