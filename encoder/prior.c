@@ -224,12 +224,18 @@ double cn_prior_rate(const float *p, const float *x, size_t n, float scale, floa
     T.nodes = (size_t)(span * CN_PRIOR_TABLE_PER_UNIT) + 2;
     const int threads = omp_get_max_threads();
     const int want_p = dp != NULL;
-    double *mem = malloc(sizeof(double) * T.nodes * (2 + (want_p ? (size_t)threads : 0)));
+    /* Per thread, summed in thread order so that a run repeats to the bit: the bits, the
+     * prior's gradient, and d bits / d f at each node (each value's spread linearly). */
+    const size_t nt = (size_t)threads;
+    double *mem = malloc(sizeof(double) *
+                         (T.nodes * (2 + (want_p ? nt : 0)) + nt * (1 + CN_PRIOR_PARAMS)));
     if (!mem)
         return cn_prior_bits(p, x, n, scale, dx, dp);
     T.f = mem;
     T.hd = mem + T.nodes;
-    double *w = mem + 2 * T.nodes; /* per thread: d bits / d f at each node, linearly */
+    double *part_bits = mem + 2 * T.nodes, *part_dp = part_bits + nt;
+    double *w = part_dp + nt * CN_PRIOR_PARAMS;
+    memset(part_bits, 0, sizeof(double) * nt * (1 + CN_PRIOR_PARAMS));
     coef c;
     coef_init(&c, p);
 #pragma omp parallel for schedule(static)
@@ -242,10 +248,10 @@ double cn_prior_rate(const float *p, const float *x, size_t n, float scale, floa
     }
     if (want_p)
         memset(w, 0, sizeof(double) * T.nodes * (size_t)threads);
-    double bits = 0;
-#pragma omp parallel reduction(+ : bits)
+#pragma omp parallel
     {
-        double *wl = want_p ? w + T.nodes * (size_t)omp_get_thread_num() : NULL;
+        const size_t me = (size_t)omp_get_thread_num();
+        double *wl = want_p ? w + T.nodes * me : NULL, bits = 0;
 #pragma omp for schedule(static)
         for (size_t i = 0; i < n; i++) {
             double dlo, dup, t_lo, t_up;
@@ -266,15 +272,18 @@ double cn_prior_rate(const float *p, const float *x, size_t n, float scale, floa
                 wl[j_lo + 1] += g * d_lo * t_lo;
             }
         }
+        part_bits[me] = bits;
     }
+    double bits = 0;
+    for (size_t k = 0; k < nt; k++)
+        bits += part_bits[k];
     if (want_p) {
-        for (int k = 1; k < threads; k++)
+        for (size_t k = 1; k < nt; k++)
             for (size_t j = 0; j < T.nodes; j++)
-                w[j] += w[T.nodes * (size_t)k + j];
-        double dp_total[CN_PRIOR_PARAMS] = {0};
+                w[j] += w[T.nodes * k + j];
 #pragma omp parallel
         {
-            double dpl[CN_PRIOR_PARAMS] = {0};
+            double *dpl = part_dp + CN_PRIOR_PARAMS * (size_t)omp_get_thread_num();
 #pragma omp for schedule(static)
             for (size_t j = 0; j < T.nodes; j++) {
                 if (w[j] == 0)
@@ -283,12 +292,13 @@ double cn_prior_rate(const float *p, const float *x, size_t n, float scale, floa
                 forward(&c, T.x0 + (double)j * T.h, &t);
                 backward(&c, &t, w[j], NULL, dpl);
             }
-#pragma omp critical
-            for (int k = 0; k < CN_PRIOR_PARAMS; k++)
-                dp_total[k] += dpl[k];
         }
-        for (int k = 0; k < CN_PRIOR_PARAMS; k++)
-            dp[k] += (float)dp_total[k];
+        for (int k = 0; k < CN_PRIOR_PARAMS; k++) {
+            double sum = 0;
+            for (size_t q = 0; q < nt; q++)
+                sum += part_dp[CN_PRIOR_PARAMS * q + (size_t)k];
+            dp[k] += (float)sum;
+        }
     }
     free(mem);
     return bits;

@@ -1,8 +1,12 @@
 /* The factorized prior: finite-difference gradients of the rate with respect to the values
- * and to the prior's parameters, monotone cumulative, PMF mass, lower-bound pass-through.
+ * and to the prior's parameters, monotone cumulative, PMF mass, lower-bound pass-through;
+ * the tabulated rate of a training step against the exact one, and repeatable.
  * Tolerance: |analytic - numeric| <= 1e-3 * max(|a|, |n|) + 1e-5 (rates are in double). */
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
+
+#include <omp.h>
 
 #include "cn_prior.h"
 #include "cn_rng.h"
@@ -200,6 +204,19 @@ static void test_table_gradients(void **state)
         }
     }
     assert_int_equal(bad, 0);
+    /* Three threads, twice: the same bits and the same gradients, to the bit (the partial
+     * sums are added in thread order). */
+    const int keep_threads = omp_get_max_threads();
+    omp_set_num_threads(3);
+    float dp[2][CN_PRIOR_PARAMS] = {{0}};
+    double b[2];
+    for (int k = 0; k < 2; k++) {
+        memset(dx, 0, sizeof(float) * N);
+        b[k] = cn_prior_rate(p, x, N, 1, dx, dp[k]);
+    }
+    omp_set_num_threads(keep_threads);
+    assert_memory_equal(&b[0], &b[1], sizeof b[0]);
+    assert_memory_equal(dp[0], dp[1], sizeof dp[0]);
     free(x);
     free(dx);
 }
