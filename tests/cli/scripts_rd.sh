@@ -30,3 +30,25 @@ grep -q "^uniform,6 bits,$(stat -c %s "$work/a/q6.cnrf"),[0-9.]*,[0-9.]*$" "$wor
   fail "uniform row: $(cat "$work/a/rd.csv")"
 [ "$(wc -l < "$work/a/rd.csv")" -eq 4 ] || fail "rows: $(cat "$work/a/rd.csv")"
 echo "rd.sh: $params parameters, rows and resume as expected"
+
+# scripts/rd_goal.sh from that float model (4 iterations): trained on to 6, encoded to a
+# size in 3 more, a copy trained on to 9; rows, the float models' iterations and a second run
+# that keeps every step.
+goal=(--at 6 --iters 3 --size 20000 --preset tiny --downscale 16 --threads 1 --every 100)
+sum=$(md5sum < "$work/a/float.ckpt")
+bash "$src/scripts/rd_goal.sh" "$work/g" "$data/lego" "$work/a/float.ckpt" "${goal[@]}" \
+  > "$work/g.out" 2>&1 || fail "rd_goal.sh failed: $(cat "$work/g.out")"
+[ "$(md5sum < "$work/a/float.ckpt")" = "$sum" ] || fail "rd_goal.sh changed its float model"
+grep -q "^saved .* at iteration 6:" "$work/g/float-6.log" || fail "float-6: $(cat "$work/g/float-6.log")"
+grep -q "^saved .* at iteration 9:" "$work/g/float-9.log" || fail "float-9: $(cat "$work/g/float-9.log")"
+grep -q "^float32,6,$((4 * params)),[0-9.]*$" "$work/g/goal.csv" || fail "goal.csv: $(cat "$work/g/goal.csv")"
+grep -q "^cnerf,9,$(stat -c %s "$work/g/cnerf-20000.cnrf"),[0-9.]*$" "$work/g/goal.csv" ||
+  fail "cnerf row: $(cat "$work/g/goal.csv")"
+grep -q "^float32,9,$((4 * params)),[0-9.]*$" "$work/g/goal.csv" || fail "goal.csv: $(cat "$work/g/goal.csv")"
+grep -q "| cnerf | 9 | " "$work/g/goal.md" || fail "goal.md: $(cat "$work/g/goal.md")"
+cp "$work/g/cnerf-20000.log" "$work/g-cnerf.log"
+bash "$src/scripts/rd_goal.sh" "$work/g" "$data/lego" "$work/a/float.ckpt" "${goal[@]}" \
+  > "$work/g2.out" 2>&1 || fail "rd_goal.sh again failed: $(cat "$work/g2.out")"
+cmp -s "$work/g-cnerf.log" "$work/g/cnerf-20000.log" || fail "the finished encode ran again"
+grep -q "training\|encoding" "$work/g2.out" && fail "a finished step ran again: $(cat "$work/g2.out")"
+echo "rd_goal.sh: three rows, float models at 6 and 9 iterations, resume as expected"
