@@ -238,8 +238,10 @@ int cmd_encode(int argc, char **argv)
     o.n_fine = (int)fine;
     o.lambda = lambda;
     o.levels = levels;
-    if (precrop >= 0)
-        o.precrop_iters = precrop;
+    /* A model from --init already holds the scene: the centre crop, which keeps a model
+     * from scratch off the empty background, would only spend dearer iterations on it. */
+    if (precrop >= 0 || init)
+        o.precrop_iters = precrop >= 0 ? precrop : 0;
     char ckpt[4096];
     snprintf(ckpt, sizeof ckpt, "%s", resume ? resume : out);
     if (!resume)

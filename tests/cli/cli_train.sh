@@ -138,6 +138,13 @@ grep -q "mean over 2 views (fixed point, 8+0 samples" <<<"$out" || fail "render 
 "$cnerf" encode "$data/lego" -o "$work/pc.cnrf" --lambda 1e-3 --iters 3 --every 100 \
   --coarse-color on --precrop-iters 0 "${common[@]}" > /dev/null
 cmp -s "$work/pc.cnrf" "$work/cc.cnrf" && fail "encode --precrop-iters 0 changed nothing"
+# From --init the default is --precrop-iters 0; a crop asked for is still taken.
+for pc in "" "--precrop-iters 0" "--precrop-iters 500"; do
+  "$cnerf" encode "$data/lego" -o "$work/init${pc##* }.cnrf" --lambda 1e-3 --iters 3 \
+    --every 100 --init "$work/m.ckpt" $pc "${common[@]}" > /dev/null
+done
+cmp -s "$work/init.cnrf" "$work/init0.cnrf" || fail "encode --init: the default is not --precrop-iters 0"
+cmp -s "$work/init.cnrf" "$work/init500.cnrf" && fail "encode --init --precrop-iters 500 changed nothing"
 # quantize sends the coarse colour unless --coarse-color off; without it every image with
 # fine samples is the same bits, and the file is smaller.
 "$cnerf" quantize "$work/m.ckpt" -o "$work/q1.cnrf" --bits 6 > /dev/null
