@@ -50,8 +50,11 @@ typedef struct cn_ratectl {
 /* Points the input scales of a measured size are chosen from: an eighth of the written
  * stream's CN_SCALE_POINTS. The scales change the size only through the bounds that find
  * dead units (the scales' byte is there either way), and choosing them from 16384 points
- * was most of the measurement's time (test_ratectl compares the two sizes). */
+ * was most of the measurement's time (test_ratectl compares the two sizes). Overridable at
+ * build time only for experiments (docs/training.md, "Rate control's measurements"). */
+#ifndef CN_RC_SCALE_POINTS
 #define CN_RC_SCALE_POINTS 2048u
+#endif
 
 /* The bytes of the stream a compressed model gives now, without an occupancy grid or
  * metadata: exported, input scales chosen from seed (over CN_RC_SCALE_POINTS points), dead

@@ -51,4 +51,10 @@ bash "$src/scripts/rd_goal.sh" "$work/g" "$data/lego" "$work/a/float.ckpt" "${go
   > "$work/g2.out" 2>&1 || fail "rd_goal.sh again failed: $(cat "$work/g2.out")"
 cmp -s "$work/g-cnerf.log" "$work/g/cnerf-20000.log" || fail "the finished encode ran again"
 grep -q "training\|encoding" "$work/g2.out" && fail "a finished step ran again: $(cat "$work/g2.out")"
+set +e
+msg=$(bash "$src/scripts/rd_goal.sh" "$work/g3" "$data/lego" "$work/nope.ckpt" 2>&1); rc=$?
+set -e
+[ $rc = 1 ] && grep -q "rd_goal.sh: no float checkpoint $work/nope.ckpt" <<<"$msg" ||
+  fail "rd_goal.sh without its float checkpoint: $rc $msg"
+[ ! -e "$work/g3" ] || fail "rd_goal.sh without its float checkpoint made $work/g3"
 echo "rd_goal.sh: three rows, float models at 6 and 9 iterations, resume as expected"
