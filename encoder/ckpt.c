@@ -82,6 +82,30 @@ static const char *ckpt_read_rc(cn_reader *r, cn_ckpt *c)
     return NULL;
 }
 
+static uint64_t rd_u64(cn_reader *r)
+{
+    uint64_t u = cn_rd_u32(r);
+    return u | (uint64_t)cn_rd_u32(r) << 32;
+}
+
+/* The mean of the parameters (version 6). */
+static const char *ckpt_read_average(cn_reader *r, cn_ckpt *c)
+{
+    c->average = rd_u64(r);
+    c->avg_n = rd_u64(r);
+    if (r->err)
+        return "truncated before the mean of the parameters";
+    if (c->avg_n > c->average || c->avg_n > c->step)
+        return "invalid mean of the parameters";
+    if (c->avg_n == 0)
+        return NULL;
+    if (cn_rd_left(r) / 8 < c->n_params)
+        return "mean of the parameters truncated";
+    c->avg = r->p;
+    r->p += 8 * c->n_params;
+    return NULL;
+}
+
 int cn_ckpt_parse(const char *path, const uint8_t *data, size_t len, cn_ckpt *c, char *err,
                   size_t errlen)
 {
@@ -106,7 +130,8 @@ int cn_ckpt_parse(const char *path, const uint8_t *data, size_t len, cn_ckpt *c,
         c->compressed = cn_rd_u32(&r);
         uint32_t hl = cn_rd_u32(&r);
         c->hdr.version_minor = CNERF_VERSION_MINOR; /* a model may use any HEAD value */
-        if (version != CN_CKPT_VERSION && version != CN_CKPT_VERSION_NO_QUALITY &&
+        if (version != CN_CKPT_VERSION && version != CN_CKPT_VERSION_NO_AVERAGE &&
+            version != CN_CKPT_VERSION_NO_QUALITY &&
             version != CN_CKPT_VERSION_NO_RC &&
             version != CN_CKPT_VERSION_NO_RUN &&
             version != CN_CKPT_VERSION_NO_GRIDS)
@@ -130,7 +155,7 @@ int cn_ckpt_parse(const char *path, const uint8_t *data, size_t len, cn_ckpt *c,
                     why = ckpt_read_run(&r, c);
                 if (!why && version >= CN_CKPT_VERSION_NO_QUALITY)
                     why = ckpt_read_rc(&r, c);
-                if (!why && version == CN_CKPT_VERSION) {
+                if (!why && version >= CN_CKPT_VERSION_NO_AVERAGE) {
                     c->quality = rd_f64(&r);
                     if (r.err)
                         why = "truncated before the quality setting";
@@ -138,6 +163,8 @@ int cn_ckpt_parse(const char *path, const uint8_t *data, size_t len, cn_ckpt *c,
                              (c->quality > 0 && c->has_rc))
                         why = "invalid quality setting";
                 }
+                if (!why && version == CN_CKPT_VERSION)
+                    why = ckpt_read_average(&r, c);
                 if (!why && cn_rd_left(&r) != 0)
                     why = "unexpected bytes at the end";
             }

@@ -19,7 +19,10 @@
  * u64 first controlled step, and f64 target, reserved, lambda unit, first size, integral,
  * lambda, last size, last plan, grid bytes, slope (cn_ratectl.h).
  * Version 5 adds an f64 after that: the quality slope of cnerf encode --quality (0: none;
- * cn_train_opts.quality_slope). Versions 3 and 4 load as runs without one. */
+ * cn_train_opts.quality_slope). Versions 3 and 4 load as runs without one.
+ * Version 6 adds the mean of the parameters (cnerf encode --average): u64 the iterations
+ * averaged at the end of the run (0: none), u64 those done so far, and when that is not 0
+ * the mean, n_params f64. Versions 3 to 5 load as runs without it. */
 #ifndef CNERF_ENC_CKPT_H
 #define CNERF_ENC_CKPT_H
 
@@ -29,7 +32,8 @@
 #include "cnerf/cnerf.h"
 
 #define CN_CKPT_MAGIC "CNCK"
-#define CN_CKPT_VERSION 5u
+#define CN_CKPT_VERSION 6u
+#define CN_CKPT_VERSION_NO_AVERAGE 5u
 #define CN_CKPT_VERSION_NO_QUALITY 4u
 #define CN_CKPT_VERSION_NO_RC 3u
 #define CN_CKPT_VERSION_NO_RUN 2u
@@ -53,6 +57,8 @@ typedef struct cn_ckpt {
     double rc[10]; /* target, reserved, lambda unit, first, integral, lambda, size, plan,
                     * grid, slope */
     double quality; /* version 5: the quality slope, 0 for none */
+    uint64_t average, avg_n; /* version 6: the window and the iterations averaged so far */
+    const uint8_t *avg;      /* avg_n > 0: the mean, n_params little-endian f64 */
 } cn_ckpt;
 
 /* Parses a checkpoint's bytes (path names it in messages); c's pointers point into data.

@@ -77,6 +77,12 @@ typedef struct cn_train_opts {
      * never shown when there is a fine network: below 1 the rate penalty spends less on the
      * coarse network, whose density only places the fine samples. */
     double coarse_weight;
+    /* The model a compressed run ends with (and writes) is the mean of its parameters over
+     * the run's last `average` iterations instead of the last iteration's: the mean of the
+     * latents, rounded, keeps what they settle on and drops their step-to-step noise, which
+     * costs both bits and quality. Under rate control the size measured within those
+     * iterations is the mean's. 0 (the default) is off. */
+    long average;
 } cn_train_opts;
 
 /* 1024 rays, 5e-3 decaying tenfold over the run (NeRF: 5e-4 over 500k steps), preset
@@ -124,6 +130,12 @@ typedef struct cn_trainer {
      * rc_grid_g is the encode's --grid (-1 automatic, 0 none), measured once (cn_ratectl.h). */
     int rate_control, rc_grid_g, rc_prune;
     cn_ratectl rc;
+    /* opts.average: the mean of the parameters over the avg_n iterations of the window
+     * done so far (n_params doubles, NULL when off), and room for the parameters while the
+     * mean stands in for them. */
+    double *avg;
+    float *avg_keep;
+    long avg_n;
     char err[256]; /* why cn_trainer_step returned NaN, when it says */
 } cn_trainer;
 

@@ -32,6 +32,7 @@ void cn_train_defaults(cn_train_opts *o)
     o->compress = 0;
     o->lambda = 0;
     o->quality_slope = 0;
+    o->average = 0;
     o->levels = 8;
     o->latent_lr_weight_units = 1;
     /* The paper's 5e-5 leaves the priors where they started over a few thousand iterations:
@@ -135,8 +136,12 @@ int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o,
         snprintf(err, errlen, "no training views");
         return -1;
     }
-    if (o->batch < 1 || o->iters < 0) {
-        snprintf(err, errlen, "batch must be >= 1 and iterations >= 0");
+    if (o->batch < 1 || o->iters < 0 || o->average < 0) {
+        snprintf(err, errlen, "batch must be >= 1, iterations and averaged iterations >= 0");
+        return -1;
+    }
+    if (o->average > 0 && !o->compress) {
+        snprintf(err, errlen, "averaging the parameters is for compressed models");
         return -1;
     }
     cnerf_info hdr;
@@ -146,6 +151,15 @@ int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o,
                     : cn_model_init(&t->model, &hdr, o->seed, err, errlen))
         return -1;
     cn_train_drop_color(&t->model, o);
+    if (o->average > 0) {
+        t->avg = calloc(t->model.n_params, sizeof *t->avg);
+        t->avg_keep = malloc(sizeof *t->avg_keep * t->model.n_params);
+        if (!t->avg || !t->avg_keep) {
+            cn_trainer_free(t);
+            snprintf(err, errlen, "out of memory for the mean of the parameters");
+            return -1;
+        }
+    }
     const size_t R = (size_t)o->batch;
     t->gt = malloc(sizeof(float) * R * 3);
     t->dcolor[0] = malloc(sizeof(float) * R * 3);
@@ -188,6 +202,10 @@ void cn_trainer_free(cn_trainer *t)
     free(t->dcolor[0]);
     free(t->dcolor[1]);
     free(t->bg);
+    free(t->avg);
+    free(t->avg_keep);
+    t->avg = NULL;
+    t->avg_keep = NULL;
     t->gt = t->dcolor[0] = t->dcolor[1] = t->bg = NULL;
     for (int n = 0; n < 2; n++)
         if (t->occ[n].g)
@@ -359,6 +377,39 @@ double cn_quality_lambda(const cn_trainer *t, double k, double mse_sum)
            (double)cn_model_sent_latents(&t->model);
 }
 
+/* opts.average: puts the mean of the parameters in the model's place (swap 1), and the
+ * parameters back (swap 0), with the kernels of each. */
+static void swap_mean(cn_trainer *t, int in)
+{
+    cn_model *m = &t->model;
+    if (in) {
+        memcpy(t->avg_keep, m->params, sizeof(float) * m->n_params);
+        for (size_t i = 0; i < m->n_params; i++)
+            m->params[i] = (float)t->avg[i];
+    } else {
+        memcpy(m->params, t->avg_keep, sizeof(float) * m->n_params);
+    }
+    cn_model_materialize(m);
+}
+
+/* After an iteration: adds the parameters to their mean within the last opts.average
+ * iterations, and at the last iteration leaves the mean as the model. */
+static void average_step(cn_trainer *t)
+{
+    cn_model *m = &t->model;
+    if (!t->avg || t->step <= t->opts.iters - t->opts.average || t->step > t->opts.iters)
+        return;
+    t->avg_n++;
+    const double w = 1.0 / (double)t->avg_n;
+    for (size_t i = 0; i < m->n_params; i++)
+        t->avg[i] += ((double)m->params[i] - t->avg[i]) * w;
+    if (t->step == t->opts.iters) {
+        for (size_t i = 0; i < m->n_params; i++)
+            m->params[i] = (float)t->avg[i];
+        cn_model_materialize(m);
+    }
+}
+
 /* Rate control's work at this step: the grid's bytes once, and lambda every rc.every. */
 static int rate_control_step(cn_trainer *t)
 {
@@ -369,19 +420,27 @@ static int rate_control_step(cn_trainer *t)
                          t->step >= rc->start + (long)(at * (double)(rc->iters - rc->start));
     if (!grid_now && (t->step - rc->start) % rc->every != 0)
         return 0;
+    /* Within opts.average's window, the size of the model the run will write: the mean. */
+    const int mean = t->avg_n > 0;
+    if (mean)
+        swap_mean(t, 1);
     size_t bytes;
-    if (cn_stream_size(m, t->opts.seed, t->rc_prune, &bytes, t->err, sizeof t->err))
-        return -1;
-    if (grid_now) {
+    int err = cn_stream_size(m, t->opts.seed, t->rc_prune, &bytes, t->err, sizeof t->err);
+    if (!err && grid_now) {
         cn_grid_choice g;
         memset(&g, 0, sizeof g);
-        if (cn_grid_choose(m, t->ds, bytes, t->rc_grid_g, &g, NULL, t->err, sizeof t->err))
-            return -1;
-        rc->reserved += (double)g.bytes - rc->grid;
-        rc->grid = (double)g.bytes;
-        rc->grid_done++;
+        err = cn_grid_choose(m, t->ds, bytes, t->rc_grid_g, &g, NULL, t->err, sizeof t->err);
+        if (!err) {
+            rc->reserved += (double)g.bytes - rc->grid;
+            rc->grid = (double)g.bytes;
+            rc->grid_done++;
+        }
         cn_grid_choice_free(&g);
     }
+    if (mean)
+        swap_mean(t, 0);
+    if (err)
+        return -1;
     t->opts.lambda = cn_ratectl_update(rc, t->step, (double)bytes);
     return 0;
 }
@@ -439,6 +498,7 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
     }
     if (m->compressed)
         cn_adam_range(m, m->off_prior, m->n_params, t->opts.lr_prior * decay, t->step);
+    average_step(t);
     if (mse_last)
         *mse_last = mse;
     if (bits)
@@ -509,6 +569,10 @@ void cn_checkpoint_put(const cn_trainer *t, cn_buf *out)
             cn_buf_f64(&b, v[i]);
     }
     cn_buf_f64(&b, t->opts.quality_slope);
+    cn_buf_u64(&b, (uint64_t)t->opts.average);
+    cn_buf_u64(&b, (uint64_t)t->avg_n);
+    for (size_t i = 0; t->avg_n > 0 && i < t->model.n_params; i++)
+        cn_buf_f64(&b, t->avg[i]);
     cn_buf_u32(&b, cnerf_crc32(0, b.p, b.n));
     cn_buf_put(out, b.p, b.n);
     out->oom |= b.oom;
@@ -623,6 +687,14 @@ int cn_checkpoint_resume_data(cn_trainer *t, const char *path, const uint8_t *da
         snprintf(err, errlen, "%s was encoded with --size %.0f: resume with that size (this "
                  "run asks for %.0f), or start a new run", path, c.rc[0], t->rc.target);
         rc = -1;
+    } else if (c.average != (uint64_t)t->opts.average) {
+        if (c.average)
+            snprintf(err, errlen, "%s was encoded with --average %llu: resume with that, or "
+                     "start a new run", path, (unsigned long long)c.average);
+        else
+            snprintf(err, errlen, "%s was encoded without --average: resume without it, or "
+                     "start a new run", path);
+        rc = -1;
     } else if (c.has_run && !c.has_rc && c.quality == 0 && c.lambda != t->opts.lambda) {
         snprintf(err, errlen, "%s was encoded with --lambda %g: resume with that lambda (this "
                  "run has %g), or start a new run", path, c.lambda, t->opts.lambda);
@@ -630,6 +702,13 @@ int cn_checkpoint_resume_data(cn_trainer *t, const char *path, const uint8_t *da
     } else {
         ckpt_fill(&c, &t->model);
         t->step = (long)c.step;
+        t->avg_n = (long)c.avg_n;
+        for (size_t i = 0; c.avg_n > 0 && i < c.n_params; i++) {
+            uint64_t u = 0;
+            for (int k = 0; k < 8; k++)
+                u |= (uint64_t)c.avg[8 * i + (size_t)k] << (8 * k);
+            memcpy(&t->avg[i], &u, 8);
+        }
         if (c.quality > 0) /* the last step's; the next step sets its own */
             t->opts.lambda = c.lambda;
         if (c.has_rc) {

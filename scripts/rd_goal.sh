@@ -6,21 +6,23 @@
 # three are scored on the test split (every --every-th view, default all of them).
 #   scripts/rd_goal.sh OUT DATASET FLOAT.CKPT [--at N] [--iters N] [--size BYTES]
 #                      [--seed S] [--preset P] [--downscale F] [--threads T] [--every N]
+#                      [--average N]
 # FLOAT.CKPT is a float checkpoint of DATASET (scripts/rd_converged.sh leaves one in
 # OUT/rd/float.ckpt); it is copied, never changed. Defaults: --at 32000 --iters 12000
-# --size 60000 --seed 1 --preset small --downscale 4 --threads 2 --every 1.
+# --size 60000 --seed 1 --preset small --downscale 4 --threads 2 --every 1; --average N
+# passes encode --average N (the file holds the mean of its last N iterations).
 # Writes OUT/goal.csv and OUT/goal.md. Resumes: finished steps are kept, an interrupted
 # training or encode continues from its checkpoint. CNERF=path runs another binary.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:?output directory} data=${2:?dataset} float=${3:?float checkpoint}
 shift 3
-at=32000 iters=12000 size=60000 seed=1 preset=small downscale=4 threads=2 every=1
+at=32000 iters=12000 size=60000 seed=1 preset=small downscale=4 threads=2 every=1 average=0
 while [ $# -gt 0 ]; do
   case $1 in
     --at) at=$2 ;; --iters) iters=$2 ;; --size) size=$2 ;; --seed) seed=$2 ;;
     --preset) preset=$2 ;; --downscale) downscale=$2 ;; --threads) threads=$2 ;;
-    --every) every=$2 ;;
+    --every) every=$2 ;; --average) average=$2 ;;
     *) echo "rd_goal.sh: unknown option $1" >&2; exit 2 ;;
   esac
   shift 2
@@ -55,6 +57,7 @@ if ! grep -q "^test: " "$out/cnerf-$size.log" 2>/dev/null; then
   echo "rd_goal.sh: encoding to $size bytes in $iters iterations" >&2
   start=(--init "$out/float-$at.ckpt")
   [ -f "$file.ckpt" ] && start=(--resume "$file.ckpt")
+  [ "$average" = 0 ] || start+=(--average "$average")
   rm -f "$file"
   # An encode that ends off its target still writes the file and exits 1: its row is kept.
   "$cnerf" encode "$data" -o "$file" --size "$size" "${start[@]}" --preset "$preset" \

@@ -21,11 +21,13 @@
 #define ENCODE_USAGE                                                                          \
     "usage: cnerf encode DATASET -o scene.cnrf\n"                                            \
     "       or, several scenes in one stream with shared shifts (options as below, and\n"   \
-    "       --shift-lr X; not --size, --bits-per-param, --rate-control or --prune on):\n"  \
+    "       --shift-lr X; not --size, --bits-per-param, --rate-control, --prune on or\n"  \
+    "       --average):\n"                                                                    \
     "       cnerf encode DATASET1 DATASET2 ... -o set.cnrf (--lambda L | --quality Q)\n"   \
     "       (--lambda L | --quality Q | --size BYTES | --bits-per-param X)\n"               \
     "       [--preset tiny|small|paper|auto (the default with --size; else small)]\n"        \
     "       [--rate-control dual|pi] [--lr X] [--lr-decay N] [--precrop-iters N]\n"          \
+    "       [--average N]\n"                                                                 \
     "       [--iters N] [--downscale F|--max-size N] [--threads T] [--seed S] [--resume CKPT]\n"          \
     "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N | --ckpt-secs S]\n" \
     "       [--log-every N] [--depth D] [--width W] [--coarse N] [--fine N]\n"                \
@@ -149,6 +151,7 @@ int cmd_encode(int argc, char **argv)
         {"--lr", CLI_DOUBLE, &o.lr, 1e-8, 1},
         {"--lr-decay", CLI_DOUBLE, &o.lr_decay_steps, 1, 1e12},
         {"--precrop-iters", CLI_LONG, &precrop, 0, 1e9},
+        {"--average", CLI_LONG, &o.average, 1, 1e9},
         {"--prior-lr", CLI_DOUBLE, &o.lr_prior, 0, 1},
         {"--skip-saturated", CLI_DOUBLE, &o.sat_eps, 0, 1},
         {"--group-penalty", CLI_DOUBLE, &o.group, 0, 1000},
@@ -225,6 +228,10 @@ int cmd_encode(int argc, char **argv)
                         prune);
     if (cli_coarse_color("encode", coarse_color, coarse_weight, &o))
         return 2;
+    if (o.average > iters)
+        return cli_usage("encode", "--average %ld averages the parameters over the last %ld of "
+                         "the run's %ld iterations: give at most --iters", o.average, o.average,
+                         iters);
     if (iters == 0 && !resume)
         return cli_usage("encode", "--iters 0 trains nothing: give at least 1, or --resume a "
                          "checkpoint");
@@ -346,6 +353,9 @@ int cmd_encode(int argc, char **argv)
         printf("encoding %s: %d train views %dx%d, lambda %s, %zu latents, checkpoint %s\n",
                pos[0], ds.n_train, ds.train[0].w, ds.train[0].h, lam,
                cn_model_sent_latents(&t.model), ckpt);
+        if (o.average > 0)
+            printf("the file will hold the mean of the parameters over the last %ld "
+                   "iterations\n", o.average);
         rc = cli_run_training("encode", &t, ckpt, ckpt_every, ckpt_secs, log_every, eval_every,
                               every, &stopped);
     }

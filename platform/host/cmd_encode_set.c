@@ -81,6 +81,7 @@ int cmd_encode_set(int argc, char **argv)
     long eval_every = 0, grid_g = -1;
     double ckpt_secs = CLI_CKPT_SECS, lambda = -1, quality = -1, levels = o.levels;
     double lr_shift = o.lr_affine, size = 0, bpp = 0;
+    long average = 0;
     const char *prune = NULL, *scheme = NULL, *coarse_color = "off";
     double coarse_weight = -1;
     uint64_t seed = o.seed;
@@ -90,6 +91,7 @@ int cmd_encode_set(int argc, char **argv)
         {"--lambda", CLI_DOUBLE, &lambda, 0, 1e3},
         {"--quality", CLI_DOUBLE, &quality, 0, 100},
         {"--size", CLI_DOUBLE, &size, 1, 1e9},
+        {"--average", CLI_LONG, &average, 1, 1e9},
         {"--bits-per-param", CLI_DOUBLE, &bpp, 1e-3, 32},
         {"--rate-control", CLI_STR, &scheme, 0, 0},
         {"--prune", CLI_STR, &prune, 0, 0},
@@ -126,6 +128,9 @@ int cmd_encode_set(int argc, char **argv)
                   CNERF_MAX_SCENES, &n_pos))
         return 2;
     const unsigned M = (unsigned)n_pos;
+    if (average > 0)
+        return cli_usage("encode", "--average encodes one scene: a stream of several scenes "
+                         "ends with its last iteration's model");
     if (size > 0 || bpp > 0 || scheme)
         return cli_usage("encode", "--size, --bits-per-param and --rate-control encode one "
                          "scene; a stream of several scenes takes --lambda L or --quality Q");

@@ -145,6 +145,17 @@ for pc in "" "--precrop-iters 0" "--precrop-iters 500"; do
 done
 cmp -s "$work/init.cnrf" "$work/init0.cnrf" || fail "encode --init: the default is not --precrop-iters 0"
 cmp -s "$work/init.cnrf" "$work/init500.cnrf" && fail "encode --init --precrop-iters 500 changed nothing"
+# --average N writes the mean of the last N iterations' parameters: another file than the
+# last iteration's; more iterations than the run has are refused.
+"$cnerf" encode "$data/lego" -o "$work/avg.cnrf" --lambda 1e-3 --iters 3 --every 100 \
+  --init "$work/m.ckpt" --average 2 "${common[@]}" > /dev/null
+cmp -s "$work/init.cnrf" "$work/avg.cnrf" && fail "encode --average 2 changed nothing"
+set +e
+msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1e-3 --iters 3 --average 4 2>&1)
+rc=$?
+[ $rc = 2 ] && grep -q "give at most --iters" <<<"$msg" || fail "--average 4 of 3: $rc $msg"
+[ ! -e "$work/z.cnrf" ] || fail "--average 4 of 3 wrote a file"
+set -e
 # quantize sends the coarse colour unless --coarse-color off; without it every image with
 # fine samples is the same bits, and the file is smaller.
 "$cnerf" quantize "$work/m.ckpt" -o "$work/q1.cnrf" --bits 6 > /dev/null
@@ -356,6 +367,8 @@ msg=$("$cnerf" encode "$data/lego" "$data/mic" -o "$work/z.cnrf" --size 9000 2>&
 [ $rc = 2 ] && grep -q "takes --lambda L or --quality Q" <<<"$msg" || fail "set --size: $rc $msg"
 msg=$("$cnerf" encode "$data/lego" "$data/mic" -o "$work/z.cnrf" --lambda 1 --prune on 2>&1); rc=$?
 [ $rc = 2 ] && grep -q "keeps every unit" <<<"$msg" || fail "set --prune on: $rc $msg"
+msg=$("$cnerf" encode "$data/lego" "$data/mic" -o "$work/z.cnrf" --lambda 1 --average 2 2>&1); rc=$?
+[ $rc = 2 ] && grep -q -- "--average encodes one scene" <<<"$msg" || fail "set --average: $rc $msg"
 msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --shift-lr 0.01 2>&1); rc=$?
 [ $rc = 2 ] && grep -q "this encode has one" <<<"$msg" || fail "one scene --shift-lr: $rc $msg"
 msg=$("$cnerf" encode "$data/lego" "$data/lego" -o "$work/z.cnrf" --lambda 1 2>&1); rc=$?

@@ -32,9 +32,10 @@ grep -q "^uniform,6 bits,$(stat -c %s "$work/a/q6.cnrf"),[0-9.]*,[0-9.]*$" "$wor
 echo "rd.sh: $params parameters, rows and resume as expected"
 
 # scripts/rd_goal.sh from that float model (4 iterations): trained on to 6, encoded to a
-# size in 3 more, a copy trained on to 9; rows, the float models' iterations and a second run
-# that keeps every step.
-goal=(--at 6 --iters 3 --size 20000 --preset tiny --downscale 16 --threads 1 --every 100)
+# size in 3 more (the file the mean of the last 2), a copy trained on to 9; rows, the float
+# models' iterations and a second run that keeps every step.
+goal=(--at 6 --iters 3 --size 20000 --preset tiny --downscale 16 --threads 1 --every 100
+  --average 2)
 sum=$(md5sum < "$work/a/float.ckpt")
 bash "$src/scripts/rd_goal.sh" "$work/g" "$data/lego" "$work/a/float.ckpt" "${goal[@]}" \
   > "$work/g.out" 2>&1 || fail "rd_goal.sh failed: $(cat "$work/g.out")"
@@ -46,6 +47,8 @@ grep -q "^cnerf,9,$(stat -c %s "$work/g/cnerf-20000.cnrf"),[0-9.]*$" "$work/g/go
   fail "cnerf row: $(cat "$work/g/goal.csv")"
 grep -q "^float32,9,$((4 * params)),[0-9.]*$" "$work/g/goal.csv" || fail "goal.csv: $(cat "$work/g/goal.csv")"
 grep -q "| cnerf | 9 | " "$work/g/goal.md" || fail "goal.md: $(cat "$work/g/goal.md")"
+grep -q "^the file will hold the mean of the parameters over the last 2 iterations$" \
+  "$work/g/cnerf-20000.log" || fail "rd_goal.sh --average 2: $(cat "$work/g/cnerf-20000.log")"
 cp "$work/g/cnerf-20000.log" "$work/g-cnerf.log"
 bash "$src/scripts/rd_goal.sh" "$work/g" "$data/lego" "$work/a/float.ckpt" "${goal[@]}" \
   > "$work/g2.out" 2>&1 || fail "rd_goal.sh again failed: $(cat "$work/g2.out")"

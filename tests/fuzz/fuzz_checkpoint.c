@@ -28,6 +28,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         if (c.grid[n])
             for (size_t i = 0; i < (size_t)c.grid_g[n] * c.grid_g[n] * c.grid_g[n]; i++)
                 sum += f32_at(c.grid[n] + 4 * i);
+    for (uint64_t i = 0; c.avg && i < 2 * c.n_params; i++) /* the mean: f64s */
+        sum += f32_at(c.avg + 4 * i);
     (void)sum;
     return 0;
 }

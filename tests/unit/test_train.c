@@ -303,7 +303,9 @@ static void rate_control(cn_trainer *t, int on)
         cn_trainer_rate_control(t, 20000, 100, CN_RC_LOG_PI, 16, 1);
 }
 
-static void run_split(int mode) /* 0 plain, 1 compressed, 2 with --size, 3 with --quality */
+/* mode: 0 plain, 1 compressed, 2 with --size, 3 with --quality, 4 with --size and the
+ * mean of the last 8 iterations (the resume in that window, a controller measurement too). */
+static void run_split(int mode)
 {
     cn_train_opts o;
     small_opts(&o);
@@ -313,6 +315,7 @@ static void run_split(int mode) /* 0 plain, 1 compressed, 2 with --size, 3 with 
     o.compress = compress;
     o.lambda = mode == 1 ? 1.0 : 0.0;
     o.quality_slope = mode == 3 ? cn_quality_slope(50) : 0.0;
+    o.average = mode == 4 ? 8 : 0;
     o.iters = 12; /* the controller's plan spans the run */
     enum { N = 12, HALF = 7 }; /* N = o.iters */
     char err[512], path[512];
@@ -320,10 +323,10 @@ static void run_split(int mode) /* 0 plain, 1 compressed, 2 with --size, 3 with 
     cn_trainer whole, first, second;
     double loss_whole[N], loss_split[N];
     assert_int_equal(cn_trainer_init(&whole, &ds, &o, err, sizeof err), 0);
-    rate_control(&whole, mode == 2);
+    rate_control(&whole, mode == 2 || mode == 4);
     for (int i = 0; i < N; i++)
         loss_whole[i] = cn_trainer_step(&whole, NULL, NULL);
-    if (mode == 2) { /* the controller acted: lambda moved off 0, the grid was measured */
+    if (mode == 2 || mode == 4) { /* the controller acted: lambda moved off 0, the grid was measured */
         print_message("# rate control: lambda %g after %d steps, size %.0f, plan %.0f, "
                       "reserved %.0f, grid %d\n", whole.opts.lambda, N, whole.rc.size,
                       whole.rc.plan, whole.rc.reserved, whole.rc.grid_done);
@@ -332,7 +335,7 @@ static void run_split(int mode) /* 0 plain, 1 compressed, 2 with --size, 3 with 
     if (mode == 3) /* lambda follows the batch's error */
         assert_true(whole.opts.lambda > 0);
     assert_int_equal(cn_trainer_init(&first, &ds, &o, err, sizeof err), 0);
-    rate_control(&first, mode == 2);
+    rate_control(&first, mode == 2 || mode == 4);
     for (int i = 0; i < HALF; i++)
         loss_split[i] = cn_trainer_step(&first, NULL, NULL);
     assert_int_equal(cn_checkpoint_save(&first, path, err, sizeof err), 0);
@@ -367,8 +370,23 @@ static void run_split(int mode) /* 0 plain, 1 compressed, 2 with --size, 3 with 
         assert_non_null(strstr(err, "was encoded with --quality 50"));
         second.opts.quality_slope = o.quality_slope;
         second.opts.lambda = 0;
+    } else if (mode == 4) { /* refused: another window, none */
+        rate_control(&second, 1);
+        second.opts.average = 4;
+        assert_int_equal(cn_checkpoint_resume(&second, path, err, sizeof err), -1);
+        print_message("# another window: %s\n", err);
+        assert_non_null(strstr(err, "was encoded with --average 8: resume with that"));
+        cn_trainer_free(&second);
+        cn_train_opts o0 = o;
+        o0.average = 0;
+        assert_int_equal(cn_trainer_init(&second, &ds, &o0, err, sizeof err), 0);
+        rate_control(&second, 1);
+        assert_int_equal(cn_checkpoint_resume(&second, path, err, sizeof err), -1);
+        assert_non_null(strstr(err, "was encoded with --average 8"));
+        cn_trainer_free(&second);
+        assert_int_equal(cn_trainer_init(&second, &ds, &o, err, sizeof err), 0);
     }
-    rate_control(&second, mode == 2);
+    rate_control(&second, mode == 2 || mode == 4);
     assert_int_equal(cn_checkpoint_resume(&second, path, err, sizeof err), 0);
     assert_int_equal(second.step, HALF);
     for (int i = HALF; i < N; i++)
@@ -398,6 +416,58 @@ static void test_resume_continues_exactly(void **state)
     run_split(1);
     run_split(2);
     run_split(3);
+    run_split(4);
+}
+
+/* --average W: the model at the end of the run is the mean of the parameters over its last
+ * W iterations (the same run without it gives those parameters), and not the last ones. */
+static void test_average_is_the_mean(void **state)
+{
+    (void)state;
+    cn_train_opts o;
+    small_opts(&o);
+    o.compress = 1;
+    o.lambda = 1.0;
+    o.iters = 10;
+    enum { W = 4 };
+    char err[512];
+    cn_trainer a, b;
+    o.average = W;
+    assert_int_equal(cn_trainer_init(&a, &ds, &o, err, sizeof err), 0);
+    o.average = 0;
+    assert_int_equal(cn_trainer_init(&b, &ds, &o, err, sizeof err), 0);
+    const size_t n = b.model.n_params;
+    double *mean = calloc(n, sizeof *mean);
+    assert_non_null(mean);
+    for (long i = 1; i <= o.iters; i++) {
+        cn_trainer_step(&a, NULL, NULL);
+        cn_trainer_step(&b, NULL, NULL);
+        if (i <= o.iters - W)
+            continue;
+        const long k = i - (o.iters - W);
+        for (size_t p = 0; p < n; p++)
+            mean[p] += ((double)b.model.params[p] - mean[p]) * (1.0 / (double)k);
+    }
+    assert_int_equal(a.avg_n, W);
+    size_t off = 0, last = 0;
+    for (size_t p = 0; p < n; p++) {
+        off += a.model.params[p] != (float)mean[p];
+        last += a.model.params[p] != b.model.params[p];
+    }
+    print_message("# %zu of %zu parameters differ from the mean, %zu from the last "
+                  "iteration's\n", off, n, last);
+    assert_int_equal(off, 0);
+    assert_true(last > n / 2);
+    free(mean);
+    cn_trainer_free(&a);
+    cn_trainer_free(&b);
+    /* Only a compressed run averages, over no negative window. */
+    o.average = -1;
+    assert_int_equal(cn_trainer_init(&a, &ds, &o, err, sizeof err), -1);
+    o.average = 2;
+    o.compress = 0;
+    assert_int_equal(cn_trainer_init(&a, &ds, &o, err, sizeof err), -1);
+    assert_non_null(strstr(err, "compressed"));
 }
 
 /* Writes bytes[0..n) followed by their CRC-32, as a checkpoint ends. */
@@ -421,7 +491,7 @@ static void put_le32(uint8_t *p, uint32_t v)
 
 /* The occupancy grids in a checkpoint: a version 1 file (no grids) still resumes, with its
  * grids rebuilt, as does a run with another grid size; a grid section that does not fit
- * the model is refused with its reason even when the CRC is right. A version 3, 4 or 5 file
+ * the model is refused with its reason even when the CRC is right. A version 3 to 6 file
  * refuses a run with another lambda; a version 2 file (no record of the run) resumes it. */
 static void test_checkpoint_grids(void **state)
 {
@@ -442,9 +512,9 @@ static void test_checkpoint_grids(void **state)
     assert_int_equal(cn_read_file(path, &v2, &len, err, sizeof err), 0);
     const size_t cells = (size_t)o.occ_grid * o.occ_grid * o.occ_grid;
     const size_t grids = 4 + t.model.topo.n_nets * (8 + 4 * cells);
-    /* lambda, views, width, height, poses hash; then version 4's rate-control flag (0) and
-     * version 5's quality (0) */
-    const size_t run = 8 + 3 * 4 + 8 + 4 + 8;
+    /* lambda, views, width, height, poses hash; then version 4's rate-control flag (0),
+     * version 5's quality (0) and version 6's window and iterations averaged (0, 0) */
+    const size_t run = 8 + 3 * 4 + 8 + 4 + 8 + 16;
     const size_t body = len - 4 - run - grids; /* up to the end of the Adam moments */
     uint8_t *buf = malloc(len + 4);
     assert_non_null(buf);
@@ -489,10 +559,10 @@ static void test_checkpoint_grids(void **state)
     assert_int_equal(cn_checkpoint_resume(&r, path, err, sizeof err), 0);
     assert_true(r.occ[0].valid && r.occ[1].valid);
     cn_trainer_free(&r);
-    /* Versions 3 (the run's record, no rate-control flag) and 4 (no quality) resume and still
-     * check lambda. */
-    for (uint32_t v = 3; v <= 4; v++) {
-        const size_t n = len - 4 - (v == 3 ? 12 : 8);
+    /* Versions 3 (the run's record, no rate-control flag), 4 (no quality) and 5 (no mean of
+     * the parameters) resume and still check lambda. */
+    for (uint32_t v = 3; v <= 5; v++) {
+        const size_t n = len - 4 - (v == 3 ? 28 : v == 4 ? 24 : 16);
         memcpy(buf, v2, n);
         put_le32(buf + 4, v);
         write_with_crc(path, buf, n);
@@ -511,14 +581,17 @@ static void test_checkpoint_grids(void **state)
         long cut;       /* bytes removed before the CRC (negative: added) */
         long count_ofs; /* when >= 0: the grid count becomes 1 */
         const char *message;
-        int negative_quality;
+        int poke; /* 1: the quality becomes -1; 2: one iteration averaged, in no window */
     } bad[] = {
         {"one grid for two networks", 0, 1, "occupancy grids do not match the model", 0},
         {"a grid cut short", (long)run + 4, -1, "occupancy grid truncated", 0},
-        {"the quality cut short", 4, -1, "truncated before the quality setting", 0},
+        {"the mean's window cut short", 12, -1, "truncated before the mean of the parameters",
+         0},
+        {"a mean longer than its window", 0, -1, "invalid mean of the parameters", 2},
+        {"the quality cut short", 20, -1, "truncated before the quality setting", 0},
         {"a negative quality", 0, -1, "invalid quality setting", 1},
-        {"the rate-control flag cut short", 10, -1, "invalid rate-control flag", 0},
-        {"the run's record cut short", 16, -1, "truncated after the occupancy grids", 0},
+        {"the rate-control flag cut short", 26, -1, "invalid rate-control flag", 0},
+        {"the run's record cut short", 32, -1, "truncated after the occupancy grids", 0},
         {"bytes after the run's record", -4, -1, "unexpected bytes at the end", 0},
         {"no grid section", (long)(grids + run), -1, "grid", 0},
     };
@@ -527,10 +600,12 @@ static void test_checkpoint_grids(void **state)
         memset(buf + len - 4, 0, 4);
         if (bad[k].count_ofs >= 0)
             put_le32(buf + body, 1);
-        if (bad[k].negative_quality) { /* -1.0: f64 0xBFF0000000000000 */
-            put_le32(buf + len - 12, 0);
-            put_le32(buf + len - 8, 0xBFF00000u);
+        if (bad[k].poke == 1) { /* -1.0: f64 0xBFF0000000000000 */
+            put_le32(buf + len - 28, 0);
+            put_le32(buf + len - 24, 0xBFF00000u);
         }
+        if (bad[k].poke == 2)
+            put_le32(buf + len - 12, 1);
         write_with_crc(path, buf, (size_t)((long)len - 4 - bad[k].cut));
         err[0] = 0;
         cn_model refused;
@@ -753,6 +828,7 @@ int main(void)
         cmocka_unit_test(test_end_to_end),
         cmocka_unit_test(test_reproducible),
         cmocka_unit_test(test_resume_continues_exactly),
+        cmocka_unit_test(test_average_is_the_mean),
         cmocka_unit_test(test_checkpoint_grids),
         cmocka_unit_test(test_joint),
         cmocka_unit_test(test_joint_coarse_color),
