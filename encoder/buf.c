@@ -131,6 +131,22 @@ void cn_buf_f32s(cn_buf *b, const float *x, size_t n)
     }
 }
 
+void cn_buf_f64s(cn_buf *b, const double *x, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        cn_buf_f64(b, x[i]);
+}
+
+void cn_get_f64s(double *x, const uint8_t *p, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        uint64_t u = 0;
+        for (int k = 0; k < 8; k++)
+            u |= (uint64_t)p[8 * i + (size_t)k] << (8 * k);
+        memcpy(&x[i], &u, 8);
+    }
+}
+
 void cn_get_f32s(float *x, const uint8_t *p, size_t n)
 {
     for (size_t i = 0; i < n; i++) {

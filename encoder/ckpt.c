@@ -31,10 +31,15 @@ static const char *ckpt_read_grids(cn_reader *r, cn_ckpt *c)
     return NULL;
 }
 
-static double rd_f64(cn_reader *r)
+static uint64_t rd_u64(cn_reader *r)
 {
     uint64_t u = cn_rd_u32(r);
-    u |= (uint64_t)cn_rd_u32(r) << 32;
+    return u | (uint64_t)cn_rd_u32(r) << 32;
+}
+
+static double rd_f64(cn_reader *r)
+{
+    const uint64_t u = rd_u64(r);
     double v;
     memcpy(&v, &u, 8);
     return v;
@@ -80,12 +85,6 @@ static const char *ckpt_read_rc(cn_reader *r, cn_ckpt *c)
         return "invalid rate-control state";
     c->has_rc = 1;
     return NULL;
-}
-
-static uint64_t rd_u64(cn_reader *r)
-{
-    uint64_t u = cn_rd_u32(r);
-    return u | (uint64_t)cn_rd_u32(r) << 32;
 }
 
 /* The mean of the parameters (version 6). */

@@ -29,6 +29,9 @@ void cn_buf_f64(cn_buf *b, double v); /* IEEE 754 bits, little-endian */
 void cn_buf_f32s(cn_buf *b, const float *x, size_t n); /* n floats, IEEE bits, little-endian */
 /* Reads n floats written by cn_buf_f32s from p (4 n bytes). */
 void cn_get_f32s(float *x, const uint8_t *p, size_t n);
+void cn_buf_f64s(cn_buf *b, const double *x, size_t n); /* n doubles, as cn_buf_f64 */
+/* Reads n doubles written by cn_buf_f64s from p (8 n bytes). */
+void cn_get_f64s(double *x, const uint8_t *p, size_t n);
 
 /* ---- bit writer: MSB-first into a cn_buf, zero-padded to a byte on flush ---- */
 typedef struct cn_bitw {

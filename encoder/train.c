@@ -377,19 +377,26 @@ double cn_quality_lambda(const cn_trainer *t, double k, double mse_sum)
            (double)cn_model_sent_latents(&t->model);
 }
 
-/* opts.average: puts the mean of the parameters in the model's place (swap 1), and the
- * parameters back (swap 0), with the kernels of each. */
+/* opts.average: the mean of the parameters becomes the model, with its kernels. */
+static void put_mean(cn_trainer *t)
+{
+    cn_model *m = &t->model;
+    for (size_t i = 0; i < m->n_params; i++)
+        m->params[i] = (float)t->avg[i];
+    cn_model_materialize(m);
+}
+
+/* Puts the mean in the model's place (in 1), and the parameters back (in 0). */
 static void swap_mean(cn_trainer *t, int in)
 {
     cn_model *m = &t->model;
     if (in) {
         memcpy(t->avg_keep, m->params, sizeof(float) * m->n_params);
-        for (size_t i = 0; i < m->n_params; i++)
-            m->params[i] = (float)t->avg[i];
+        put_mean(t);
     } else {
         memcpy(m->params, t->avg_keep, sizeof(float) * m->n_params);
+        cn_model_materialize(m);
     }
-    cn_model_materialize(m);
 }
 
 /* After an iteration: adds the parameters to their mean within the last opts.average
@@ -403,11 +410,8 @@ static void average_step(cn_trainer *t)
     const double w = 1.0 / (double)t->avg_n;
     for (size_t i = 0; i < m->n_params; i++)
         t->avg[i] += ((double)m->params[i] - t->avg[i]) * w;
-    if (t->step == t->opts.iters) {
-        for (size_t i = 0; i < m->n_params; i++)
-            m->params[i] = (float)t->avg[i];
-        cn_model_materialize(m);
-    }
+    if (t->step == t->opts.iters)
+        put_mean(t);
 }
 
 /* Rate control's work at this step: the grid's bytes once, and lambda every rc.every. */
@@ -571,8 +575,8 @@ void cn_checkpoint_put(const cn_trainer *t, cn_buf *out)
     cn_buf_f64(&b, t->opts.quality_slope);
     cn_buf_u64(&b, (uint64_t)t->opts.average);
     cn_buf_u64(&b, (uint64_t)t->avg_n);
-    for (size_t i = 0; t->avg_n > 0 && i < t->model.n_params; i++)
-        cn_buf_f64(&b, t->avg[i]);
+    if (t->avg_n > 0)
+        cn_buf_f64s(&b, t->avg, t->model.n_params);
     cn_buf_u32(&b, cnerf_crc32(0, b.p, b.n));
     cn_buf_put(out, b.p, b.n);
     out->oom |= b.oom;
@@ -703,12 +707,8 @@ int cn_checkpoint_resume_data(cn_trainer *t, const char *path, const uint8_t *da
         ckpt_fill(&c, &t->model);
         t->step = (long)c.step;
         t->avg_n = (long)c.avg_n;
-        for (size_t i = 0; c.avg_n > 0 && i < c.n_params; i++) {
-            uint64_t u = 0;
-            for (int k = 0; k < 8; k++)
-                u |= (uint64_t)c.avg[8 * i + (size_t)k] << (8 * k);
-            memcpy(&t->avg[i], &u, 8);
-        }
+        if (c.avg_n > 0)
+            cn_get_f64s(t->avg, c.avg, c.n_params);
         if (c.quality > 0) /* the last step's; the next step sets its own */
             t->opts.lambda = c.lambda;
         if (c.has_rc) {
