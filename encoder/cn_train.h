@@ -13,6 +13,7 @@
 #include "cn_occ.h"
 #include "cn_ratectl.h"
 #include "cn_render.h"
+#include "cn_validate.h"
 
 typedef struct cn_train_opts {
     const char *preset; /* "tiny", "small" or "paper" */
@@ -83,6 +84,10 @@ typedef struct cn_train_opts {
      * costs both bits and quality. Under rate control the size measured within those
      * iterations is the mean's. 0 (the default) is off. */
     long average;
+    /* Every val_every iterations (0: never) the trainer measures the model on the dataset's
+     * validation views and on its training views, CN_VAL_RAYS fixed rays each
+     * (cn_validate.h); 100 by default. Training itself does not change. */
+    long val_every;
 } cn_train_opts;
 
 /* 1024 rays, 5e-3 decaying tenfold over the run (NeRF: 5e-4 over 500k steps), preset
@@ -136,6 +141,12 @@ typedef struct cn_trainer {
     double *avg;
     float *avg_keep;
     long avg_n;
+    /* Validation (opts.val_every, cn_validate.h): fixed rays of the validation and the
+     * training views, and the last measurement of each (NaN before the first, or without
+     * validation views), made after val_step iterations. */
+    cn_val_rays val_rays, fit_rays;
+    double val_psnr, fit_psnr;
+    long val_step;
     char err[256]; /* why cn_trainer_step returned NaN, when it says */
 } cn_trainer;
 
@@ -170,6 +181,10 @@ double cn_quality_from_slope(double k);
  * coarse network's at its weight (cn_train_opts.coarse_weight), sum to mse_sum:
  * k ln(10)/10 x mse_sum x 3 pixels / latents sent. */
 double cn_quality_lambda(const cn_trainer *t, double k, double mse_sum);
+/* Measures the current model on the validation and training rays (t->val_psnr,
+ * t->fit_psnr, t->val_step); 0, or -1 on allocation failure. Without validation views it
+ * measures nothing and leaves val_psnr NaN. */
+int cn_trainer_validate(cn_trainer *t);
 /* Current learning rate. */
 double cn_trainer_lr(const cn_trainer *t);
 

@@ -42,6 +42,7 @@ void cn_train_defaults(cn_train_opts *o)
     o->random_bg = -1;
     o->coarse_color = 1;
     o->coarse_weight = 1;
+    o->val_every = 100;
 }
 
 static int32_t q16(double v) { return (int32_t)lround(v * 65536.0); }
@@ -183,6 +184,15 @@ int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o,
         }
         t->batch.bg = t->bg;
     }
+    t->val_psnr = t->fit_psnr = NAN;
+    if (ds->n_val > 0 &&
+        (cn_val_rays_init(&t->val_rays, ds->val, ds->n_val, ds->ndc, CN_VAL_RAYS, o->seed) ||
+         cn_val_rays_init(&t->fit_rays, ds->train, ds->n_train, ds->ndc, CN_VAL_RAYS,
+                          o->seed + 1))) {
+        cn_trainer_free(t);
+        snprintf(err, errlen, "out of memory for the validation rays");
+        return -1;
+    }
     for (unsigned n = 0; n < t->model.topo.n_nets && o->occ_grid > 0; n++)
         if (cn_occ_init(&t->occ[n], &t->model.topo, o->occ_grid)) {
             cn_trainer_free(t);
@@ -204,6 +214,8 @@ void cn_trainer_free(cn_trainer *t)
     free(t->bg);
     free(t->avg);
     free(t->avg_keep);
+    cn_val_rays_free(&t->val_rays);
+    cn_val_rays_free(&t->fit_rays);
     t->avg = NULL;
     t->avg_keep = NULL;
     t->gt = t->dcolor[0] = t->dcolor[1] = t->bg = NULL;
@@ -454,6 +466,11 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
     const size_t R = (size_t)t->opts.batch;
     const unsigned nets = t->model.topo.n_nets;
     cn_model *m = &t->model;
+    if (t->opts.val_every > 0 && t->step > 0 && t->step % t->opts.val_every == 0 &&
+        t->val_step != t->step && cn_trainer_validate(t)) {
+        snprintf(t->err, sizeof t->err, "out of memory for validation");
+        return NAN;
+    }
     draw_rays(t, R);
     const uint64_t seed = t->opts.seed + 0x9E3779B97F4A7C15ull * (uint64_t)(t->step + 1);
     cn_model_materialize(m);
@@ -508,6 +525,21 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
     if (bits)
         *bits = rate;
     return loss;
+}
+
+int cn_trainer_validate(cn_trainer *t)
+{
+    if (t->val_rays.n == 0)
+        return 0;
+    cn_model_materialize(&t->model);
+    const double v = cn_val_psnr(&t->model, &t->val_rays);
+    const double f = cn_val_psnr(&t->model, &t->fit_rays);
+    if (v < 0 || f < 0)
+        return -1;
+    t->val_psnr = v;
+    t->fit_psnr = f;
+    t->val_step = t->step;
+    return 0;
 }
 
 /* ---- checkpoints ---- */

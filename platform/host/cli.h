@@ -55,6 +55,10 @@ void cli_unlock_output(int fd, const char *lock);
  * time so far without the evaluations. Returns 0 or 1 (error printed). */
 int cli_run_training(const char *cmd, struct cn_trainer *t, const char *ckpt, long ckpt_every,
                      double ckpt_secs, long log_every, long eval_every, long every, int *stopped);
+/* Measures the trained model on its validation and training rays (cn_validate.h), prints
+ * both PSNRs and warns on stderr when the training views beat the validation views by more
+ * than CN_VAL_GAP_DB; cli_run_training calls it at the end of a run. 0 or 1 (error printed). */
+int cli_report_validation(const char *cmd, struct cn_trainer *t);
 /* The same loop for any training job: done() gives the iterations done, step() runs one and
  * returns the loss (NaN with a message in err on failure), the PSNR to show and the rest of
  * the progress line, save() writes the checkpoint, eval() (NULL: none) evaluates and returns
@@ -82,10 +86,11 @@ int cli_eval_views(const struct cn_model *m, const struct cn_view *views, int n,
                    long every, const char *outdir, int quiet, double *mean_psnr,
                    double *mean_ssim, double *secs);
 
-/* Loads a dataset with the shared options; prints the error and returns 1 on failure. */
+/* Loads a dataset with the shared options and holds out val_views of its training views
+ * for validation (cn_dataset_hold_out; -1: the default rule, which every command applies
+ * alike so that their splits agree); prints the error and returns 1 on failure. */
 int cli_load_dataset(const char *cmd, const char *dir, long downscale, long max_size, int black,
-                     double near,
-                     double far, struct cn_dataset *ds);
+                     double near, double far, long val_views, struct cn_dataset *ds);
 /* --random-bg auto|on|off into cn_train_opts.random_bg (-1, 1, 0); prints the error and
  * returns 1 for another word. */
 int cli_random_bg(const char *cmd, const char *word, int *random_bg);

@@ -35,7 +35,8 @@
     "       [--eval-every N] [--prior-lr X] [--affine-lr X]\n"   \
     "       [--skip-saturated EPS] [--grid G|0] [--grid-verbose] [--random-bg auto|on|off]\n" \
     "       [--background constant|contract]\n"                                               \
-    "       [--prune on|off] [--group-penalty MU] [--coarse-color off|on] [--coarse-weight W]"
+    "       [--prune on|off] [--group-penalty MU] [--coarse-color off|on] [--coarse-weight W]\n" \
+    "       [--val-views N]"
 
 /* --size and --bits-per-param: the file may miss its target by this fraction. */
 #define CLI_SIZE_TOLERANCE 0.03
@@ -115,7 +116,7 @@ int cmd_encode(int argc, char **argv)
     long iters = o.iters, downscale = 1, max_size = 0, threads = 0, batch = o.batch, every = 1;
     long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 0, log_every = 100;
     double ckpt_secs = CLI_CKPT_SECS;
-    long eval_every = 0, grid_g = -1, precrop = -1;
+    long eval_every = 0, grid_g = -1, precrop = -1, val_views = -1;
     double lambda = -1, levels = o.levels, size = 0, bpp = 0, quality = -1, lr_shift = -1;
     const char *scheme = "dual", *preset = NULL;
     uint64_t seed = o.seed;
@@ -143,6 +144,7 @@ int cmd_encode(int argc, char **argv)
         {"--ckpt-secs", CLI_DOUBLE, &ckpt_secs, 1, 1e6},
         {"--log-every", CLI_LONG, &log_every, 1, 1e9},
         {"--eval-every", CLI_LONG, &eval_every, 0, 1e9},
+        {"--val-views", CLI_LONG, &val_views, 0, 1e6},
         {"--depth", CLI_LONG, &depth, 1, CNERF_MAX_DEPTH},
         {"--width", CLI_LONG, &width, 1, CNERF_MAX_WIDTH},
         {"--coarse", CLI_LONG, &coarse, 1, CNERF_MAX_SAMPLES},
@@ -262,7 +264,7 @@ int cmd_encode(int argc, char **argv)
     if (lk < 0)
         return 1;
     cn_dataset ds;
-    if (cli_load_dataset("encode", pos[0], downscale, max_size, black, 0, 0, &ds)) {
+    if (cli_load_dataset("encode", pos[0], downscale, max_size, black, 0, 0, val_views, &ds)) {
         cli_unlock_output(lk, lock);
         return 1;
     }
@@ -350,8 +352,9 @@ int cmd_encode(int argc, char **argv)
                      o.quality_slope);
         else
             snprintf(lam, sizeof lam, controlled ? "controlled" : "%g", lambda);
-        printf("encoding %s: %d train views %dx%d, lambda %s, %zu latents, checkpoint %s\n",
-               pos[0], ds.n_train, ds.train[0].w, ds.train[0].h, lam,
+        printf("encoding %s: %d train views %dx%d, %d validation views, lambda %s, %zu "
+               "latents, checkpoint %s\n", pos[0], ds.n_train, ds.train[0].w, ds.train[0].h,
+               ds.n_val, lam,
                cn_model_sent_latents(&t.model), ckpt);
         if (o.average > 0)
             printf("the file will hold the mean of the parameters over the last %ld "

@@ -190,7 +190,7 @@ int cmd_encode_set(int argc, char **argv)
     unsigned loaded = 0;
     int rc = ds ? 0 : cli_fail("encode", "out of memory");
     for (; rc == 0 && loaded < M; loaded++)
-        if (cli_load_dataset("encode", pos[loaded], downscale, max_size, 0, 0, 0, &ds[loaded]))
+        if (cli_load_dataset("encode", pos[loaded], downscale, max_size, 0, 0, 0, -1, &ds[loaded]))
             rc = 1;
     if (rc) {
         for (unsigned m = 0; m + 1 < loaded; m++)

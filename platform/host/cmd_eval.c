@@ -152,7 +152,7 @@ int cmd_eval(int argc, char **argv)
     } else if (cn_checkpoint_load_model(pos[0], &m, &step, err, sizeof err))
         return cli_fail("eval", "%s", err);
     cn_dataset ds;
-    if (cli_load_dataset("eval", pos[1], downscale, max_size, black, 0, 0, &ds)) {
+    if (cli_load_dataset("eval", pos[1], downscale, max_size, black, 0, 0, -1, &ds)) {
         cn_model_free(&m);
         return 1;
     }

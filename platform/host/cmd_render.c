@@ -237,7 +237,7 @@ int cmd_render(int argc, char **argv)
     int n = orbit ? (int)orbit : 0;
     const int black = I->background[0] == 0 && I->background[1] == 0 && I->background[2] == 0;
     if (rc == 0 && dataset) {
-        if (cli_load_dataset("render", dataset, downscale, max_size, black, 0, 0, &ds))
+        if (cli_load_dataset("render", dataset, downscale, max_size, black, 0, 0, -1, &ds))
             rc = 1;
         else
             rc = cli_split_views("render", &ds, dataset, split, &views, &n);

@@ -21,7 +21,7 @@
     "       [--eval-every N] [--every K]\n"                                              \
     "       [--occupancy-start N] [--skip-saturated EPS] [--random-bg auto|on|off]\n"    \
     "       [--background constant|contract]\n"                                          \
-    "       [--group-penalty MU] [--train-images DIR]"
+    "       [--group-penalty MU] [--train-images DIR] [--val-views N]"
 
 /* Stopping a training: Ctrl-C (SIGINT), and SIGTERM and SIGHUP as schedulers, service
  * managers and closed terminals send them. The loop stops after the current iteration, saves
@@ -93,7 +93,7 @@ const char *cli_signal_name(int sig)
 }
 
 int cli_load_dataset(const char *cmd, const char *dir, long downscale, long max_size, int black,
-                     double near, double far, cn_dataset *ds)
+                     double near, double far, long val_views, cn_dataset *ds)
 {
     if (max_size > 0 && downscale > 1)
         return cli_fail(cmd, "give --downscale or --max-size, not both");
@@ -112,6 +112,11 @@ int cli_load_dataset(const char *cmd, const char *dir, long downscale, long max_
     else if (ds->n_skipped > 1)
         fprintf(stderr, "cnerf %s: warning: %d frames skipped for a missing image, the first: %s\n",
                 cmd, ds->n_skipped, ds->skipped);
+    const int held = cn_dataset_hold_out(ds, (int)val_views, err, sizeof err);
+    if (held < 0) {
+        cn_dataset_free(ds);
+        return cli_fail(cmd, "%s", err);
+    }
     if (max_size > 0) {
         const cn_view *v = ds->n_train ? ds->train : ds->n_test ? ds->test : ds->val;
         printf("--max-size %ld: downscale %d, views %dx%d\n", max_size, ds->downscale,
@@ -286,10 +291,13 @@ static double trainer_step(void *ctx, double *psnr, char *extra, size_t n, char 
         snprintf(extra, n, "  rate %.1f kB", bits / 8000.0);
     else
         extra[0] = 0;
-    const size_t k = strlen(extra);
+    size_t k = strlen(extra);
     if (t->occ[0].valid && k < n)
         snprintf(extra + k, n - k, "  occupied %.0f%%",
                  100.0 * t->occ_frac[t->model.topo.n_nets - 1]);
+    k = strlen(extra);
+    if (!isnan(t->val_psnr) && k < n)
+        snprintf(extra + k, n - k, "  val %.2f dB", t->val_psnr);
     return loss;
 }
 
@@ -308,8 +316,32 @@ int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt
 {
     const cli_job job = {t, t->opts.iters, trainer_done, trainer_step, trainer_save,
                          trainer_eval};
-    return cli_run_job(cmd, &job, ckpt, ckpt_every, ckpt_secs, log_every, eval_every, every,
-                       stopped);
+    int rc = cli_run_job(cmd, &job, ckpt, ckpt_every, ckpt_secs, log_every, eval_every, every,
+                         stopped);
+    if (rc == 0 && !*stopped)
+        rc = cli_report_validation(cmd, t);
+    return rc;
+}
+
+int cli_report_validation(const char *cmd, cn_trainer *t)
+{
+    if (t->val_rays.n == 0) {
+        printf("validation: none (%d training views; fewer than %d are all trained on)\n",
+               t->ds->n_train, CN_VAL_MIN_TRAIN);
+        return 0;
+    }
+    if (t->val_step != t->step && cn_trainer_validate(t))
+        return cli_fail(cmd, "out of memory for validation");
+    const double gap = t->fit_psnr - t->val_psnr;
+    printf("validation: psnr %.2f dB on %d held-out views, %.2f dB on the training views "
+           "(%zu fixed rays each)\n", t->val_psnr, t->ds->n_val, t->fit_psnr, t->val_rays.n);
+    if (gap > CN_VAL_GAP_DB)
+        fprintf(stderr, "cnerf %s: warning: the model does not generalize: %.1f dB better on "
+                "its training views than on views it did not see (more than %.0f dB); the "
+                "capture may have too few views or bad poses, or the model reproduces each "
+                "view without the scene's geometry (try --preset tiny)\n", cmd, gap,
+                CN_VAL_GAP_DB);
+    return 0;
 }
 
 int cmd_train(int argc, char **argv)
@@ -320,7 +352,7 @@ int cmd_train(int argc, char **argv)
     long iters = o.iters, downscale = 1, max_size = 0, threads = 0, batch = o.batch, depth = -1, width = -1;
     long coarse = -1, fine = -1, precrop = -1, ckpt_every = 0, log_every = 100;
     double ckpt_secs = CLI_CKPT_SECS;
-    long eval_every = 0, every = 1;
+    long eval_every = 0, every = 1, val_views = -1;
     long occ = o.occ_grid, occ_start = o.occ_start;
     double lr = o.lr, near = 0, far = 0;
     uint64_t seed = o.seed;
@@ -349,6 +381,7 @@ int cmd_train(int argc, char **argv)
         {"--ckpt-secs", CLI_DOUBLE, &ckpt_secs, 1, 1e6},
         {"--log-every", CLI_LONG, &log_every, 1, 1e9},
         {"--eval-every", CLI_LONG, &eval_every, 0, 1e9},
+        {"--val-views", CLI_LONG, &val_views, 0, 1e6},
         {"--every", CLI_LONG, &every, 1, 1e6},
         {"--occupancy", CLI_LONG, &occ, 0, 256},
         {"--occupancy-start", CLI_LONG, &occ_start, 0, 1e9},
@@ -390,7 +423,7 @@ int cmd_train(int argc, char **argv)
     if (lk < 0)
         return 1;
     cn_dataset ds;
-    if (cli_load_dataset("train", pos[0], downscale, max_size, black, near, far, &ds)) {
+    if (cli_load_dataset("train", pos[0], downscale, max_size, black, near, far, val_views, &ds)) {
         cli_unlock_output(lk, lock);
         return 1;
     }

@@ -298,15 +298,18 @@ set -e
   || fail "eval of a truncated stream: $rc $msg"
 # cnerf views writes the training views as the trainer sees them, and --train-images trains
 # on such files: Fern's 8-bit views at full size come back exactly, so the run is the same
-# to the bit; a path through every view, each once, for a video coder.
+# to the bit; a path through every view, each once, for a video coder. Of Fern's 17
+# training views one is held out for validation by every command alike (views, train, eval).
 out=$("$cnerf" views "$data/fern" -o "$work/fv")
-grep -q "^views: 17 train views of $data/fern, 504x378" <<<"$out" || fail "views: $out"
+grep -q "^views: 16 train views of $data/fern, 504x378" <<<"$out" || fail "views: $out"
+out=$("$cnerf" views "$data/fern" -o "$work/fvv" --split val)
+grep -q "^views: 1 val views of $data/fern, 504x378" <<<"$out" || fail "views --split val: $out"
 [ "$(sort "$work/fv/order.txt" | tr '\n' ' ')" = "$(cd "$work/fv" && ls 0*.png | tr '\n' ' ')" ] ||
   fail "views: order.txt is not a path through every view: $(cat "$work/fv/order.txt")"
 fern=(--preset tiny --batch 64 --coarse 8 --fine 8 --threads 2 --iters 2)
 "$cnerf" train "$data/fern" -o "$work/f1.ckpt" "${fern[@]}" > /dev/null
 out=$("$cnerf" train "$data/fern" -o "$work/f2.ckpt" --train-images "$work/fv" "${fern[@]}")
-grep -q "^training views: the 17 images in $work/fv instead of the dataset's" <<<"$out" ||
+grep -q "^training views: the 16 images in $work/fv instead of the dataset's" <<<"$out" ||
   fail "train --train-images: $out"
 cmp -s "$work/f1.ckpt" "$work/f2.ckpt" || fail "train --train-images on the views as written differs"
 # Other pixels train another model.

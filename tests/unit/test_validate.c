@@ -1,0 +1,220 @@
+/* Validation (cn_validate.h): which views are held out, the fixed rays, the PSNR on them,
+ * and that measuring a model while it trains leaves its training unchanged to the bit. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cn_metrics.h"
+#include "cn_train.h"
+#include "cn_validate.h"
+#include "testutil.h"
+
+static void load(const char *scene, cn_dataset *ds)
+{
+    cn_dataset_opts o;
+    memset(&o, 0, sizeof o);
+    o.downscale = 16;
+    o.max_views = 20;
+    char err[512];
+    if (cn_dataset_load(scene, &o, ds, err, sizeof err))
+        fail_msg("%s", err);
+}
+
+static void test_default_rule(void **state)
+{
+    (void)state;
+    static const int rows[][3] = {/* n_train, n_val, held out */
+                                  {1, 0, 0},   {7, 0, 0},  {8, 0, 1},   {17, 0, 1},
+                                  {23, 0, 1},  {24, 0, 2}, {42, 0, 3},  {55, 0, 3},
+                                  {100, 0, 6}, {1000, 0, 8}, {100, 5, 0}, {42, 1, 0}};
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        const int got = cn_val_default_views(rows[i][0], rows[i][1]);
+        if (got != rows[i][2])
+            fail_msg("%d train, %d val: %d held out, expected %d", rows[i][0], rows[i][1], got,
+                     rows[i][2]);
+    }
+}
+
+/* Fern: 17 training views (0, 8 and 16 of its 20 are test views). */
+static void test_hold_out_fern(void **state)
+{
+    (void)state;
+    cn_dataset ds, all;
+    load(CNERF_DATA_DIR "/fern", &ds);
+    load(CNERF_DATA_DIR "/fern", &all);
+    assert_int_equal(all.n_train, 17);
+    assert_int_equal(all.n_val, 0);
+    char err[256];
+    /* The default: one view, the middle one. */
+    assert_int_equal(cn_dataset_hold_out(&ds, -1, err, sizeof err), 1);
+    assert_int_equal(ds.n_train, 16);
+    assert_int_equal(ds.n_val, 1);
+    assert_string_equal(ds.val[0].name, all.train[8].name);
+    /* The rest keep their order, and every view is in exactly one split. */
+    for (int i = 0, j = 0; i < all.n_train; i++) {
+        if (i == 8)
+            continue;
+        assert_string_equal(ds.train[j++].name, all.train[i].name);
+    }
+    /* A dataset with validation views is left alone. */
+    assert_int_equal(cn_dataset_hold_out(&ds, 3, err, sizeof err), 0);
+    assert_int_equal(ds.n_train, 16);
+    cn_dataset_free(&ds);
+
+    /* Four, spread evenly: training views 2, 6, 10 and 14. */
+    load(CNERF_DATA_DIR "/fern", &ds);
+    assert_int_equal(cn_dataset_hold_out(&ds, 4, err, sizeof err), 4);
+    static const int picked[4] = {2, 6, 10, 14};
+    for (int k = 0; k < 4; k++)
+        assert_string_equal(ds.val[k].name, all.train[picked[k]].name);
+    assert_int_equal(ds.n_train, 13);
+    cn_dataset_free(&ds);
+
+    /* None, and all: 0 holds none out; holding out every training view is refused, and the
+     * dataset is left as it was. */
+    load(CNERF_DATA_DIR "/fern", &ds);
+    assert_int_equal(cn_dataset_hold_out(&ds, 0, err, sizeof err), 0);
+    assert_int_equal(ds.n_val, 0);
+    err[0] = 0;
+    assert_int_equal(cn_dataset_hold_out(&ds, 17, err, sizeof err), -1);
+    assert_non_null(strstr(err, "at least one must remain"));
+    assert_int_equal(ds.n_train, 17);
+    assert_int_equal(ds.n_val, 0);
+    cn_dataset_free(&ds);
+    cn_dataset_free(&all);
+}
+
+/* Blender's own val split is the validation: nothing is moved. */
+static void test_hold_out_blender(void **state)
+{
+    (void)state;
+    cn_dataset ds;
+    load(CNERF_DATA_DIR "/lego", &ds);
+    const int n_train = ds.n_train, n_val = ds.n_val;
+    assert_true(n_val > 0);
+    char err[256];
+    assert_int_equal(cn_dataset_hold_out(&ds, -1, err, sizeof err), 0);
+    assert_int_equal(ds.n_train, n_train);
+    assert_int_equal(ds.n_val, n_val);
+    cn_dataset_free(&ds);
+}
+
+/* The rays: the same for a seed, others for another; each starts at its view's camera and
+ * carries one of its pixels. The PSNR on rays made of every pixel of a view is the PSNR of
+ * the whole view rendered by cn_render_view. */
+static void test_rays_and_psnr(void **state)
+{
+    (void)state;
+    cn_dataset ds;
+    load(CNERF_DATA_DIR "/lego", &ds);
+    cn_val_rays a, b, c;
+    assert_int_equal(cn_val_rays_init(&a, ds.val, 3, ds.ndc, 300, 5), 0);
+    assert_int_equal(cn_val_rays_init(&b, ds.val, 3, ds.ndc, 300, 5), 0);
+    assert_int_equal(cn_val_rays_init(&c, ds.val, 3, ds.ndc, 300, 6), 0);
+    assert_int_equal(a.n, 300);
+    assert_memory_equal(a.d, b.d, sizeof(float) * 3 * a.n);
+    assert_memory_equal(a.gt, b.gt, sizeof(float) * 3 * a.n);
+    assert_true(memcmp(a.d, c.d, sizeof(float) * 3 * a.n) != 0);
+    for (size_t r = 0; r < a.n; r++) {
+        int found = 0;
+        for (int v = 0; v < 3 && !found; v++) {
+            const cn_view *w = &ds.val[v];
+            int at_camera = 1;
+            for (int k = 0; k < 3; k++)
+                at_camera &= fabs(a.o[3 * r + k] - w->c2w[k][3]) < 1e-5;
+            for (size_t p = 0; at_camera && p < (size_t)w->w * w->h && !found; p++)
+                found = !memcmp(w->rgb + 3 * p, a.gt + 3 * r, sizeof(float) * 3);
+        }
+        assert_true(found);
+    }
+    cn_val_rays_free(&a);
+    cn_val_rays_free(&b);
+    cn_val_rays_free(&c);
+    cn_val_rays empty;
+    assert_int_equal(cn_val_rays_init(&empty, ds.val, 0, ds.ndc, 300, 5), 0);
+    assert_int_equal(empty.n, 0);
+
+    /* Every pixel of view 0, in order. */
+    const cn_view *w = &ds.val[0];
+    const size_t n = (size_t)w->w * w->h;
+    cn_val_rays all = {n, malloc(sizeof(float) * 3 * n), malloc(sizeof(float) * 3 * n),
+                       malloc(sizeof(float) * 3 * n), malloc(sizeof(float) * 3 * n)};
+    assert_true(all.o && all.d && all.vd && all.gt);
+    cn_camera cam;
+    cn_view_camera(w, &cam);
+    for (size_t p = 0; p < n; p++)
+        cn_camera_ray(&cam, ds.ndc, (double)(p % w->w), (double)(p / w->w), all.o + 3 * p,
+                      all.d + 3 * p, all.vd + 3 * p);
+    memcpy(all.gt, w->rgb, sizeof(float) * 3 * n);
+    cn_train_opts o;
+    cn_train_defaults(&o);
+    o.preset = "tiny";
+    cn_trainer t;
+    char err[256];
+    assert_int_equal(cn_trainer_init(&t, &ds, &o, err, sizeof err), 0);
+    float *rgb = malloc(sizeof(float) * 3 * n);
+    assert_non_null(rgb);
+    assert_int_equal(cn_render_view(&t.model, &cam, ds.ndc, rgb, 1024), 0);
+    const double want = cn_psnr_from_mse(cn_mse(rgb, w->rgb, 3 * n));
+    const double got = cn_val_psnr(&t.model, &all);
+    print_message("# whole view %.6f dB, rays %.6f dB\n", want, got);
+    assert_true(fabs(got - want) < 1e-6);
+    assert_true(isnan(cn_val_psnr(&t.model, &empty)));
+    free(rgb);
+    cn_val_rays_free(&all);
+    cn_trainer_free(&t);
+    cn_dataset_free(&ds);
+}
+
+/* Validating every iteration changes no bit of the training, float or compressed, and
+ * leaves the last measurement in the trainer. */
+static void test_validation_leaves_training_alone(void **state)
+{
+    (void)state;
+    cn_dataset ds;
+    load(CNERF_DATA_DIR "/fern", &ds);
+    char err[256];
+    assert_int_equal(cn_dataset_hold_out(&ds, -1, err, sizeof err), 1);
+    for (int compress = 0; compress < 2; compress++) {
+        cn_trainer t[2];
+        for (int k = 0; k < 2; k++) {
+            cn_train_opts o;
+            cn_train_defaults(&o);
+            o.preset = "tiny";
+            o.batch = 128;
+            o.n_coarse = o.n_fine = 8;
+            o.iters = 6;
+            o.compress = compress;
+            o.lambda = compress ? 1 : 0;
+            o.val_every = k ? 1 : 0;
+            assert_int_equal(cn_trainer_init(&t[k], &ds, &o, err, sizeof err), 0);
+            for (int i = 0; i < 6; i++)
+                assert_false(isnan(cn_trainer_step(&t[k], NULL, NULL)));
+        }
+        assert_memory_equal(t[0].model.params, t[1].model.params,
+                            sizeof(float) * t[0].model.n_params);
+        assert_true(isnan(t[0].val_psnr));
+        assert_false(isnan(t[1].val_psnr));
+        assert_int_equal(t[1].val_step, 5); /* measured before the sixth step */
+        assert_int_equal(cn_trainer_validate(&t[1]), 0);
+        assert_int_equal(t[1].val_step, 6);
+        assert_true(t[1].val_psnr > 3 && t[1].val_psnr < 60);
+        assert_true(t[1].fit_psnr > 3 && t[1].fit_psnr < 60);
+        cn_trainer_free(&t[0]);
+        cn_trainer_free(&t[1]);
+    }
+    cn_dataset_free(&ds);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_default_rule),
+        cmocka_unit_test(test_hold_out_fern),
+        cmocka_unit_test(test_hold_out_blender),
+        cmocka_unit_test(test_rays_and_psnr),
+        cmocka_unit_test(test_validation_leaves_training_alone),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
