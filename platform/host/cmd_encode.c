@@ -30,7 +30,7 @@
     "       [--average N]\n"                                                                 \
     "       [--iters N] [--downscale F|--max-size N] [--threads T] [--seed S] [--resume CKPT]\n"          \
     "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N | --ckpt-secs S]\n" \
-    "       [--log-every N] [--depth D] [--width W] [--coarse N] [--fine N]\n"                \
+    "       [--log-every N] [--depth D] [--width W] [--view-width V] [--coarse N] [--fine N]\n"                \
     "       [--latent-lr latent|weight]\n"                                                   \
     "       [--eval-every N] [--prior-lr X] [--affine-lr X]\n"   \
     "       [--skip-saturated EPS] [--grid G|0] [--grid-verbose] [--random-bg auto|on|off]\n" \
@@ -115,6 +115,7 @@ int cmd_encode(int argc, char **argv)
     double coarse_weight = -1;
     long iters = o.iters, downscale = 1, max_size = 0, threads = 0, batch = o.batch, every = 1;
     long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 0, log_every = 100;
+    long view_width = -1;
     double ckpt_secs = CLI_CKPT_SECS;
     long eval_every = 0, grid_g = -1, precrop = -1, val_views = -1;
     double lambda = -1, levels = o.levels, size = 0, bpp = 0, quality = -1, lr_shift = -1;
@@ -147,6 +148,7 @@ int cmd_encode(int argc, char **argv)
         {"--val-views", CLI_LONG, &val_views, 0, 1e6},
         {"--depth", CLI_LONG, &depth, 1, CNERF_MAX_DEPTH},
         {"--width", CLI_LONG, &width, 1, CNERF_MAX_WIDTH},
+        {"--view-width", CLI_LONG, &view_width, 0, CNERF_MAX_VIEW_WIDTH},
         {"--coarse", CLI_LONG, &coarse, 1, CNERF_MAX_SAMPLES},
         {"--fine", CLI_LONG, &fine, 0, CNERF_MAX_SAMPLES},
         {"--latent-lr", CLI_STR, &latent_lr, 0, 0},
@@ -243,6 +245,7 @@ int cmd_encode(int argc, char **argv)
     o.batch = (int)batch;
     o.depth = (int)depth;
     o.width = (int)width;
+    o.view_width = (int)view_width;
     o.n_coarse = (int)coarse;
     o.n_fine = (int)fine;
     o.lambda = lambda;

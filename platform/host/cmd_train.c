@@ -16,7 +16,7 @@
 #define TRAIN_USAGE                                                                            \
     "usage: cnerf train DATASET -o model.ckpt [--preset tiny|small|paper] [--iters N]\n"       \
     "       [--downscale F|--max-size N] [--threads T] [--seed S] [--resume] [--batch R] [--depth D]\n"     \
-    "       [--width W] [--coarse N] [--fine N] [--lr X] [--precrop-iters N] [--black]\n"     \
+    "       [--width W] [--view-width V] [--coarse N] [--fine N] [--lr X] [--precrop-iters N] [--black]\n"     \
     "       [--near X] [--far X] [--ckpt-every N | --ckpt-secs S] [--log-every N] [--occupancy G]\n"     \
     "       [--eval-every N] [--every K]\n"                                              \
     "       [--occupancy-start N] [--skip-saturated EPS] [--random-bg auto|on|off]\n"    \
@@ -350,6 +350,7 @@ int cmd_train(int argc, char **argv)
     cn_train_defaults(&o);
     const char *out = NULL, *pos[1], *random_bg = "auto", *background = "constant", *train_images = NULL;
     long iters = o.iters, downscale = 1, max_size = 0, threads = 0, batch = o.batch, depth = -1, width = -1;
+    long view_width = -1;
     long coarse = -1, fine = -1, precrop = -1, ckpt_every = 0, log_every = 100;
     double ckpt_secs = CLI_CKPT_SECS;
     long eval_every = 0, every = 1, val_views = -1;
@@ -369,6 +370,7 @@ int cmd_train(int argc, char **argv)
         {"--batch", CLI_LONG, &batch, 1, 65536},
         {"--depth", CLI_LONG, &depth, 1, CNERF_MAX_DEPTH},
         {"--width", CLI_LONG, &width, 1, CNERF_MAX_WIDTH},
+        {"--view-width", CLI_LONG, &view_width, 0, CNERF_MAX_VIEW_WIDTH},
         {"--coarse", CLI_LONG, &coarse, 1, CNERF_MAX_SAMPLES},
         {"--fine", CLI_LONG, &fine, 0, CNERF_MAX_SAMPLES},
         {"--lr", CLI_DOUBLE, &lr, 1e-8, 1},
@@ -409,6 +411,7 @@ int cmd_train(int argc, char **argv)
     o.batch = (int)batch;
     o.depth = (int)depth;
     o.width = (int)width;
+    o.view_width = (int)view_width;
     o.n_coarse = (int)coarse;
     o.n_fine = (int)fine;
     o.lr = lr;

@@ -10,6 +10,9 @@ common=(--preset tiny --downscale 16 --batch 64 --coarse 8 --fine 8 --threads 2)
 out=$("$cnerf" train "$data/lego" -o "$work/m.ckpt" --iters 4 --log-every 2 --eval-every 3 \
   --every 100 "${common[@]}")
 grep -q "iter 4/4" <<<"$out" || fail "train printed no progress: $out"
+# The end of a run: its validation PSNR (Lego's own val views) beside the training views'.
+grep -q "^validation: psnr [0-9.]* dB on 100 held-out views, [0-9.]* dB on the training views (1024 fixed rays each)" \
+  <<<"$out" || fail "train printed no validation: $out"
 grep -q "saved $work/m.ckpt at iteration 4" <<<"$out" || fail "train summary: $out"
 [ -s "$work/m.ckpt" ] || fail "no checkpoint"
 # --eval-every: at iteration 3 and after the last, the test PSNR of the model so far.
@@ -23,6 +26,13 @@ grep -q "mean over 2 test views (iteration 4)" <<<"$out" || fail "eval summary: 
 grep -q "mean over 2 test views (iteration 4): psnr $train_eval dB" <<<"$out" ||
   fail "eval of the checkpoint differs from train's last evaluation ($train_eval): $out"
 [ -s "$work/ev/r_0.png" ] && [ -s "$work/ev/r_100.png" ] || fail "eval wrote no PNGs"
+# --view-width 0: no view branch (fewer parameters), the colour from the trunk; the model
+# evaluates like any other.
+out=$("$cnerf" train "$data/lego" -o "$work/vw.ckpt" --iters 2 --view-width 0 "${common[@]}")
+p_vw=$(sed -n 's/^model: .* \([0-9]*\) parameters$/\1/p' <<<"$out")
+p_m=$("$cnerf" train "$data/lego" -o "$work/vw1.ckpt" --iters 2 "${common[@]}" | sed -n 's/^model: .* \([0-9]*\) parameters$/\1/p')
+[ -n "$p_vw" ] && [ -n "$p_m" ] && [ "$p_vw" -lt "$p_m" ] || fail "--view-width 0: $p_vw against $p_m parameters"
+"$cnerf" eval "$work/vw.ckpt" "$data/lego" --downscale 16 --every 100 > /dev/null || fail "eval of --view-width 0"
 
 # Ctrl-C: a checkpoint of the iterations done, exit status 130; --resume continues.
 "$cnerf" train "$data/lego" -o "$work/int.ckpt" --iters 100000 "${common[@]}" \
