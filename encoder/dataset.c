@@ -15,6 +15,7 @@
 #include "cn_dataset.h"
 #include "cn_colmap.h"
 #include "cn_image.h"
+#include "cn_loader.h"
 #include "cn_undistort.h"
 #include "cn_stream.h"
 
@@ -886,16 +887,9 @@ static int cn_scan_shape(cn_scan *s, long *dim, int max, int *ndim)
     }
 }
 
-typedef struct cn_npy_hdr {
-    char descr[16];
-    int fortran;
-    long shape[8];
-    int ndim;
-} cn_npy_hdr;
-
 /* The header dictionary {'descr': ..., 'fortran_order': ..., 'shape': (...), }. Returns 0,
  * or -1 with the problem in why. */
-static int cn_npy_dict(cn_scan *s, cn_npy_hdr *h, char *why, size_t n)
+static int cn_npy_dict(cn_scan *s, cn_npy *h, char *why, size_t n)
 {
     unsigned seen = 0;
     if (!cn_scan_word(s, "{"))
@@ -934,11 +928,10 @@ static int cn_npy_dict(cn_scan *s, cn_npy_hdr *h, char *why, size_t n)
     return 0;
 }
 
-/* Checks a poses_bounds.npy image: version 1.0 or 2.0, '<f8', C order, shape (N, 17),
- * nothing after the data. Gives N and the start of the data. */
-static int cn_npy_poses(const uint8_t *d, size_t len, const char *file, int *rows,
-                        const uint8_t **body, char *err, size_t errlen)
+int cn_npy_parse(const char *file, const uint8_t *d, size_t len, cn_npy *h, char *err,
+                 size_t errlen)
 {
+    memset(h, 0, sizeof *h);
     if (len < 10 || memcmp(d, "\x93NUMPY", 6) != 0)
         return cn_fail(err, errlen, "%s: not a NumPy .npy file (bad magic)", file);
     if ((d[6] != 1 && d[6] != 2) || d[7] != 0)
@@ -953,42 +946,66 @@ static int cn_npy_poses(const uint8_t *d, size_t len, const char *file, int *row
     if (hl > len - off)
         return cn_fail(err, errlen, "%s: truncated .npy header", file);
     cn_scan s = {(const char *)d + off, (const char *)d + off + hl};
-    cn_npy_hdr h = {0};
     char why[128];
-    if (cn_npy_dict(&s, &h, why, sizeof why) != 0)
+    if (cn_npy_dict(&s, h, why, sizeof why) != 0)
         return cn_fail(err, errlen, "%s: bad .npy header: %s", file, why);
-    if (strcmp(h.descr, "<f8") != 0)
-        return cn_fail(err, errlen,
-                       "%s: dtype '%s' is not supported (expected '<f8', little-endian float64)",
-                       file, h.descr);
-    if (h.fortran)
-        return cn_fail(err, errlen, "%s: fortran_order True is not supported (expected C order)",
-                       file);
-    if (h.ndim != 2 || h.shape[0] < 1 || h.shape[1] != 17) {
-        char shape[160] = "";
-        for (int i = 0; i < h.ndim; i++)
-            snprintf(shape + strlen(shape), sizeof shape - strlen(shape), "%s%ld", i ? ", " : "",
-                     h.shape[i]);
-        return cn_fail(err, errlen, "%s: array shape (%s): expected (N, 17) with N >= 1", file,
-                       shape);
-    }
-    size_t need = (size_t)h.shape[0] * 17 * 8, have = len - off - hl;
-    if (have != need)
-        return cn_fail(err, errlen,
-                       "%s: %s: %zu data bytes, but shape (%ld, 17) of float64 needs %zu", file,
-                       have < need ? "truncated" : "trailing bytes", have, h.shape[0], need);
-    *rows = (int)h.shape[0];
-    *body = d + off + hl;
+    h->body = d + off + hl;
+    h->body_len = len - off - hl;
     return 0;
 }
 
-static double cn_le_f64(const uint8_t *p)
+int cn_npy_floats(const char *file, const cn_npy *h, int f4, int ndim, const long *want,
+                  const char *expect, char *err, size_t errlen)
 {
+    const size_t size = !strcmp(h->descr, "<f8") ? 8 : f4 && !strcmp(h->descr, "<f4") ? 4 : 0;
+    if (!size)
+        return cn_fail(err, errlen, "%s: dtype '%s' is not supported (expected %s)", file,
+                       h->descr, f4 ? "'<f4' or '<f8', little-endian float32 or float64"
+                                    : "'<f8', little-endian float64");
+    if (h->fortran)
+        return cn_fail(err, errlen, "%s: fortran_order True is not supported (expected C order)",
+                       file);
+    int ok = h->ndim == ndim;
+    for (int i = 0; ok && i < ndim; i++)
+        ok = want[i] < 0 ? h->shape[i] >= 1 : h->shape[i] == want[i];
+    char shape[160] = "";
+    for (int i = 0; i < h->ndim; i++)
+        snprintf(shape + strlen(shape), sizeof shape - strlen(shape), "%s%ld", i ? ", " : "",
+                 h->shape[i]);
+    if (!ok)
+        return cn_fail(err, errlen, "%s: array shape (%s): expected %s", file, shape, expect);
+    size_t need = size;
+    int huge = 0; /* more bytes than a size_t counts */
+    for (int i = 0; i < ndim; i++) {
+        huge |= need > SIZE_MAX / (size_t)h->shape[i];
+        need *= huge ? 1 : (size_t)h->shape[i];
+    }
+    if (huge || h->body_len != need) {
+        char n[32] = "more";
+        if (!huge)
+            snprintf(n, sizeof n, "%zu", need);
+        return cn_fail(err, errlen, "%s: %s: %zu data bytes, but shape (%s) of float%d needs %s",
+                       file, huge || h->body_len < need ? "truncated" : "trailing bytes",
+                       h->body_len, shape, (int)size * 8, n);
+    }
+    return 0;
+}
+
+double cn_npy_at(const cn_npy *h, size_t i)
+{
+    const int size = h->descr[2] == '8' ? 8 : 4;
+    const uint8_t *p = h->body + (size_t)size * i;
     uint64_t u = 0;
-    for (int i = 7; i >= 0; i--)
-        u = u << 8 | p[i];
-    double v;
-    memcpy(&v, &u, sizeof v);
+    for (int k = size - 1; k >= 0; k--)
+        u = u << 8 | p[k];
+    if (size == 8) {
+        double v;
+        memcpy(&v, &u, sizeof v);
+        return v;
+    }
+    const uint32_t u32 = (uint32_t)u;
+    float v;
+    memcpy(&v, &u32, sizeof v);
     return v;
 }
 
@@ -1001,12 +1018,12 @@ typedef struct cn_llff_cam {
 
 /* Row r: a row-major 3x5 [R | t | hwf] with rotation columns [down, right, back], then the
  * depth bounds. The columns become [right, up, back] = [c1, -c0, c2]. */
-static int cn_llff_row(const uint8_t *p, int r, const char *file, cn_llff_cam *cam, char *err,
+static int cn_llff_row(const cn_npy *a, int r, const char *file, cn_llff_cam *cam, char *err,
                        size_t errlen)
 {
     double v[17];
     for (int i = 0; i < 17; i++) {
-        v[i] = cn_le_f64(p + 8 * i);
+        v[i] = cn_npy_at(a, (size_t)r * 17 + (size_t)i);
         if (!isfinite(v[i]))
             return cn_fail(err, errlen, "%s: row %d: non-finite value in column %d", file, r, i);
     }
@@ -1095,13 +1112,18 @@ static int cn_llff_cameras_mem(const char *file, const uint8_t *data, size_t len
                                cn_llff_cam **cams, int *n, cn_dataset *ds, char *err,
                                size_t errlen)
 {
+    /* version 1.0 or 2.0, '<f8', C order, shape (N, 17), nothing after the data */
+    static const long shape[2] = {-1, 17};
     *cams = NULL;
-    const uint8_t *body;
-    int rc = cn_npy_poses(data, len, file, n, &body, err, errlen);
+    cn_npy a;
+    int rc = cn_npy_parse(file, data, len, &a, err, errlen);
+    if (rc == 0)
+        rc = cn_npy_floats(file, &a, 0, 2, shape, "(N, 17) with N >= 1", err, errlen);
+    *n = rc == 0 ? (int)a.shape[0] : 0;
     if (rc == 0 && !(*cams = calloc((size_t)*n, sizeof **cams)))
         rc = cn_fail(err, errlen, "%s: out of memory", file);
     for (int i = 0; rc == 0 && i < *n; i++)
-        rc = cn_llff_row(body + (size_t)i * 17 * 8, i, file, &(*cams)[i], err, errlen);
+        rc = cn_llff_row(&a, i, file, &(*cams)[i], err, errlen);
     if (rc != 0)
         return -1;
     double bmin = (*cams)[0].bnear, bmax = (*cams)[0].bfar;
