@@ -59,7 +59,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-enum { CN_DS_BLENDER = 1, CN_DS_NGP = 2, CN_DS_LLFF = 3, CN_DS_COLMAP = 4 };
+enum { CN_DS_BLENDER = 1, CN_DS_NGP = 2, CN_DS_LLFF = 3, CN_DS_COLMAP = 4, CN_DS_DTU = 5 };
 
 typedef struct cn_view {
     char name[64];         /* view name: file stem, e.g. "r_40" or "image008" */
@@ -107,7 +107,8 @@ int cn_dataset_load(const char *dir, const cn_dataset_opts *o, cn_dataset *ds, c
 void cn_dataset_free(cn_dataset *ds);
 
 /* The loaders' metadata parsers on a file's bytes, without the file system: kind 0 a
- * Blender transforms_*.json, 1 an instant-ngp transforms.json, 2 an LLFF poses_bounds.npy.
+ * Blender transforms_*.json, 1 an instant-ngp transforms.json, 2 an LLFF poses_bounds.npy,
+ * 3 a DTU cameras.npz.
  * Everything the loader checks before it looks for images is checked; images are not
  * read. Returns 0, or -1 with the loader's message (for fuzzing and tests). */
 int cn_dataset_parse_meta(int kind, const uint8_t *data, size_t len, char *err, size_t errlen);
