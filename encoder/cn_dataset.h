@@ -1,10 +1,14 @@
 /*
  * Multi-view datasets for training: Blender (NeRF-synthetic), instant-ngp style
- * transforms.json, and LLFF (poses_bounds.npy). Host C11 (cJSON, libpng, OpenMP).
+ * transforms.json, LLFF (poses_bounds.npy), DTU as IDR, NeuS, VolSDF and MonoSDF ship it
+ * (cameras.npz) and COLMAP sparse models. Host C11 (cJSON, libpng, libjpeg, libzip,
+ * OpenMP).
  *
  * Layout detection, in this order: transforms_train.json -> Blender; transforms.json ->
- * instant-ngp (and nerfstudio); poses_bounds.npy -> LLFF; a COLMAP model -> COLMAP;
- * anything else is an error.
+ * instant-ngp (and nerfstudio); poses_bounds.npy -> LLFF; cameras.npz or
+ * cameras_sphere.npz -> DTU; a COLMAP model -> COLMAP; anything else is an error. (A DTU
+ * folder that also holds a transforms.json, written by a conversion, loads as instant-ngp;
+ * one with a COLMAP model loads as DTU.)
  *
  * Blender: transforms_{train,val,test}.json, each with camera_angle_x and
  *   frames[].{file_path, transform_matrix}; file_path may omit ".png". A missing val or
@@ -32,6 +36,30 @@
  *   near = 0.9 min bound, far = max bound (after scaling), i.e. the scene's depth range;
  *   an NDC renderer itself starts its rays at the plane z = -1 (near 1.0). Split: views
  *   0, 8, 16, ... test, the rest train (no val).
+ * DTU: cameras.npz (IDR, VolSDF, MonoSDF), else cameras_sphere.npz (NeuS): a zip archive
+ *   (entries stored or deflated: np.savez or np.savez_compressed) of .npy arrays, for views
+ *   i = 0 .. N-1 world_mat_i (the 3x4 projection P = K [R | t] from world to pixels in
+ *   OpenCV's axes, x right, y down, z forward, over a last row that is not read) and
+ *   scale_mat_i (the affine map from the normalised space, where the region of interest is
+ *   the unit sphere, to the world; the same for every view). Arrays are 4x4, '<f4' or
+ *   '<f8', C order; other entries (camera_mat_i, *_inv_i) are not read. View i's camera
+ *   comes from P = world_mat_i scale_mat_i: P is negated when its left 3x3 M has a negative
+ *   determinant, an RQ decomposition splits M into K (upper triangular, positive diagonal,
+ *   divided by K[2][2]) and a rotation R, the camera centre is -M^-1 P[:, 3], and the
+ *   camera-to-world matrix in NeRF's axes has the columns R^T e0, -R^T e1, -R^T e2 and the
+ *   centre. fx = K[0][0], fy = K[1][1], cx = K[0][2], cy = K[1][2] refer to the stored
+ *   images and are rescaled and cropped with the downscale as for instant-ngp. The
+ *   principal point is taken as stored, as conversions to transforms.json take it, although
+ *   OpenCV's pixel centres are at integer coordinates and cnerf's at half-integers (half a
+ *   stored pixel). A skew |K[0][1]| up to 0.01 fx is dropped, a larger one refused.
+ *   Normalisation: the normalised space's origin stays the scene centre and its axes stay;
+ *   positions are scaled so that the mean camera distance is 4. With camera centres c_i,
+ *   near = max(0.05, min |c_i| - sqrt(3)), far = max |c_i| + sqrt(3) (instant-ngp's rule
+ *   with aabb_scale 1), ndc = 0.
+ *   Images: image/ (IDR, NeuS), else images/, else the files ending in _rgb.png beside the
+ *   cameras (MonoSDF), sorted by name, one per world_mat (PNG or JPEG). Masks (mask/,
+ *   MonoSDF's *_mask.png) are not applied: every pixel of the photo, background included,
+ *   is trained on. Split: views 0, 8, 16, ... test, the rest train (no val).
  * COLMAP (when none of the above is present): a sparse model in sparse/0/, sparse/ or
  *   colmap/sparse/0/ (cameras, images and optionally points3D, .bin or .txt, cn_colmap.h),
  *   images in images/ (images_<downscale>/ when it exists, read as they are). Cameras
@@ -59,7 +87,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-enum { CN_DS_BLENDER = 1, CN_DS_NGP = 2, CN_DS_LLFF = 3, CN_DS_COLMAP = 4 };
+enum { CN_DS_BLENDER = 1, CN_DS_NGP = 2, CN_DS_LLFF = 3, CN_DS_COLMAP = 4, CN_DS_DTU = 5 };
 
 typedef struct cn_view {
     char name[64];         /* view name: file stem, e.g. "r_40" or "image008" */
@@ -107,7 +135,8 @@ int cn_dataset_load(const char *dir, const cn_dataset_opts *o, cn_dataset *ds, c
 void cn_dataset_free(cn_dataset *ds);
 
 /* The loaders' metadata parsers on a file's bytes, without the file system: kind 0 a
- * Blender transforms_*.json, 1 an instant-ngp transforms.json, 2 an LLFF poses_bounds.npy.
+ * Blender transforms_*.json, 1 an instant-ngp transforms.json, 2 an LLFF poses_bounds.npy,
+ * 3 a DTU cameras.npz.
  * Everything the loader checks before it looks for images is checked; images are not
  * read. Returns 0, or -1 with the loader's message (for fuzzing and tests). */
 int cn_dataset_parse_meta(int kind, const uint8_t *data, size_t len, char *err, size_t errlen);

@@ -1,4 +1,4 @@
-/* Dataset loading: Blender, instant-ngp and LLFF layouts (see cn_dataset.h). */
+/* Dataset loading: Blender, instant-ngp, LLFF, DTU and COLMAP layouts (see cn_dataset.h). */
 #include <ctype.h>
 #include <errno.h>
 #include <dirent.h>
@@ -14,7 +14,9 @@
 
 #include "cn_dataset.h"
 #include "cn_colmap.h"
+#include "cn_dtu.h"
 #include "cn_image.h"
+#include "cn_loader.h"
 #include "cn_undistort.h"
 #include "cn_stream.h"
 
@@ -26,8 +28,7 @@ enum { CN_TRAIN = 0, CN_VAL = 1, CN_TEST = 2 };
 
 /* ---- errors and paths ---- */
 
-__attribute__((format(printf, 3, 4))) static int cn_fail(char *err, size_t errlen,
-                                                         const char *fmt, ...)
+int cn_fail(char *err, size_t errlen, const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
@@ -886,16 +887,9 @@ static int cn_scan_shape(cn_scan *s, long *dim, int max, int *ndim)
     }
 }
 
-typedef struct cn_npy_hdr {
-    char descr[16];
-    int fortran;
-    long shape[8];
-    int ndim;
-} cn_npy_hdr;
-
 /* The header dictionary {'descr': ..., 'fortran_order': ..., 'shape': (...), }. Returns 0,
  * or -1 with the problem in why. */
-static int cn_npy_dict(cn_scan *s, cn_npy_hdr *h, char *why, size_t n)
+static int cn_npy_dict(cn_scan *s, cn_npy *h, char *why, size_t n)
 {
     unsigned seen = 0;
     if (!cn_scan_word(s, "{"))
@@ -934,11 +928,10 @@ static int cn_npy_dict(cn_scan *s, cn_npy_hdr *h, char *why, size_t n)
     return 0;
 }
 
-/* Checks a poses_bounds.npy image: version 1.0 or 2.0, '<f8', C order, shape (N, 17),
- * nothing after the data. Gives N and the start of the data. */
-static int cn_npy_poses(const uint8_t *d, size_t len, const char *file, int *rows,
-                        const uint8_t **body, char *err, size_t errlen)
+int cn_npy_parse(const char *file, const uint8_t *d, size_t len, cn_npy *h, char *err,
+                 size_t errlen)
 {
+    memset(h, 0, sizeof *h);
     if (len < 10 || memcmp(d, "\x93NUMPY", 6) != 0)
         return cn_fail(err, errlen, "%s: not a NumPy .npy file (bad magic)", file);
     if ((d[6] != 1 && d[6] != 2) || d[7] != 0)
@@ -953,42 +946,66 @@ static int cn_npy_poses(const uint8_t *d, size_t len, const char *file, int *row
     if (hl > len - off)
         return cn_fail(err, errlen, "%s: truncated .npy header", file);
     cn_scan s = {(const char *)d + off, (const char *)d + off + hl};
-    cn_npy_hdr h = {0};
     char why[128];
-    if (cn_npy_dict(&s, &h, why, sizeof why) != 0)
+    if (cn_npy_dict(&s, h, why, sizeof why) != 0)
         return cn_fail(err, errlen, "%s: bad .npy header: %s", file, why);
-    if (strcmp(h.descr, "<f8") != 0)
-        return cn_fail(err, errlen,
-                       "%s: dtype '%s' is not supported (expected '<f8', little-endian float64)",
-                       file, h.descr);
-    if (h.fortran)
-        return cn_fail(err, errlen, "%s: fortran_order True is not supported (expected C order)",
-                       file);
-    if (h.ndim != 2 || h.shape[0] < 1 || h.shape[1] != 17) {
-        char shape[160] = "";
-        for (int i = 0; i < h.ndim; i++)
-            snprintf(shape + strlen(shape), sizeof shape - strlen(shape), "%s%ld", i ? ", " : "",
-                     h.shape[i]);
-        return cn_fail(err, errlen, "%s: array shape (%s): expected (N, 17) with N >= 1", file,
-                       shape);
-    }
-    size_t need = (size_t)h.shape[0] * 17 * 8, have = len - off - hl;
-    if (have != need)
-        return cn_fail(err, errlen,
-                       "%s: %s: %zu data bytes, but shape (%ld, 17) of float64 needs %zu", file,
-                       have < need ? "truncated" : "trailing bytes", have, h.shape[0], need);
-    *rows = (int)h.shape[0];
-    *body = d + off + hl;
+    h->body = d + off + hl;
+    h->body_len = len - off - hl;
     return 0;
 }
 
-static double cn_le_f64(const uint8_t *p)
+int cn_npy_floats(const char *file, const cn_npy *h, int f4, int ndim, const long *want,
+                  const char *expect, char *err, size_t errlen)
 {
+    const size_t size = !strcmp(h->descr, "<f8") ? 8 : f4 && !strcmp(h->descr, "<f4") ? 4 : 0;
+    if (!size)
+        return cn_fail(err, errlen, "%s: dtype '%s' is not supported (expected %s)", file,
+                       h->descr, f4 ? "'<f4' or '<f8', little-endian float32 or float64"
+                                    : "'<f8', little-endian float64");
+    if (h->fortran)
+        return cn_fail(err, errlen, "%s: fortran_order True is not supported (expected C order)",
+                       file);
+    int ok = h->ndim == ndim;
+    for (int i = 0; ok && i < ndim; i++)
+        ok = want[i] < 0 ? h->shape[i] >= 1 : h->shape[i] == want[i];
+    char shape[160] = "";
+    for (int i = 0; i < h->ndim; i++)
+        snprintf(shape + strlen(shape), sizeof shape - strlen(shape), "%s%ld", i ? ", " : "",
+                 h->shape[i]);
+    if (!ok)
+        return cn_fail(err, errlen, "%s: array shape (%s): expected %s", file, shape, expect);
+    size_t need = size;
+    int huge = 0; /* more bytes than a size_t counts */
+    for (int i = 0; i < ndim; i++) {
+        huge |= need > SIZE_MAX / (size_t)h->shape[i];
+        need *= huge ? 1 : (size_t)h->shape[i];
+    }
+    if (huge || h->body_len != need) {
+        char n[32] = "more";
+        if (!huge)
+            snprintf(n, sizeof n, "%zu", need);
+        return cn_fail(err, errlen, "%s: %s: %zu data bytes, but shape (%s) of float%d needs %s",
+                       file, huge || h->body_len < need ? "truncated" : "trailing bytes",
+                       h->body_len, shape, (int)size * 8, n);
+    }
+    return 0;
+}
+
+double cn_npy_at(const cn_npy *h, size_t i)
+{
+    const int size = h->descr[2] == '8' ? 8 : 4;
+    const uint8_t *p = h->body + (size_t)size * i;
     uint64_t u = 0;
-    for (int i = 7; i >= 0; i--)
-        u = u << 8 | p[i];
-    double v;
-    memcpy(&v, &u, sizeof v);
+    for (int k = size - 1; k >= 0; k--)
+        u = u << 8 | p[k];
+    if (size == 8) {
+        double v;
+        memcpy(&v, &u, sizeof v);
+        return v;
+    }
+    const uint32_t u32 = (uint32_t)u;
+    float v;
+    memcpy(&v, &u32, sizeof v);
     return v;
 }
 
@@ -1001,12 +1018,12 @@ typedef struct cn_llff_cam {
 
 /* Row r: a row-major 3x5 [R | t | hwf] with rotation columns [down, right, back], then the
  * depth bounds. The columns become [right, up, back] = [c1, -c0, c2]. */
-static int cn_llff_row(const uint8_t *p, int r, const char *file, cn_llff_cam *cam, char *err,
+static int cn_llff_row(const cn_npy *a, int r, const char *file, cn_llff_cam *cam, char *err,
                        size_t errlen)
 {
     double v[17];
     for (int i = 0; i < 17; i++) {
-        v[i] = cn_le_f64(p + 8 * i);
+        v[i] = cn_npy_at(a, (size_t)r * 17 + (size_t)i);
         if (!isfinite(v[i]))
             return cn_fail(err, errlen, "%s: row %d: non-finite value in column %d", file, r, i);
     }
@@ -1095,13 +1112,18 @@ static int cn_llff_cameras_mem(const char *file, const uint8_t *data, size_t len
                                cn_llff_cam **cams, int *n, cn_dataset *ds, char *err,
                                size_t errlen)
 {
+    /* version 1.0 or 2.0, '<f8', C order, shape (N, 17), nothing after the data */
+    static const long shape[2] = {-1, 17};
     *cams = NULL;
-    const uint8_t *body;
-    int rc = cn_npy_poses(data, len, file, n, &body, err, errlen);
+    cn_npy a;
+    int rc = cn_npy_parse(file, data, len, &a, err, errlen);
+    if (rc == 0)
+        rc = cn_npy_floats(file, &a, 0, 2, shape, "(N, 17) with N >= 1", err, errlen);
+    *n = rc == 0 ? (int)a.shape[0] : 0;
     if (rc == 0 && !(*cams = calloc((size_t)*n, sizeof **cams)))
         rc = cn_fail(err, errlen, "%s: out of memory", file);
     for (int i = 0; rc == 0 && i < *n; i++)
-        rc = cn_llff_row(body + (size_t)i * 17 * 8, i, file, &(*cams)[i], err, errlen);
+        rc = cn_llff_row(&a, i, file, &(*cams)[i], err, errlen);
     if (rc != 0)
         return -1;
     double bmin = (*cams)[0].bnear, bmax = (*cams)[0].bfar;
@@ -1151,8 +1173,10 @@ static void cn_free_names(char **names, int n)
     free(names);
 }
 
-/* The PNG and JPEG files of a directory, sorted by name. */
-static int cn_list_images(const char *dir, char ***names, int *n, char *err, size_t errlen)
+/* The PNG and JPEG files of a directory (only those whose names end in `suffix`, when it is
+ * not NULL), sorted by name. */
+static int cn_list_images(const char *dir, const char *suffix, char ***names, int *n, char *err,
+                          size_t errlen)
 {
     *names = NULL;
     *n = 0;
@@ -1164,8 +1188,9 @@ static int cn_list_images(const char *dir, char ***names, int *n, char *err, siz
     while (rc == 0 && (e = readdir(d)) != NULL) {
         if (e->d_name[0] == '.')
             continue;
-        if (!cn_has_ext(e->d_name, ".png") && !cn_has_ext(e->d_name, ".jpg") &&
-            !cn_has_ext(e->d_name, ".jpeg"))
+        if (suffix ? !cn_has_ext(e->d_name, suffix)
+                   : !cn_has_ext(e->d_name, ".png") && !cn_has_ext(e->d_name, ".jpg") &&
+                         !cn_has_ext(e->d_name, ".jpeg"))
             continue;
         if (*n == cap) {
             cap = cap ? 2 * cap : 64;
@@ -1216,19 +1241,21 @@ static int cn_llff_image_dir(const char *dir, int f, char out[CN_PATH_MAX], int 
                    name);
 }
 
-/* Pairs the sorted images with the cameras; views 0, 8, 16, ... are test views. */
-static int cn_llff_frames(const char *dir, const char *file, const cn_llff_cam *cams, int n,
-                          cn_frames *L, char *err, size_t errlen)
+/* Pairs the images of imgdir (cn_list_images), in name order, with the n cameras of `file`;
+ * views 0, 8, 16, ... are test views. `kinds` names the files looked for in the message of a
+ * count that differs. */
+static int cn_sorted_frames(const char *imgdir, const char *suffix, const char *kinds,
+                            const char *file, const cn_llff_cam *cams, int n, cn_frames *L,
+                            char *err, size_t errlen)
 {
-    char imgdir[CN_PATH_MAX], path[CN_PATH_MAX];
+    char path[CN_PATH_MAX];
     char **names;
     int nimg;
-    if (cn_llff_image_dir(dir, L->factor, imgdir, &L->factor, err, errlen) != 0 ||
-        cn_list_images(imgdir, &names, &nimg, err, errlen) != 0)
+    if (cn_list_images(imgdir, suffix, &names, &nimg, err, errlen) != 0)
         return -1;
     int rc = 0;
     if (nimg != n)
-        rc = cn_fail(err, errlen, "%s: %d images (PNG, JPEG) for %d poses in %s", imgdir, nimg, n,
+        rc = cn_fail(err, errlen, "%s: %d images (%s) for %d poses in %s", imgdir, nimg, kinds, n,
                      file);
     for (int i = 0; rc == 0 && i < n; i++) {
         int split = i % CN_LLFF_HOLD == 0 ? CN_TEST : CN_TRAIN;
@@ -1244,7 +1271,7 @@ static int cn_llff_frames(const char *dir, const char *file, const cn_llff_cam *
 static int cn_load_llff(const char *dir, cn_dataset *ds, cn_frames *L, char *err,
                         size_t errlen)
 {
-    char file[CN_PATH_MAX];
+    char file[CN_PATH_MAX], imgdir[CN_PATH_MAX];
     cn_llff_cam *cams = NULL;
     int n = 0;
     ds->ndc = 1;
@@ -1252,8 +1279,54 @@ static int cn_load_llff(const char *dir, cn_dataset *ds, cn_frames *L, char *err
     if (rc == 0)
         rc = cn_llff_cameras(file, &cams, &n, ds, err, errlen);
     if (rc == 0)
-        rc = cn_llff_frames(dir, file, cams, n, L, err, errlen);
+        rc = cn_llff_image_dir(dir, L->factor, imgdir, &L->factor, err, errlen);
+    if (rc == 0)
+        rc = cn_sorted_frames(imgdir, NULL, "PNG, JPEG", file, cams, n, L, err, errlen);
     free(cams);
+    return rc;
+}
+
+/* ---- DTU: cameras.npz of IDR, NeuS, VolSDF and MonoSDF ---- */
+
+static int cn_load_dtu(const char *dir, cn_dataset *ds, cn_frames *L, char *err, size_t errlen)
+{
+    char file[CN_PATH_MAX], imgdir[CN_PATH_MAX];
+    int rc = cn_join(file, dir, "cameras.npz", "", err, errlen);
+    if (rc == 0 && !cn_is_file(file)) /* NeuS's name */
+        rc = cn_join(file, dir, "cameras_sphere.npz", "", err, errlen);
+    cn_dtu_cam *dc = NULL;
+    int n = 0;
+    if (rc == 0)
+        rc = cn_dtu_read(file, &dc, &n, err, errlen);
+    cn_llff_cam *cams = rc == 0 ? calloc((size_t)n, sizeof *cams) : NULL;
+    if (rc == 0 && !cams)
+        rc = cn_fail(err, errlen, "%s: out of memory", file);
+    for (int i = 0; rc == 0 && i < n; i++) {
+        memcpy(cams[i].c2w, dc[i].c2w, sizeof cams[i].c2w);
+        cams[i].in = cn_intr_none;
+        cams[i].in.fx = dc[i].fx;
+        cams[i].in.fy = dc[i].fy;
+        cams[i].in.cx = dc[i].cx;
+        cams[i].in.cy = dc[i].cy;
+    }
+    /* image/ (IDR, NeuS), images/, or MonoSDF's NNNNNN_rgb.png beside the cameras */
+    const char *suffix = NULL, *kinds = "PNG, JPEG";
+    if (rc == 0)
+        rc = cn_join(imgdir, dir, "image", "", err, errlen);
+    if (rc == 0 && !cn_is_dir(imgdir))
+        rc = cn_join(imgdir, dir, "images", "", err, errlen);
+    if (rc == 0 && !cn_is_dir(imgdir)) {
+        snprintf(imgdir, sizeof imgdir, "%s", dir);
+        suffix = "_rgb.png";
+        kinds = "*_rgb.png, and no image/ or images/ directory";
+    }
+    if (rc == 0)
+        rc = cn_sorted_frames(imgdir, suffix, kinds, file, cams, n, L, err, errlen);
+    /* as instant-ngp's rule for a scene centred at the origin inside [-1, 1]^3 */
+    ds->near = fmax(0.05, L->rmin - sqrt(3.0));
+    ds->far = L->rmax + sqrt(3.0);
+    free(cams);
+    free(dc);
     return rc;
 }
 
@@ -1573,7 +1646,9 @@ static int cn_detect(const char *dir, char *err, size_t errlen)
         int kind;
     } probes[] = {{"transforms_train.json", CN_DS_BLENDER},
                   {"transforms.json", CN_DS_NGP},
-                  {"poses_bounds.npy", CN_DS_LLFF}};
+                  {"poses_bounds.npy", CN_DS_LLFF},
+                  {"cameras.npz", CN_DS_DTU},
+                  {"cameras_sphere.npz", CN_DS_DTU}};
     if (!cn_is_dir(dir)) {
         struct stat st;
         if (stat(dir, &st) != 0) /* missing, a symbolic link loop, no permission, ... */
@@ -1591,9 +1666,10 @@ static int cn_detect(const char *dir, char *err, size_t errlen)
         return CN_DS_COLMAP;
     return cn_fail(err, errlen,
                    "%s: unknown dataset layout: looked for transforms_train.json (Blender), "
-                   "transforms.json (instant-ngp, nerfstudio), poses_bounds.npy (LLFF) and a "
-                   "COLMAP model (sparse/0/, sparse/ or colmap/sparse/0/ with cameras.bin or "
-                   "cameras.txt)",
+                   "transforms.json (instant-ngp, nerfstudio), poses_bounds.npy (LLFF), "
+                   "cameras.npz or cameras_sphere.npz (DTU as IDR, NeuS, VolSDF and MonoSDF "
+                   "ship it) and a COLMAP model (sparse/0/, sparse/ or colmap/sparse/0/ with "
+                   "cameras.bin or cameras.txt)",
                    dir);
 }
 
@@ -1640,6 +1716,7 @@ static int cn_load_layout(const char *dir, int kind, const cn_dataset_opts *o, c
     return kind == CN_DS_BLENDER ? cn_load_blender(dir, ds, L, err, errlen)
            : kind == CN_DS_NGP   ? cn_load_ngp(dir, ds, L, err, errlen)
            : kind == CN_DS_LLFF  ? cn_load_llff(dir, ds, L, err, errlen)
+           : kind == CN_DS_DTU   ? cn_load_dtu(dir, ds, L, err, errlen)
                                  : cn_load_colmap(dir, ds, L, err, errlen);
 }
 
@@ -1712,11 +1789,18 @@ void cn_dataset_free(cn_dataset *ds)
 
 int cn_dataset_parse_meta(int kind, const uint8_t *data, size_t len, char *err, size_t errlen)
 {
-    static const char *names[3] = {"transforms_train.json", "transforms.json",
-                                   "poses_bounds.npy"};
-    if (kind < 0 || kind > 2)
+    static const char *names[4] = {"transforms_train.json", "transforms.json",
+                                   "poses_bounds.npy", "cameras.npz"};
+    if (kind < 0 || kind > 3)
         return cn_fail(err, errlen, "unknown metadata kind %d", kind);
     const char *file = names[kind];
+    if (kind == 3) {
+        cn_dtu_cam *cams;
+        int n;
+        const int rc = cn_dtu_parse(file, data, len, &cams, &n, err, errlen);
+        free(cams);
+        return rc;
+    }
     if (kind == 2) {
         cn_llff_cam *cams;
         int n = 0;

@@ -58,6 +58,24 @@ png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2,
        chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
 open(sys.argv[1], "wb").write(png)
 PY
+# DTU layouts (IDR's cameras.npz): two cameras and three images; a camera file that is not a
+# zip archive.
+mkdir -p "$work/ds_dtu/image" "$work/ds_npz"
+python3 - "$work" <<'PY'
+import struct, sys, zipfile
+def npy(m):
+    d = "{'descr': '<f8', 'fortran_order': False, 'shape': (4, 4), }"
+    d += " " * (-(10 + len(d) + 1) % 64) + "\n"
+    return b"\x93NUMPY\x01\x00" + struct.pack("<H", len(d)) + d.encode() + struct.pack("<16d", *m)
+P = [50, 0, 20, 80, 0, 50, 15, 60, 0, 0, 1, 4, 0, 0, 0, 1]  # K [I | (0, 0, 4)]
+S = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]
+with zipfile.ZipFile(sys.argv[1] + "/ds_dtu/cameras.npz", "w") as z:
+    for i in range(2):
+        z.writestr("world_mat_%d.npy" % i, npy(P))
+        z.writestr("scale_mat_%d.npy" % i, npy(S))
+open(sys.argv[1] + "/ds_npz/cameras.npz", "w").write("world_mat_0\n")
+PY
+for i in 0 1 2; do cp "$work/ds_mism/train/r_1.png" "$work/ds_dtu/image/00000$i.png"; done
 # Training views for --train-images: as written, one missing, one too many, one with alpha.
 "$cnerf" views "$data/lego" -o "$work/v" --downscale 16 > /dev/null || fail "fixture: views"
 for d in missing extra alpha; do cp -r "$work/v" "$work/v_$d"; done
@@ -96,6 +114,8 @@ rows=(
   "1|frames[3].transform_matrix: non-finite entry [0][3]|train $work/ds_nanpose -o $work/x.ckpt ${T[*]}"
   "1|images differ in size: $work/ds_mism/train/r_0.png is 400x400 but $work/ds_mism/train/r_1.png is 40x30|train $work/ds_mism -o $work/x.ckpt ${T[*]}"
   "1|r_0.png: 100000 x 100000 pixels, more than the 268435456 that cnerf loads|train $work/ds_big -o $work/x.ckpt ${T[*]}"
+  "1|ds_dtu/image: 3 images (PNG, JPEG) for 2 poses in $work/ds_dtu/cameras.npz|train $work/ds_dtu -o $work/x.ckpt ${T[*]}"
+  "1|ds_npz/cameras.npz: not a zip archive|train $work/ds_npz -o $work/x.ckpt ${T[*]}"
   "1|cannot write $work/nodir/x.cnrf|encode $D -o $work/nodir/x.cnrf --lambda 1 ${T[*]}"
   "1|cannot write $work/nodir/x.ckpt|train $D -o $work/nodir/x.ckpt ${T[*]}"
   "1|cannot write /proc/x.ckpt|train $D -o /proc/x.ckpt ${T[*]}"

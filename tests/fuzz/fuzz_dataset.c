@@ -1,9 +1,10 @@
 /* libFuzzer harness for the host parsers that read a user's dataset files: the first byte
  * picks the parser, the rest is the file's bytes, parsed in memory (no file system):
  * 0 a Blender transforms_*.json, 1 an instant-ngp transforms.json, 2 an LLFF
- * poses_bounds.npy, 3 a PNG or JPEG image, loaded at the downscale 1 + (bits 2-3 of the
- * first byte), with an EXIF orientation applied or not (bit 4). A refusal is a normal
- * outcome; a crash, a leak or a sanitizer report is a finding. */
+ * poses_bounds.npy or, with bit 2 of the first byte set (6), a DTU cameras.npz (a zip of
+ * .npy arrays), 3 a PNG or JPEG image, loaded at the downscale 1 + (bits 2-3 of the first
+ * byte), with an EXIF orientation applied or not (bit 4). A refusal is a normal outcome; a
+ * crash, a leak or a sanitizer report is a finding. */
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -23,7 +24,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     char err[512];
     const int kind = data[0] & 3;
     if (kind < 3) {
-        (void)cn_dataset_parse_meta(kind, data + 1, size - 1, err, sizeof err);
+        const int meta = kind == 2 && data[0] & 4 ? 3 : kind;
+        (void)cn_dataset_parse_meta(meta, data + 1, size - 1, err, sizeof err);
     } else {
         const int f = 1 + (data[0] >> 2 & 3);
         const double aspect = data[0] & 16 ? 0.75 : NAN;
