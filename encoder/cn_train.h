@@ -147,6 +147,15 @@ typedef struct cn_trainer {
     cn_val_rays val_rays, fit_rays;
     double val_psnr, fit_psnr;
     long val_step;
+    /* The best validation PSNR of this process's run, its iteration and, under rate control,
+     * the file's size measured then (0 without); collapsed is set, and the step fails with
+     * its message in err, when under rate control the validation PSNR falls
+     * CN_VAL_COLLAPSE_DB below that best; in a run started from a trained model (from_float),
+     * whose best is the float model's, only when the training views also beat the
+     * validation views by more than CN_VAL_GAP_DB. */
+    double val_best, val_best_size;
+    long val_best_step;
+    int collapsed, from_float;
     char err[256]; /* why cn_trainer_step returned NaN, when it says */
 } cn_trainer;
 

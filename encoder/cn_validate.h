@@ -30,6 +30,10 @@
  * many dB is reported as not generalizing: too few views, bad poses, or a degenerate
  * solution that paints each view's colours on rays instead of finding the geometry. */
 #define CN_VAL_GAP_DB 6.0
+/* Under rate control, a validation PSNR this many dB below the best it reached means the
+ * rate penalty is destroying the model rather than trading a little quality for bytes: the
+ * run stops (cn_trainer.collapsed) instead of writing a file of fog. */
+#define CN_VAL_COLLAPSE_DB 5.0
 
 /* The number of training views the default rule holds out of a dataset of n_train training
  * views and n_val validation views (0 when it has a validation split of its own). */

@@ -427,6 +427,32 @@ static void average_step(cn_trainer *t)
 }
 
 /* Rate control's work at this step: the grid's bytes once, and lambda every rc.every. */
+/* Under rate control: the validation PSNR fell CN_VAL_COLLAPSE_DB below its best. */
+static int collapse_check(cn_trainer *t)
+{
+    if (!t->rate_control || t->val_best - t->val_psnr <= CN_VAL_COLLAPSE_DB ||
+        (t->from_float && t->fit_psnr - t->val_psnr <= CN_VAL_GAP_DB))
+        return 0;
+    t->collapsed = 1;
+    char larger[96] = "a larger --size";
+    if (t->val_best_size > t->rc.target)
+        snprintf(larger, sizeof larger, "--size %.0f or more (its size at its best)",
+                 t->val_best_size);
+    if (strcmp(t->opts.preset, "tiny"))
+        snprintf(t->err, sizeof t->err, "%.0f bytes is too small for this scene at preset %s: "
+                 "validation PSNR fell from %.2f dB (iteration %ld) to %.2f dB (iteration "
+                 "%ld) as the rate penalty rose; try --preset tiny or %s",
+                 t->rc.target, t->opts.preset, t->val_best, t->val_best_step, t->val_psnr,
+                 t->val_step, larger);
+    else
+        snprintf(t->err, sizeof t->err, "%.0f bytes is too small for this scene at preset %s: "
+                 "validation PSNR fell from %.2f dB (iteration %ld) to %.2f dB (iteration "
+                 "%ld) as the rate penalty rose; try %s",
+                 t->rc.target, t->opts.preset, t->val_best, t->val_best_step, t->val_psnr,
+                 t->val_step, larger);
+    return -1;
+}
+
 static int rate_control_step(cn_trainer *t)
 {
     cn_ratectl *rc = &t->rc;
@@ -467,9 +493,13 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
     const unsigned nets = t->model.topo.n_nets;
     cn_model *m = &t->model;
     if (t->opts.val_every > 0 && t->step > 0 && t->step % t->opts.val_every == 0 &&
-        t->val_step != t->step && cn_trainer_validate(t)) {
-        snprintf(t->err, sizeof t->err, "out of memory for validation");
-        return NAN;
+        t->val_step != t->step) {
+        if (cn_trainer_validate(t)) {
+            snprintf(t->err, sizeof t->err, "out of memory for validation");
+            return NAN;
+        }
+        if (collapse_check(t))
+            return NAN;
     }
     draw_rays(t, R);
     const uint64_t seed = t->opts.seed + 0x9E3779B97F4A7C15ull * (uint64_t)(t->step + 1);
@@ -539,6 +569,11 @@ int cn_trainer_validate(cn_trainer *t)
     t->val_psnr = v;
     t->fit_psnr = f;
     t->val_step = t->step;
+    if (t->val_best_step == 0 || v > t->val_best) {
+        t->val_best = v;
+        t->val_best_step = t->step;
+        t->val_best_size = t->rate_control && t->rc.first > 0 ? t->rc.size + t->rc.reserved : 0;
+    }
     return 0;
 }
 
@@ -825,6 +860,7 @@ int cn_trainer_init_from_float(cn_trainer *t, const char *path, char *err, size_
             memcpy(m->params + m->layer[l].b, f.params + f.layer[l].b, L->n_out * sizeof(float));
         }
         cn_model_free(&f);
+        t->from_float = 1;
         /* The model is trained: its empty space is known now, not only from occ_start. */
         cn_model_materialize(m);
         for (unsigned n = 0; n < m->topo.n_nets && t->occ[n].g; n++)

@@ -282,6 +282,9 @@ int cmd_encode(int argc, char **argv)
         printf("preset auto: %s (%.2f bits per latent beyond the topology's floor; small from "
                "%.2f)\n", o.preset, bits, CN_AUTO_BITS);
     }
+    int rc = 0, stopped = 0;
+step_down: /* --preset auto encodes again with tiny when the rate collapses a larger preset */
+    rc = 0;
     cn_trainer t;
     if (cn_trainer_init(&t, &ds, &o, err, sizeof err)) {
         cn_dataset_free(&ds);
@@ -289,7 +292,6 @@ int cmd_encode(int argc, char **argv)
         return cli_fail("encode", "%s", err);
     }
     cli_say_random_bg(&t);
-    int rc = 0, stopped = 0;
     if (controlled) {
         const double latents = (double)cn_model_sent_latents(&t.model);
         const double target = size > 0 ? size : bpp * latents / 8;
@@ -364,6 +366,13 @@ int cmd_encode(int argc, char **argv)
                    "iterations\n", o.average);
         rc = cli_run_training("encode", &t, ckpt, ckpt_every, ckpt_secs, log_every, eval_every,
                               every, &stopped);
+        if (rc && t.collapsed && autop && !resume && !init && strcmp(o.preset, "tiny")) {
+            printf("preset auto: %s collapsed at %.0f bytes; encoding again with preset tiny\n",
+                   o.preset, t.rc.target);
+            o.preset = "tiny";
+            cn_trainer_free(&t);
+            goto step_down;
+        }
     }
     if (rc == 0 && stopped) {
         printf("interrupted: resume with --resume %s\n", ckpt);

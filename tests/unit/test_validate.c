@@ -207,6 +207,57 @@ static void test_validation_leaves_training_alone(void **state)
     cn_dataset_free(&ds);
 }
 
+/* Under rate control a validation PSNR CN_VAL_COLLAPSE_DB below the run's best stops the
+ * run with a message that names the preset, the fall and what to try; a smaller fall does
+ * not, and neither does any fall without rate control. */
+static void test_collapse_stops_rate_control(void **state)
+{
+    (void)state;
+    cn_dataset ds;
+    load(CNERF_DATA_DIR "/fern", &ds);
+    char err[256];
+    assert_int_equal(cn_dataset_hold_out(&ds, -1, err, sizeof err), 1);
+    for (int controlled = 0; controlled < 2; controlled++) {
+        cn_train_opts o;
+        cn_train_defaults(&o);
+        o.preset = "small";
+        o.batch = 64;
+        o.n_coarse = o.n_fine = 8;
+        o.iters = 40;
+        o.compress = 1;
+        o.lambda = 1;
+        o.val_every = 2;
+        cn_trainer t;
+        assert_int_equal(cn_trainer_init(&t, &ds, &o, err, sizeof err), 0);
+        if (controlled)
+            cn_trainer_rate_control(&t, 20000, 0, CN_RC_DUAL, 0, 0);
+        for (int i = 0; i < 3; i++)
+            assert_false(isnan(cn_trainer_step(&t, NULL, NULL)));
+        assert_int_equal(t.val_best_step, 2);
+        /* A best that the model has since fallen from by a little: the run goes on. */
+        t.val_best = t.val_psnr + CN_VAL_COLLAPSE_DB - 0.5;
+        assert_false(isnan(cn_trainer_step(&t, NULL, NULL)));
+        assert_false(t.collapsed);
+        /* By more than the margin. */
+        t.val_best = t.val_psnr + CN_VAL_COLLAPSE_DB + 3;
+        const double loss = cn_trainer_step(&t, NULL, NULL);
+        if (!controlled) {
+            assert_false(isnan(loss));
+            assert_false(t.collapsed);
+        } else {
+            assert_true(isnan(loss));
+            assert_true(t.collapsed);
+            print_message("# %s\n", t.err);
+            assert_non_null(strstr(t.err, "20000 bytes is too small for this scene at preset "
+                                          "small: validation PSNR fell from"));
+            assert_non_null(strstr(t.err, "try --preset tiny or --size "));
+            assert_non_null(strstr(t.err, " or more (its size at its best)"));
+        }
+        cn_trainer_free(&t);
+    }
+    cn_dataset_free(&ds);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -215,6 +266,7 @@ int main(void)
         cmocka_unit_test(test_hold_out_blender),
         cmocka_unit_test(test_rays_and_psnr),
         cmocka_unit_test(test_validation_leaves_training_alone),
+        cmocka_unit_test(test_collapse_stops_rate_control),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
