@@ -15,6 +15,8 @@
 #include "cn_render.h"
 #include "cn_validate.h"
 
+#define CN_PRECROP_ITERS 500
+
 typedef struct cn_train_opts {
     const char *preset; /* "tiny", "small" or "paper" */
     int depth, width, view_width, n_coarse, n_fine; /* overrides; -1 keeps the preset's */
@@ -22,7 +24,10 @@ typedef struct cn_train_opts {
     int batch;             /* rays per iteration */
     double lr;             /* initial learning rate */
     double lr_decay_steps; /* lr = lr0 * 0.1^(step / lr_decay_steps); 0: over iters */
-    long precrop_iters;    /* first iterations draw rays from the centre crop only */
+    /* The first precrop_iters iterations draw their rays from the centre crop only (360-degree
+     * scenes); -1 (the default): CN_PRECROP_ITERS when some training view has transparency,
+     * else 0. */
+    long precrop_iters;
     double precrop_frac;
     uint64_t seed;
     /* Occupancy grids (cn_occ.h): cells per axis (0: off), the iteration of the first
@@ -91,7 +96,7 @@ typedef struct cn_train_opts {
 } cn_train_opts;
 
 /* 1024 rays, 5e-3 decaying tenfold over the run (NeRF: 5e-4 over 500k steps), preset
- * "small", 500 centre-crop iterations at 50% for 360-degree scenes. */
+ * "small", centre crop of 50% (its iterations chosen by the views, see precrop_iters). */
 void cn_train_defaults(cn_train_opts *o);
 
 /* --preset auto: of the presets whose rate-distortion curves were measured (tiny, then

@@ -23,7 +23,7 @@ void cn_train_defaults(cn_train_opts *o)
      * (docs/training.md: on Lego at 100x100 tiny reaches 25 dB in about a third of the time). */
     o->lr = 5e-3;
     o->lr_decay_steps = 0;
-    o->precrop_iters = 500;
+    o->precrop_iters = -1;
     o->precrop_frac = 0.5;
     o->occ_grid = 32;
     o->occ_start = 100;
@@ -175,6 +175,11 @@ int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o,
     for (int i = 0; i < ds->n_train; i++)
         clear |= ds->train[i].alpha != NULL;
     t->opts.random_bg = o->random_bg < 0 ? clear : o->random_bg != 0;
+    /* The centre crop keeps an object on a transparent background from collapsing onto the
+     * empty background early on (NeRF's Blender scenes); on views that the picture fills it
+     * traps larger networks in a degenerate solution (docs/training.md, "The centre crop"). */
+    if (o->precrop_iters < 0)
+        t->opts.precrop_iters = clear && !ds->ndc ? CN_PRECROP_ITERS : 0;
     if (t->opts.random_bg) {
         t->bg = malloc(sizeof(float) * R * 3);
         if (!t->bg) {

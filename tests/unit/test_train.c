@@ -195,6 +195,25 @@ static void test_random_bg_option(void **state)
     assert_int_equal(t.opts.random_bg, 0);
     assert_null(t.batch.bg);
     cn_trainer_free(&t);
+    /* The centre crop, by default, only for views with transparency (and never in NDC); a
+     * count given is kept. */
+    cn_train_opts d;
+    cn_train_defaults(&d);
+    d.preset = "tiny";
+    assert_int_equal(d.precrop_iters, -1);
+    assert_int_equal(cn_trainer_init(&t, &ds, &d, err, sizeof err), 0);
+    assert_int_equal(t.opts.precrop_iters, CN_PRECROP_ITERS);
+    cn_trainer_free(&t);
+    assert_int_equal(cn_trainer_init(&t, &opaque, &d, err, sizeof err), 0);
+    assert_int_equal(t.opts.precrop_iters, 0);
+    cn_trainer_free(&t);
+    assert_int_equal(cn_trainer_init(&t, &fern, &d, err, sizeof err), 0);
+    assert_int_equal(t.opts.precrop_iters, 0);
+    cn_trainer_free(&t);
+    d.precrop_iters = 200;
+    assert_int_equal(cn_trainer_init(&t, &opaque, &d, err, sizeof err), 0);
+    assert_int_equal(t.opts.precrop_iters, 200);
+    cn_trainer_free(&t);
     /* On: every ray's background is in [0, 1] and its ground truth a valid colour. */
     o.random_bg = 1;
     assert_int_equal(cn_trainer_init(&t, &ds, &o, err, sizeof err), 0);
