@@ -1,0 +1,135 @@
+#!/usr/bin/env bash
+# The scene suite: public scenes that are not in ../shared/, each trained and encoded as a user
+# would, to see that the defaults hold on any scene (docs/results.md, "Every scene a user
+# brings"). Resumable: a run whose row is in OUT/suite.csv is not run again.
+#
+#   experiments/scene_suite.sh OUT SCENES.tsv [--iters "2000 6000"] [--sizes "15000 30000 60000"]
+#                              [--only NAME] [--max-size 100] [--threads 2] [--seed 1]
+#   experiments/scene_suite.sh OUT --table      the markdown table of OUT/suite.csv
+#
+# SCENES.tsv: one scene a line, tab-separated: name, kind, the folder holding it (a layout
+# cnerf reads), then anything (its source: repository, commit, path; docs/results.md lists
+# them). Lines starting with # are skipped. The scenes are not shipped (size, licences):
+# fetch them as docs/results.md says.
+#
+# For each scene and iteration count: the float models of presets tiny and small (cnerf
+# train), then at each size the default encode (cnerf encode --size, which picks its preset)
+# and the encode with the other preset; every one scored on the scene's test views by cnerf
+# eval. Rows: scene,iters,run,preset,target,bytes,test_psnr,val_psnr,fit_psnr,seconds,status.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+out=${1:?usage: scene_suite.sh OUT SCENES.tsv [options] | OUT --table}
+shift
+csv=$out/suite.csv
+if [ "${1:-}" = "--table" ]; then
+  [ -s "$csv" ] || { echo "scene_suite: no rows in $csv" >&2; exit 1; }
+  python3 - "$csv" <<'EOF'
+import csv, sys, collections
+rows = list(csv.DictReader(open(sys.argv[1])))
+by = collections.OrderedDict()
+for r in rows:
+    by.setdefault((r['scene'], r['iters']), []).append(r)
+def f(r):
+    if r is None: return '–'
+    if r['status'] != 'ok': return r['status']
+    return '%s dB' % r['test_psnr'] + ('' if r['bytes'] in ('', '0') else ', %s B' % r['bytes'])
+sizes = sorted({int(r['target']) for r in rows if r['target'] not in ('', '0')})
+print('| scene | iters | float tiny | float small | ' +
+      ' | '.join('%d B: default (preset) | tiny | small' % s for s in sizes) + ' |')
+print('|' + '---|' * (4 + 3 * len(sizes)))
+worst = None
+for (scene, iters), rs in by.items():
+    get = lambda run, t='0': next((r for r in rs if r['run'] == run and r['target'] == t), None)
+    cells = [scene, iters, f(get('train-tiny')), f(get('train-small'))]
+    for s in sizes:
+        d = get('encode-default', str(s))
+        cells.append(f(d) + (' (%s)' % d['preset'] if d else ''))
+        cells.append(f(get('encode-tiny', str(s))) if not (d and d['preset'] == 'tiny') else 'as default')
+        cells.append(f(get('encode-small', str(s))) if not (d and d['preset'] == 'small') else 'as default')
+    print('| ' + ' | '.join(cells) + ' |')
+EOF
+  exit 0
+fi
+scenes=${1:?usage: scene_suite.sh OUT SCENES.tsv [options]}
+shift
+iters_list="2000 6000" sizes="15000 30000 60000" only="" max_size=100 threads=2 seed=1
+while [ $# -gt 0 ]; do
+  case $1 in
+    --iters) iters_list=$2; shift 2 ;;
+    --sizes) sizes=$2; shift 2 ;;
+    --only) only=$2; shift 2 ;;
+    --max-size) max_size=$2; shift 2 ;;
+    --threads) threads=$2; shift 2 ;;
+    --seed) seed=$2; shift 2 ;;
+    *) echo "scene_suite: unknown option $1" >&2; exit 2 ;;
+  esac
+done
+[ -f "$scenes" ] || { echo "scene_suite: $scenes: no such file" >&2; exit 1; }
+cnerf=./build/cnerf
+[ -x "$cnerf" ] || { cmake -S . -B build -DCMAKE_BUILD_TYPE=RelWithDebInfo && cmake --build build -j2; }
+mkdir -p "$out/log" "$out/files"
+[ -s "$csv" ] || echo "scene,iters,run,preset,target,bytes,test_psnr,val_psnr,fit_psnr,seconds,status" > "$csv"
+done_row() { grep -q "^$1,$2,$3,[^,]*,$4," "$csv"; }
+common=(--max-size "$max_size" --threads "$threads" --seed "$seed")
+
+# score NAME FILE DATASET LOG: appends the test PSNR of FILE (a checkpoint or a stream).
+score() {
+  "$cnerf" eval "$2" "$3" --max-size "$max_size" > "$out/log/$1.eval" 2>&1 &&
+    sed -n 's/^mean over [0-9]* test views.*: psnr \([0-9.]*\) dB.*/\1/p' "$out/log/$1.eval"
+}
+val_of() { sed -n 's/^validation: psnr \([0-9.]*\) dB on .*, \([0-9.]*\) dB on the training views.*/\1,\2/p' "$1"; }
+
+# run SCENE DIR ITERS RUN PRESET TARGET -- cnerf-args...
+run() {
+  local scene=$1 dir=$2 iters=$3 runname=$4 preset=$5 target=$6
+  shift 7
+  done_row "$scene" "$iters" "$runname" "$target" && return 0
+  local tag=$scene-$iters-$runname-$target log=$out/log/$scene-$iters-$runname-$target.log
+  local file=$out/files/$tag
+  echo "== $tag"
+  local t0=$SECONDS status=ok rc=0
+  "$@" -o "$file.$([ "${runname#train}" != "$runname" ] && echo ckpt || echo cnrf)" \
+    > "$log" 2>&1 || rc=$?
+  local secs=$((SECONDS - t0)) bytes=0 psnr="" vals=","
+  local f=$file.ckpt
+  [ "${runname#encode}" != "$runname" ] && f=$file.cnrf
+  local chosen=$preset
+  if [ "$runname" = encode-default ]; then
+    chosen=$(sed -n 's/^preset auto: \([a-z]*\) .*/\1/p' "$log" | tail -n 1)
+    grep -q "encoding again with preset tiny" "$log" && { chosen=tiny; status=stepped-down; }
+  fi
+  if [ $rc -ne 0 ]; then
+    if grep -q "too small for this scene" "$log"; then status=refused; else status=failed; fi
+    [ -s "$f" ] && [ "$status" = failed ] && status="missed-size"
+  fi
+  if [ -s "$f" ] && { [ $rc -eq 0 ] || [ "$status" = missed-size ]; }; then
+    [ "$f" = "$file.cnrf" ] && bytes=$(stat -c %s "$f")
+    psnr=$(score "$tag" "$f" "$dir" || true)
+    vals=$(val_of "$log")
+    [ -n "$vals" ] || vals=","
+  fi
+  echo "$scene,$iters,$runname,$chosen,$target,$bytes,$psnr,$vals,$secs,$status" >> "$csv"
+}
+
+while IFS=$'\t' read -r name kind dir _rest; do
+  case "$name" in ''|\#*) continue ;; esac
+  [ -z "$only" ] || [ "$only" = "$name" ] || continue
+  [ -d "$dir" ] || { echo "scene_suite: $name: $dir is not a folder (fetch it first)" >&2; continue; }
+  for iters in $iters_list; do
+    for p in tiny small; do
+      run "$name" "$dir" "$iters" "train-$p" "$p" 0 -- "$cnerf" train "$dir" --preset "$p" \
+        --iters "$iters" "${common[@]}"
+    done
+    for s in $sizes; do
+      run "$name" "$dir" "$iters" encode-default auto "$s" -- "$cnerf" encode "$dir" --size "$s" \
+        --iters "$iters" "${common[@]}"
+      chosen=$(grep "^$name,$iters,encode-default,[^,]*,$s," "$csv" | tail -n 1 | cut -d, -f4)
+      for p in tiny small; do
+        [ "$p" = "$chosen" ] && continue
+        run "$name" "$dir" "$iters" "encode-$p" "$p" "$s" -- "$cnerf" encode "$dir" --size "$s" \
+          --preset "$p" --iters "$iters" "${common[@]}"
+      done
+    done
+  done
+done < "$scenes"
+echo "scene_suite: rows in $csv; the table: $0 $out --table"
