@@ -1,4 +1,5 @@
 /* --preset auto: the model's size from the budget and the scene (cn_train.h). */
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -40,4 +41,35 @@ int cn_preset_auto(const cn_dataset *ds, const cn_train_opts *o, double target,
         }
     }
     return -1; /* not reached */
+}
+
+double cn_preset_trial(const cn_dataset *ds, const cn_train_opts *o, const char *preset,
+                       long iters, char *err, size_t errlen)
+{
+    cn_train_opts p = *o;
+    p.preset = preset;
+    p.iters = iters;
+    p.compress = 1;
+    p.lambda = 0;
+    p.quality_slope = 0;
+    p.average = 0;
+    p.val_every = 0;
+    p.precrop_iters = 0; /* measured on whole views: a crop would leave their borders untrained */
+    cn_trainer t;
+    if (cn_trainer_init(&t, ds, &p, err, errlen))
+        return -1;
+    for (long i = 0; i < iters; i++)
+        if (isnan(cn_trainer_step(&t, NULL, NULL))) {
+            snprintf(err, errlen, "%s", t.err);
+            cn_trainer_free(&t);
+            return -1;
+        }
+    const int rc = cn_trainer_validate(&t);
+    const double v = t.val_psnr; /* NaN without validation views */
+    cn_trainer_free(&t);
+    if (rc) {
+        snprintf(err, errlen, "out of memory for validation");
+        return -1;
+    }
+    return v;
 }

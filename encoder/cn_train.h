@@ -111,6 +111,19 @@ void cn_train_defaults(cn_train_opts *o);
 #define CN_AUTO_BITS 1.31
 int cn_preset_auto(const cn_dataset *ds, const cn_train_opts *o, double target,
                    const char **preset, double *bits, char *err, size_t errlen);
+/* --preset auto's check of its choice on the scene: `iters` iterations of a compressed run
+ * of `preset` at lambda 0 from whole views (no centre crop), then the validation PSNR
+ * (cn_validate.h). When the rule chose small and its trial falls more than CN_AUTO_TRIAL_DB
+ * under tiny's, auto takes tiny: a larger network that does not find the scene's geometry
+ * in its first iterations (DTU scan 24, docs/results.md) does not find it later. The trials
+ * last a tenth of the run, at most CN_AUTO_TRIAL_ITERS, and none is made for runs shorter
+ * than 10 x CN_AUTO_TRIAL_MIN. Returns the PSNR, NaN without validation views, -1 with a
+ * message on failure. */
+#define CN_AUTO_TRIAL_DB 1.0
+#define CN_AUTO_TRIAL_ITERS 300
+#define CN_AUTO_TRIAL_MIN 100
+double cn_preset_trial(const cn_dataset *ds, const cn_train_opts *o, const char *preset,
+                       long iters, char *err, size_t errlen);
 
 /* The floor (cn_stream_floor) and the latents sent (cn_model_sent_latents) of o's preset on
  * this dataset, with the colour layers that o leaves out (cn_train_drop_color) left out. */
@@ -161,7 +174,7 @@ typedef struct cn_trainer {
     double val_best, val_best_size;
     long val_best_step;
     int collapsed, from_float;
-    char err[256]; /* why cn_trainer_step returned NaN, when it says */
+    char err[512]; /* why cn_trainer_step returned NaN, when it says */
 } cn_trainer;
 
 int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o, char *err,

@@ -443,18 +443,11 @@ static int collapse_check(cn_trainer *t)
     if (t->val_best_size > t->rc.target)
         snprintf(larger, sizeof larger, "--size %.0f or more (its size at its best)",
                  t->val_best_size);
-    if (strcmp(t->opts.preset, "tiny"))
-        snprintf(t->err, sizeof t->err, "%.0f bytes is too small for this scene at preset %s: "
-                 "validation PSNR fell from %.2f dB (iteration %ld) to %.2f dB (iteration "
-                 "%ld) as the rate penalty rose; try --preset tiny or %s",
-                 t->rc.target, t->opts.preset, t->val_best, t->val_best_step, t->val_psnr,
-                 t->val_step, larger);
-    else
-        snprintf(t->err, sizeof t->err, "%.0f bytes is too small for this scene at preset %s: "
-                 "validation PSNR fell from %.2f dB (iteration %ld) to %.2f dB (iteration "
-                 "%ld) as the rate penalty rose; try %s",
-                 t->rc.target, t->opts.preset, t->val_best, t->val_best_step, t->val_psnr,
-                 t->val_step, larger);
+    snprintf(t->err, sizeof t->err, "%.0f bytes is too small for this scene at preset %s: "
+             "validation PSNR fell from %.2f dB (iteration %ld) to %.2f dB (iteration %ld) as "
+             "the rate penalty rose; try %s%s", t->rc.target, t->opts.preset, t->val_best,
+             t->val_best_step, t->val_psnr, t->val_step,
+             strcmp(t->opts.preset, "tiny") ? "--preset tiny or " : "", larger);
     return -1;
 }
 

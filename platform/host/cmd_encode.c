@@ -8,6 +8,7 @@
 
 #include "cli.h"
 #include "cli_args.h"
+#include "progress.h"
 #include "cn_export.h"
 #include "cn_grid.h"
 #include "cn_metrics.h"
@@ -272,6 +273,7 @@ int cmd_encode(int argc, char **argv)
         return 1;
     }
     char err[1024];
+    int stepped_down = 0; /* --preset auto took tiny over the rule's choice */
     if (autop) {
         double bits;
         if (cn_preset_auto(&ds, &o, size, &o.preset, &bits, err, sizeof err)) {
@@ -281,6 +283,26 @@ int cmd_encode(int argc, char **argv)
         }
         printf("preset auto: %s (%.2f bits per latent beyond the topology's floor; small from "
                "%.2f)\n", o.preset, bits, CN_AUTO_BITS);
+        const long trial = iters / 10 < CN_AUTO_TRIAL_ITERS ? iters / 10 : CN_AUTO_TRIAL_ITERS;
+        if (strcmp(o.preset, "tiny") && trial >= CN_AUTO_TRIAL_MIN && ds.n_val > 0 && !init) {
+            const double t0 = cli_now();
+            const double big = cn_preset_trial(&ds, &o, o.preset, trial, err, sizeof err);
+            const double small = big < 0 ? -1 : cn_preset_trial(&ds, &o, "tiny", trial, err,
+                                                                  sizeof err);
+            if (big < 0 || small < 0) {
+                cn_dataset_free(&ds);
+                cli_unlock_output(lk, lock);
+                return cli_fail("encode", "%s", err);
+            }
+            const int down = big < small - CN_AUTO_TRIAL_DB;
+            printf("preset auto: trials of %ld iterations (%.0f s), validation psnr %s %.2f dB, "
+                   "tiny %.2f dB: %s\n", trial, cli_now() - t0, o.preset, big, small,
+                   down ? "tiny" : o.preset);
+            if (down) {
+                o.preset = "tiny";
+                stepped_down = 1;
+            }
+        }
     }
     int rc = 0, stopped = 0;
 step_down: /* --preset auto encodes again with tiny when the rate collapses a larger preset */
@@ -370,6 +392,7 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
             printf("preset auto: %s collapsed at %.0f bytes; encoding again with preset tiny\n",
                    o.preset, t.rc.target);
             o.preset = "tiny";
+            stepped_down = 1;
             cn_trainer_free(&t);
             goto step_down;
         }
@@ -473,6 +496,9 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
                 rc = cli_fail("encode", "%s is %.1f%% over the target of %.0f bytes (the file is "
                               "written): the run ended before the rate settled; give more "
                               "--iters or a larger --size", out, 100 * dev, t.rc.target);
+            else if (dev < -CLI_SIZE_TOLERANCE && stepped_down)
+                printf("size: %.1f%% under the target: preset tiny, which --preset auto took for "
+                       "this scene, does not use more\n", -100 * dev);
             else if (dev < -CLI_SIZE_TOLERANCE)
                 rc = cli_fail("encode", "%s is %.1f%% under the target of %.0f bytes (the file "
                               "is written): preset %s does not use that many bytes on this "

@@ -258,6 +258,30 @@ static void test_collapse_stops_rate_control(void **state)
     cn_dataset_free(&ds);
 }
 
+/* --preset auto's trial: a compressed run's validation PSNR, the same for the same options,
+ * NaN where there are no validation views. */
+static void test_preset_trial(void **state)
+{
+    (void)state;
+    cn_dataset ds;
+    load(CNERF_DATA_DIR "/fern", &ds);
+    cn_train_opts o;
+    cn_train_defaults(&o);
+    o.batch = 64;
+    o.n_coarse = o.n_fine = 8;
+    char err[256];
+    assert_true(isnan(cn_preset_trial(&ds, &o, "tiny", 4, err, sizeof err)));
+    assert_int_equal(cn_dataset_hold_out(&ds, -1, err, sizeof err), 1);
+    const double a = cn_preset_trial(&ds, &o, "tiny", 4, err, sizeof err);
+    const double b = cn_preset_trial(&ds, &o, "tiny", 4, err, sizeof err);
+    const double c = cn_preset_trial(&ds, &o, "small", 4, err, sizeof err);
+    print_message("# trials: tiny %.4f dB, small %.4f dB\n", a, c);
+    assert_true(a > 3 && a < 60);
+    assert_true(a == b);
+    assert_true(c > 3 && c < 60 && c != a);
+    cn_dataset_free(&ds);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -267,6 +291,7 @@ int main(void)
         cmocka_unit_test(test_rays_and_psnr),
         cmocka_unit_test(test_validation_leaves_training_alone),
         cmocka_unit_test(test_collapse_stops_rate_control),
+        cmocka_unit_test(test_preset_trial),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
