@@ -1215,7 +1215,8 @@ static int cn_list_images(const char *dir, const char *suffix, char ***names, in
         *n = 0;
         return -1;
     }
-    qsort(*names, (size_t)*n, sizeof **names, cn_cmp_name);
+    if (*n > 1) /* qsort may not be given the NULL of an empty list */
+        qsort(*names, (size_t)*n, sizeof **names, cn_cmp_name);
     return 0;
 }
 
