@@ -273,7 +273,7 @@ int cmd_encode(int argc, char **argv)
         return 1;
     }
     char err[1024];
-    int stepped_down = 0; /* --preset auto took tiny over the rule's choice */
+    int stepped_down = 0, trials_done = 0; /* --preset auto took tiny over the rule's choice */
     if (autop) {
         double bits;
         if (cn_preset_auto(&ds, &o, size, &o.preset, &bits, err, sizeof err)) {
@@ -283,26 +283,6 @@ int cmd_encode(int argc, char **argv)
         }
         printf("preset auto: %s (%.2f bits per latent beyond the topology's floor; small from "
                "%.2f)\n", o.preset, bits, CN_AUTO_BITS);
-        const long trial = iters / 10 < CN_AUTO_TRIAL_ITERS ? iters / 10 : CN_AUTO_TRIAL_ITERS;
-        if (strcmp(o.preset, "tiny") && trial >= CN_AUTO_TRIAL_MIN && ds.n_val > 0 && !init) {
-            const double t0 = cli_now();
-            const double big = cn_preset_trial(&ds, &o, o.preset, trial, err, sizeof err);
-            const double small = big < 0 ? -1 : cn_preset_trial(&ds, &o, "tiny", trial, err,
-                                                                  sizeof err);
-            if (big < 0 || small < 0) {
-                cn_dataset_free(&ds);
-                cli_unlock_output(lk, lock);
-                return cli_fail("encode", "%s", err);
-            }
-            const int down = big < small - CN_AUTO_TRIAL_DB;
-            printf("preset auto: trials of %ld iterations (%.0f s), validation psnr %s %.2f dB, "
-                   "tiny %.2f dB: %s\n", trial, cli_now() - t0, o.preset, big, small,
-                   down ? "tiny" : o.preset);
-            if (down) {
-                o.preset = "tiny";
-                stepped_down = 1;
-            }
-        }
     }
     int rc = 0, stopped = 0;
 step_down: /* --preset auto encodes again with tiny when the rate collapses a larger preset */
@@ -357,6 +337,33 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
                                 (int)grid_g, !strcmp(prune, "on"));
         printf("rate control (%s): a file of %.0f bytes (%.3f bits per latent); the topology "
                "alone takes %zu\n", scheme, target, 8 * target / latents, floor_bytes);
+    }
+    /* --preset auto checks the rule's choice of a larger preset on the scene, once the size is
+     * known to be within its reach (cn_preset_trial). */
+    const long trial = iters / 10 < CN_AUTO_TRIAL_ITERS ? iters / 10 : CN_AUTO_TRIAL_ITERS;
+    if (autop && !trials_done && strcmp(o.preset, "tiny") && trial >= CN_AUTO_TRIAL_MIN &&
+        ds.n_val > 0 && !init && !resume) {
+        trials_done = 1;
+        const double t0 = cli_now();
+        const double big = cn_preset_trial(&ds, &o, o.preset, trial, err, sizeof err);
+        const double small = big < 0 ? -1 : cn_preset_trial(&ds, &o, "tiny", trial, err,
+                                                              sizeof err);
+        if (big < 0 || small < 0) {
+            cn_trainer_free(&t);
+            cn_dataset_free(&ds);
+            cli_unlock_output(lk, lock);
+            return cli_fail("encode", "%s", err);
+        }
+        const int down = big < small - CN_AUTO_TRIAL_DB;
+        printf("preset auto: trials of %ld iterations (%.0f s), validation psnr %s %.2f dB, "
+               "tiny %.2f dB: %s\n", trial, cli_now() - t0, o.preset, big, small,
+               down ? "tiny" : o.preset);
+        if (down) {
+            o.preset = "tiny";
+            stepped_down = 1;
+            cn_trainer_free(&t);
+            goto step_down;
+        }
     }
     if (resume) {
         if (access(resume, F_OK) != 0)
