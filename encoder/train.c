@@ -39,6 +39,7 @@ void cn_train_defaults(cn_train_opts *o)
      * their rate estimate was 28% above the coded payload (docs/results.md). */
     o->lr_prior = 5e-3;
     o->lr_affine = 5e-4;
+    o->lr_scale = 1e-3;
     o->random_bg = -1;
     o->coarse_color = 1;
     o->coarse_weight = 1;
@@ -541,7 +542,12 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
         } else {
             cn_adam_range(m, 0, m->off_ab, cn_trainer_lr(t), t->step);
         }
-        cn_adam_range(m, m->off_ab, m->off_prior, t->opts.lr_affine * decay, t->step);
+        for (unsigned l = 0; l < m->topo.n_layers; l++) {
+            const double a0 = cn_glorot_limit(&m->topo.layer[l]) / t->opts.levels;
+            const size_t ab = m->off_ab + 2 * l;
+            cn_adam_range(m, ab, ab + 1, t->opts.lr_scale * a0 * decay, t->step);
+            cn_adam_range(m, ab + 1, ab + 2, t->opts.lr_affine * decay, t->step);
+        }
     } else {
         cn_adam_range(m, 0, m->off_prior, cn_trainer_lr(t), t->step);
     }

@@ -33,7 +33,7 @@
     "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N | --ckpt-secs S]\n" \
     "       [--log-every N] [--depth D] [--width W] [--view-width V] [--coarse N] [--fine N]\n"                \
     "       [--latent-lr latent|weight]\n"                                                   \
-    "       [--eval-every N] [--prior-lr X] [--affine-lr X]\n"   \
+    "       [--eval-every N] [--prior-lr X] [--affine-lr X] [--scale-lr R]\n"   \
     "       [--skip-saturated EPS] [--grid G|0] [--grid-verbose] [--random-bg auto|on|off]\n" \
     "       [--background constant|contract]\n"                                               \
     "       [--prune on|off] [--group-penalty MU] [--coarse-color off|on] [--coarse-weight W]\n" \
@@ -161,6 +161,7 @@ int cmd_encode(int argc, char **argv)
         {"--skip-saturated", CLI_DOUBLE, &o.sat_eps, 0, 1},
         {"--group-penalty", CLI_DOUBLE, &o.group, 0, 1000},
         {"--affine-lr", CLI_DOUBLE, &o.lr_affine, 0, 1},
+        {"--scale-lr", CLI_DOUBLE, &o.lr_scale, 0, 1},
         {"--grid", CLI_LONG, &grid_g, -1, CNERF_MAX_GRID},
         {"--grid-verbose", CLI_FLAG, &grid_verbose, 0, 0},
         {"--random-bg", CLI_STR, &random_bg, 0, 0},

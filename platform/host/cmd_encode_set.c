@@ -20,7 +20,7 @@
     "usage: cnerf encode DATASET1 DATASET2 [...] -o set.cnrf (--lambda L | --quality Q)\n"  \
     "       [--preset tiny|small|paper] [--iters N] [--downscale F|--max-size N]\n"          \
     "       [--threads T] [--seed S] [--resume CKPT] [--levels X] [--batch R] [--every N]\n" \
-    "       [--lr X] [--lr-decay N] [--shift-lr X] [--prior-lr X] [--affine-lr X]\n"        \
+    "       [--lr X] [--lr-decay N] [--shift-lr X] [--prior-lr X] [--affine-lr X] [--scale-lr R]\n"        \
     "       [--ckpt-every N | --ckpt-secs S] [--log-every N] [--eval-every N]\n"            \
     "       [--depth D] [--width W] [--coarse N] [--fine N] [--grid G|0] [--random-bg auto|on|off]\n" \
     "       [--background constant|contract] [--coarse-color off|on] [--coarse-weight W]\n"          \
@@ -118,6 +118,7 @@ int cmd_encode_set(int argc, char **argv)
         {"--shift-lr", CLI_DOUBLE, &lr_shift, 0, 1},
         {"--prior-lr", CLI_DOUBLE, &o.lr_prior, 0, 1},
         {"--affine-lr", CLI_DOUBLE, &o.lr_affine, 0, 1},
+        {"--scale-lr", CLI_DOUBLE, &o.lr_scale, 0, 1},
         {"--grid", CLI_LONG, &grid_g, -1, CNERF_MAX_GRID},
         {"--random-bg", CLI_STR, &random_bg, 0, 0},
         {"--background", CLI_STR, &background, 0, 0},

@@ -440,6 +440,49 @@ static void test_resume_continues_exactly(void **state)
 
 /* --average W: the model at the end of the run is the mean of the parameters over its last
  * W iterations (the same run without it gives those parameters), and not the last ones. */
+/* Each layer's affine scale a steps relative to its start a0 = Glorot limit / levels (Adam's
+ * first step is exactly its rate): lr_scale * a0, whatever the layer's width; the offset b
+ * steps lr_affine in weight units. An absolute step for a (as b's) rescaled a width-128
+ * layer's weights by 2.6% an iteration, which kept preset small from learning a DTU scene. */
+static void test_affine_scale_steps_relative(void **state)
+{
+    (void)state;
+    cn_train_opts o;
+    small_opts(&o);
+    o.compress = 1;
+    o.lambda = 0;
+    o.iters = 10;
+    char err[512];
+    cn_trainer t;
+    assert_int_equal(cn_trainer_init(&t, &ds, &o, err, sizeof err), 0);
+    const cn_model *m = &t.model;
+    const unsigned L = m->topo.n_layers;
+    float a[64], b[64];
+    assert_true(L <= 64);
+    for (unsigned l = 0; l < L; l++) {
+        a[l] = m->params[m->off_ab + 2 * l];
+        b[l] = m->params[m->off_ab + 2 * l + 1];
+    }
+    cn_trainer_step(&t, NULL, NULL);
+    const double decay = cn_trainer_lr(&t) / o.lr; /* the rate the first step took */
+    unsigned moved = 0;
+    for (unsigned l = 0; l < L; l++) {
+        const double a0 = cn_glorot_limit(&m->topo.layer[l]) / o.levels;
+        const double da = fabs(m->params[m->off_ab + 2 * l] - a[l]);
+        const double db = fabs(m->params[m->off_ab + 2 * l + 1] - b[l]);
+        assert_true(fabs(a[l] - a0) <= 1e-6 * a0);
+        if (da == 0 && db == 0)
+            continue; /* no gradient reached the layer (a colour layer not rendered) */
+        moved++;
+        if (fabs(da - o.lr_scale * a0 * decay) > 0.02 * o.lr_scale * a0 * decay ||
+            fabs(db - o.lr_affine * decay) > 0.02 * o.lr_affine * decay)
+            fail_msg("layer %u: a moved %.3g (expected %.3g), b %.3g (expected %.3g)", l, da,
+                     o.lr_scale * a0 * decay, db, o.lr_affine * decay);
+    }
+    assert_true(moved >= L / 2);
+    cn_trainer_free(&t);
+}
+
 static void test_average_is_the_mean(void **state)
 {
     (void)state;
@@ -847,6 +890,7 @@ int main(void)
         cmocka_unit_test(test_end_to_end),
         cmocka_unit_test(test_reproducible),
         cmocka_unit_test(test_resume_continues_exactly),
+        cmocka_unit_test(test_affine_scale_steps_relative),
         cmocka_unit_test(test_average_is_the_mean),
         cmocka_unit_test(test_checkpoint_grids),
         cmocka_unit_test(test_joint),
