@@ -230,6 +230,10 @@ int cmd_encode_set(int argc, char **argv)
         printf("interrupted: resume with --resume %s\n", ckpt);
         rc = 128 + stopped;
     }
+    for (unsigned m = 0; rc == 0 && m < M; m++) { /* each scene on its own held-out views */
+        printf("scene %u: ", m);
+        rc = cli_report_validation("encode", &j.t[m]);
+    }
     /* Export: every scene and the shifts snapped to the stream's numbers, the scales from
      * each scene's float model with the shifts, a grid per scene, one stream. */
     cn_export *e = calloc(M + 1, sizeof *e);

@@ -347,7 +347,11 @@ grep -q "^wrote $work/set.cnrf: [0-9]* bytes, 2 scenes, shared shifts [0-9]* byt
   fail "encode a set: wrote line: $out"
 grep -q "^scene 1: [0-9]* bytes of its own, test: 2 views, psnr" <<<"$out" ||
   fail "encode a set: scene 1's test line: $out"
-set_psnr=$(sed -n 's/^scene 1: .* psnr \([0-9.]*\) dB.*/\1/p' <<<"$out")
+set_psnr=$(sed -n 's/^scene 1: [0-9]* bytes of its own.* psnr \([0-9.]*\) dB.*/\1/p' <<<"$out")
+for m in 0 1; do # each scene measured on its own held-out views
+  grep -q "^scene $m: validation: psnr [0-9.]* dB on [0-9]* held-out views, [0-9.]* dB on the training views" \
+    <<<"$out" || fail "encode a set: scene $m's validation line: $out"
+done
 info=$("$cnerf" info --check --scene 1 "$work/set.cnrf")
 grep -q "^scenes: 2, sharing one topology" <<<"$info" || fail "info of a set: $info"
 grep -q "file: [0-9]* bytes)$" <<<"$info" || fail "info of a set: totals: $info"
