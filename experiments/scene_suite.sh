@@ -6,6 +6,8 @@
 #   experiments/scene_suite.sh OUT SCENES.tsv [--iters "2000 6000"] [--sizes "15000 30000 60000"]
 #                              [--only NAME] [--max-size 100] [--threads 2] [--seed 1]
 #   experiments/scene_suite.sh OUT --table      the markdown table of OUT/suite.csv
+# CNERF=path runs that binary instead of ./build/cnerf (a copy keeps a long run apart from
+# rebuilds of the tree).
 #
 # SCENES.tsv: one scene a line, tab-separated: name, kind, the folder holding it (a layout
 # cnerf reads), then anything (its source: repository, commit, path; docs/results.md lists
@@ -65,7 +67,7 @@ while [ $# -gt 0 ]; do
   esac
 done
 [ -f "$scenes" ] || { echo "scene_suite: $scenes: no such file" >&2; exit 1; }
-cnerf=./build/cnerf
+cnerf=${CNERF:-./build/cnerf}
 [ -x "$cnerf" ] || { cmake -S . -B build -DCMAKE_BUILD_TYPE=RelWithDebInfo && cmake --build build -j2; }
 mkdir -p "$out/log" "$out/files"
 [ -s "$csv" ] || echo "scene,iters,run,preset,target,bytes,test_psnr,val_psnr,fit_psnr,seconds,status" > "$csv"
