@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Which preset is on the rate-distortion frontier at each size, and where the larger preset
-# takes over: the rule behind `cnerf encode --preset auto` (CN_AUTO_BITS, encoder/cn_train.h).
+# takes over: the rule behind `cnerf encode --preset auto` (CN_AUTO_BITS, encoder/nerf/cn_train.h).
 #   scripts/preset_frontier.sh CSV LATENTS FLOOR
 # CSV: preset,how,file_bytes,test_psnr_db rows of two presets, "tiny" and "small" (rows
 # copied from scripts/rate_control.sh's and scripts/quality.sh's CSVs; docs/img/

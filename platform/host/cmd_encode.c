@@ -6,6 +6,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "cn_file.h"
 #include "cli.h"
 #include "cli_args.h"
 #include "progress.h"
@@ -13,7 +14,7 @@
 #include "cn_grid.h"
 #include "cn_metrics.h"
 #include "cn_prune.h"
-#include "cn_ratectl.h"
+#include "cn_rate.h"
 #include "cn_scales.h"
 #include "cn_synth.h"
 #include "cn_report.h"
@@ -175,7 +176,7 @@ int cmd_encode(int argc, char **argv)
                   CNERF_MAX_SCENES, &n_pos))
         return 2;
     if (n_pos > 1) /* several scenes: their own command line */
-        return cmd_encode_set(argc, argv);
+        return cli_encode_set(argc, argv);
     if (lr_shift >= 0)
         return cli_usage("encode", "--shift-lr sets the shared shifts' rate of a stream of "
                          "several scenes; this encode has one");

@@ -9,6 +9,7 @@
 #include "cn_export.h"
 #include "cn_scales.h"
 #include "cn_stream.h"
+#include "cn_file.h"
 #include "cn_train.h"
 
 #define QUANTIZE_USAGE                                                                        \

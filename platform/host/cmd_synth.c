@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "cn_file.h"
 #include "cli.h"
 #include "cli_args.h"
 #include "cn_scales.h"

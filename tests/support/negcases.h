@@ -4,7 +4,7 @@
 #ifndef CNERF_NEGCASES_H
 #define CNERF_NEGCASES_H
 
-#include "cn_stream.h"
+#include "cn_buf.h"
 #include "cnerf/cnerf.h"
 
 typedef struct chunks chunks;

@@ -9,7 +9,7 @@
 
 #include <cmocka.h>
 
-#include "cn_stream.h"
+#include "cn_buf.h"
 #include "cn_synth.h"
 
 /* A stream written from a synthetic model (header `hdr`, seed, spread). Fails the test

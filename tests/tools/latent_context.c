@@ -23,7 +23,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "cn_stream.h"
+#include "cn_file.h"
 #include "cnerf/cnerf.h"
 
 enum { N_CODES = 5, MAX_CTX = 6 };

@@ -9,7 +9,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "cn_stream.h"
+#include "cn_buf.h"
+#include "cn_file.h"
 #include "negcases.h"
 
 static void slug(const char *name, char *out, size_t n)

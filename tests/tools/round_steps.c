@@ -16,7 +16,8 @@
 
 #include "cn_ckpt.h"
 #include "cn_nerf.h"
-#include "cn_stream.h"
+#include "cn_buf.h"
+#include "cn_file.h"
 
 static double entropy_bits(const long *k, size_t n)
 {
