@@ -6,7 +6,7 @@ directories, so a grep for "../" would miss most crossings.
   tools/check_layers.py BUILD_DIR          the build's depfiles (CMakeFiles/*.dir/**/*.o.d)
                                            and the host program's objects (nm)
   tools/check_layers.py --depfiles F...    depfiles only (the test's bad fixtures)
-  tools/check_layers.py --nm F...          `nm -A` listings of command objects only
+  tools/check_layers.py --nm F...          `nm -A` listings of objects only (rules 5 and 6)
 
 Rules:
   1. decoder/ includes nothing of the project outside decoder/, common/ and include/
@@ -16,7 +16,10 @@ Rules:
   4. an encoder room includes only its own headers and those of the rooms below it:
      base < data, stream < nerf < compress (the trainer never calls compression);
   5. a command file (platform/host/cmd_*.c) uses no function another command file defines:
-     what commands share lives in the host program's other files.
+     what commands share lives in the host program's other files;
+  6. one encode pipeline: the export, the scale choice, the pruning and the stream writer are
+     called only from encoder/compress/pipeline.c (and the scale choice writes the stream it
+     measures: encoder/compress/scales.c).
 Exit status 1 and one line per crossing when a rule is broken.
 """
 import glob
@@ -113,12 +116,45 @@ def nm_violations(listing):
     return bad
 
 
+PIPELINE_STEPS = {'cn_model_snap', 'cn_export_compressed', 'cn_export_quantized',
+                  'cn_export_drop_color', 'cn_choose_scales', 'cn_choose_scales_points',
+                  'cn_choose_scales_set', 'cn_export_prune', 'cn_write_stream', 'cn_write_set'}
+PIPELINE_CALLERS = {'pipeline': PIPELINE_STEPS, 'scales': {'cn_write_set'}}
+
+
+def pipeline_violations(listing):
+    """Rule 6 from `nm -A` lines of the encoder's and the host program's objects."""
+    bad = []
+    for line in listing.splitlines():
+        obj, _, rest = line.rpartition(':')
+        fields = rest.split()
+        if len(fields) < 2 or fields[-2] != 'U' or fields[-1] not in PIPELINE_STEPS:
+            continue
+        base = os.path.basename(obj).split('.')[0]
+        if fields[-1] in PIPELINE_CALLERS.get(base, ()):
+            continue
+        bad.append('%s: calls %s outside the encode pipeline (encoder/compress/pipeline.c)' %
+                   (os.path.basename(obj).rsplit('.', 1)[0], fields[-1]))
+    return bad
+
+
+def live_objects(build, target):
+    """The objects of a target whose source still exists (a build directory keeps others)."""
+    top = os.path.join(build, 'CMakeFiles', target + '.dir')
+    objs = []
+    for o in glob.glob(os.path.join(top, '**', '*.c.o'), recursive=True):
+        if os.path.exists(os.path.join(ROOT, os.path.relpath(o, top)[:-2])):
+            objs.append(o)
+    return sorted(objs)
+
+
 def main(argv):
     bad = []
     if len(argv) >= 2 and argv[0] == '--depfiles':
         bad = depfile_violations(argv[1:])
     elif len(argv) >= 2 and argv[0] == '--nm':
-        bad = nm_violations(''.join(open(f).read() for f in argv[1:]))
+        listing = ''.join(open(f).read() for f in argv[1:])
+        bad = nm_violations(listing) + pipeline_violations(listing)
     elif len(argv) == 1:
         build = argv[0]
         deps = [f for f in glob.glob(os.path.join(build, 'CMakeFiles', '*.dir', '**', '*.o.d'),
@@ -132,16 +168,17 @@ def main(argv):
         # A build directory keeps the objects of sources since moved or removed: skip them.
         lib_deps = [f for f in lib_deps if os.path.exists(parse_depfile(f)[0] or '')]
         bad = depfile_violations(lib_deps)
-        objs = sorted(o for o in glob.glob(os.path.join(build, 'CMakeFiles', 'cnerf.dir',
-                                                        'platform', 'host', 'cmd_*.c.o'))
-                      if os.path.exists(os.path.join(ROOT, 'platform', 'host',
-                                                     os.path.basename(o)[:-2])))
+        host = live_objects(build, 'cnerf')
+        objs = [o for o in host if os.path.basename(o).startswith('cmd_')]
         if not objs:
             print('check_layers: no command objects under %s' % build, file=sys.stderr)
             return 2
         out = subprocess.run(['nm', '-A'] + objs, check=True, capture_output=True, text=True)
         bad += nm_violations(out.stdout)
-        print('check_layers: %d depfiles, %d command objects' % (len(lib_deps), len(objs)))
+        every = live_objects(build, 'cnerf_enc') + host
+        out = subprocess.run(['nm', '-A'] + every, check=True, capture_output=True, text=True)
+        bad += pipeline_violations(out.stdout)
+        print('check_layers: %d depfiles, %d objects' % (len(lib_deps), len(every)))
     else:
         print(__doc__, file=sys.stderr)
         return 2

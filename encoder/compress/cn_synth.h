@@ -13,7 +13,8 @@ typedef struct cn_synth {
 
 
 /* Random latents ~ round(Laplace(0, spread)) clamped to the format's range, random
- * affine decoders and 16-bit biases. `hdr` as for cn_stream_src.hdr. */
+ * affine decoders and 16-bit biases. `hdr` as for cn_stream_src.hdr. The input scales are
+ * not chosen: the encode pipeline (cn_pipeline.h) chooses them, as for any source. */
 int cn_synth_make(cn_synth *s, const cnerf_info *hdr, uint64_t seed, double spread, char *err,
                   size_t errlen);
 void cn_synth_free(cn_synth *s);

@@ -3,30 +3,20 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "cn_export.h"
 #include "cn_grid.h"
-#include "cn_prune.h"
+#include "cn_pipeline.h"
 #include "cn_rate.h"
-#include "cn_scales.h"
 
 int cn_stream_size(const cn_model *m, uint64_t seed, int prune, size_t *bytes, char *err,
                    size_t errlen)
 {
-    cn_export e;
-    if (cn_export_compressed(m, NULL, &e, err, errlen))
-        return -1;
-    int rc = cn_choose_scales_points(&e.src, seed, CN_RC_SCALE_POINTS, NULL, err, errlen);
-    cn_prune_report pr;
-    if (rc == 0 && prune)
-        rc = cn_export_prune(&e, &pr, err, errlen);
-    cn_buf b = {0};
-    cn_write_report rep;
+    cn_encoded enc;
+    const cn_encode_job job = {.measured = m, .n = 1, .seed = seed,
+                               .scale_points = CN_RC_SCALE_POINTS, .prune = prune};
+    const int rc = cn_encode_finish(&job, &enc, err, errlen);
     if (rc == 0)
-        rc = cn_write_stream(&e.src, &b, &rep, err, errlen);
-    if (rc == 0)
-        *bytes = b.n;
-    cn_buf_free(&b);
-    cn_export_free(&e);
+        *bytes = enc.stream.n;
+    cn_encoded_free(&enc);
     return rc;
 }
 

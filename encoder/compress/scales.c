@@ -128,7 +128,11 @@ done:
 static int choose_set(cn_stream_src *scenes, unsigned n_scenes, const cn_shift_src *shift,
                       uint64_t seed, size_t points, double *max_abs, char *err, size_t errlen)
 {
-    /* The float models of the stream as it is, whatever scales it holds now. */
+    /* The float models of the stream as it is, whatever scales it holds now. The stream is
+     * written and decoded back on purpose: the scales bound the activations of the stream's
+     * float reference (cn_model_from_stream), and a synthetic or quantized source has no
+     * other model of those numbers; for a trained model its snapped parameters may agree,
+     * but that is not shown bit for bit (docs/architecture.md, rule 6). */
     for (unsigned m = 0; m < n_scenes; m++)
         for (unsigned l = 0; l < CNERF_MAX_LAYERS; l++)
             scenes[m].layer[l].f_in = CNERF_F_MAX;

@@ -4,7 +4,6 @@
 #include <string.h>
 
 #include "cn_rng.h"
-#include "cn_scales.h"
 #include "cn_synth.h"
 
 void cn_synth_free(cn_synth *s)
@@ -59,10 +58,6 @@ int cn_synth_make(cn_synth *s, const cnerf_info *hdr, uint64_t seed, double spre
         double glorot = sqrt(6.0 / (L->n_in + L->n_out));
         cn_to_m24e8(glorot / (3.0 * (spread > 0.5 ? spread : 0.5)), &S->a_m, &S->a_e);
         cn_to_m24e8((cn_rng_uniform(&r) - 0.5) * 1e-3, &S->b_m, &S->b_e);
-    }
-    if (cn_choose_scales(&s->src, seed, NULL, err, errlen)) {
-        cn_synth_free(s);
-        return -1;
     }
     return 0;
 }

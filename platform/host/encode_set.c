@@ -11,11 +11,9 @@
 #include "cn_file.h"
 #include "cli.h"
 #include "cli_args.h"
-#include "cn_export.h"
-#include "cn_grid.h"
 #include "cn_joint.h"
 #include "cn_metrics.h"
-#include "cn_scales.h"
+#include "cn_pipeline.h"
 #include "cn_train.h"
 
 #define SET_USAGE                                                                            \
@@ -61,15 +59,6 @@ static double set_step(void *ctx, double *psnr, char *extra, size_t n, char *err
 static int set_save(void *ctx, const char *path, char *err, size_t errlen)
 {
     return cn_joint_save(ctx, path, err, errlen);
-}
-
-/* The shared shifts as the writer takes them, from the exported shift model. */
-static void shift_sources(const cn_export *es, unsigned n_layers, cn_shift_src *sh)
-{
-    for (unsigned l = 0; l < n_layers; l++) {
-        const cn_layer_src *L = &es->src.layer[l];
-        sh[l] = (cn_shift_src){L->k, L->a_m, L->a_e, L->pmf, L->pmf_kmin, L->pmf_n};
-    }
 }
 
 int cli_encode_set(int argc, char **argv)
@@ -236,57 +225,38 @@ int cli_encode_set(int argc, char **argv)
         printf("scene %u: ", m);
         rc = cli_report_validation("encode", &j.t[m]);
     }
-    /* Export: every scene and the shifts snapped to the stream's numbers, the scales from
-     * each scene's float model with the shifts, a grid per scene, one stream. */
-    cn_export *e = calloc(M + 1, sizeof *e);
-    cn_stream_src *src = calloc(M, sizeof *src);
-    cn_grid_choice *grid = calloc(M, sizeof *grid);
-    cn_shift_src sh[CNERF_MAX_LAYERS];
-    cn_buf b = {0};
+    /* Every scene and the shifts snapped to the stream's numbers, the scales from each
+     * scene's float model with the shifts, a grid per scene, one stream (cn_pipeline.h). */
+    cn_encoded enc;
+    memset(&enc, 0, sizeof enc);
     char meta[1024];
     snprintf(meta, sizeof meta,
              "encoder=cnerf %s; command=encode; scenes=%u; dataset=%s; preset=%s; iters=%ld; "
              "lambda=%g; downscale=%ld; seed=%llu; levels=%g; coarse-color=%s; coarse-weight=%g",
              CNERF_VERSION_STRING, M, pos[0], o.preset, j.step, cn_joint_lambda(&j), downscale,
              (unsigned long long)seed, levels, coarse_color, o.coarse_weight);
-    if (rc == 0 && (!e || !src || !grid))
-        rc = cli_fail("encode", "out of memory");
-    if (rc == 0 && (cn_model_snap(&j.shift, err, sizeof err) ||
-                    cn_export_compressed(&j.shift, NULL, &e[M], err, sizeof err)))
-        rc = cli_fail("encode", "shifts: %s", err);
-    for (unsigned m = 0; rc == 0 && m < M; m++) {
-        if (cn_model_snap(&j.t[m].model, err, sizeof err) ||
-            cn_export_compressed(&j.t[m].model, m ? NULL : meta, &e[m], err, sizeof err))
-            rc = cli_fail("encode", "scene %u: %s", m, err);
-        else
-            src[m] = e[m].src;
-    }
     if (rc == 0) {
-        shift_sources(&e[M], j.shift.topo.n_layers, sh);
-        cn_model_materialize(&j.shift);
-        for (unsigned m = 0; m < M; m++)
-            cn_model_materialize(&j.t[m].model);
-        if (cn_choose_scales_set(src, M, sh, seed, NULL, err, sizeof err) ||
-            cn_write_set(src, M, sh, &b, NULL, NULL, err, sizeof err))
+        cn_model *models[CNERF_MAX_SCENES];
+        const cn_dataset *views[CNERF_MAX_SCENES];
+        for (unsigned m = 0; m < M; m++) {
+            models[m] = &j.t[m].model;
+            views[m] = &ds[m];
+        }
+        const cn_encode_job job = {.models = models, .shift = &j.shift, .n = M, .meta = meta,
+                                   .seed = seed, .grid_g = (int)grid_g, .views = views};
+        if (cn_encode_finish(&job, &enc, err, sizeof err))
             rc = cli_fail("encode", "%s", err);
     }
     for (unsigned m = 0; rc == 0 && grid_g != 0 && m < M; m++) {
-        /* each scene's grid pays for itself against its share of the stream */
-        if (cn_grid_choose(&j.t[m].model, &ds[m], b.n / M, (int)grid_g, &grid[m], NULL, err,
-                           sizeof err))
-            rc = cli_fail("encode", "scene %u: %s", m, err);
-        else if (grid[m].g) {
+        const cn_grid_choice *g = &enc.grid[m];
+        if (g->g)
             printf("occupancy grid of scene %u: %d^3, %.1f%% of the cells occupied, %zu bytes; "
-                   "%.1f%% of the evaluations left on the training rays\n", m, grid[m].g,
-                   100 * grid[m].occupied, grid[m].bytes, 100 * grid[m].eval_fraction);
-            src[m].grid = grid[m].occ;
-            src[m].grid_g = (uint32_t)grid[m].g;
-        } else {
+                   "%.1f%% of the evaluations left on the training rays\n", m, g->g,
+                   100 * g->occupied, g->bytes, 100 * g->eval_fraction);
+        else
             printf("occupancy grid of scene %u: none\n", m);
-        }
     }
-    if (rc == 0 && grid_g != 0 && cn_write_set(src, M, sh, &b, NULL, NULL, err, sizeof err))
-        rc = cli_fail("encode", "%s", err);
+    const cn_buf b = enc.stream;
     if (rc == 0 && cn_write_file_atomic(out, b.p, b.n, err, sizeof err))
         rc = cli_fail("encode", "%s", err);
     /* The closed loop: each scene read back through the decoder, its float reference
@@ -319,14 +289,7 @@ int cli_encode_set(int argc, char **argv)
     }
     if (rc == 0 && scored)
         printf("test: %u scenes, mean psnr %.2f dB, file %zu bytes\n", M, psum / scored, b.n);
-    for (unsigned m = 0; grid && m < M; m++)
-        cn_grid_choice_free(&grid[m]);
-    for (unsigned m = 0; e && m <= M; m++)
-        cn_export_free(&e[m]);
-    free(grid);
-    free(src);
-    free(e);
-    cn_buf_free(&b);
+    cn_encoded_free(&enc);
     cn_joint_free(&j);
 out_data:
     for (unsigned m = 0; m < M; m++)

@@ -18,4 +18,5 @@ expect "the encoder includes decoder internals" --depfiles tests/layers/encoder_
 expect "the decoder includes encoder/base/cn_buf.h" --depfiles tests/layers/decoder_includes_encoder.d
 expect "common/ includes decoder/cn_internal.h" --depfiles tests/layers/common_includes_decoder.d
 expect "cmd_eval.c: uses cli_load_dataset of platform/host/cmd_train.c" --nm tests/layers/commands.nm
-echo "layers: the rules hold, and the five bad fixtures are flagged"
+expect "cmd_quantize.c: calls cn_write_stream outside the encode pipeline" --nm tests/layers/pipeline.nm
+echo "layers: the rules hold, and the six bad fixtures are flagged"
