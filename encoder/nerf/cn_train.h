@@ -109,7 +109,7 @@ void cn_train_defaults(cn_train_opts *o);
  * small), the largest whose latents sent get at least CN_AUTO_BITS bits each from the
  * target's bytes beyond its floor (headers, affine decoders and biases, cn_stream_floor);
  * tiny when none does. CN_AUTO_BITS is where small's curve overtakes tiny's on Lego at 3000
- * iterations with encode's defaults, the coarse colour not sent (scripts/preset_frontier.sh,
+ * iterations with encode's defaults, the coarse colour not sent (experiments/preset_frontier.sh,
  * docs/results.md "Which preset at which size").
  * The scene enters through the floor (its render parameters): the presets share their
  * sample counts. *bits is the chosen preset's bits per latent. Returns 0, or -1 with a

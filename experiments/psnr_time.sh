@@ -4,7 +4,7 @@
 # of views r_0, r_40, ..., r_160 every N iterations together with the training time so far
 # (evaluations left out of the clock). Writes OUT/psnr_time.csv, OUT/psnr_time.md (the table,
 # then the plateau: means of 5 evaluations and their gains) and, with gnuplot, OUT/psnr_time.png.
-#   scripts/psnr_time.sh [OUT] [ITERS] [EVAL_EVERY] [PRESETS]
+#   experiments/psnr_time.sh [OUT] [ITERS] [EVAL_EVERY] [PRESETS]
 # TRAIN_OPTS="..." adds options to every `cnerf train` (e.g. "--lr 5e-4 --lr-decay 500000",
 # the schedule of the curves in docs/training.md).
 # Defaults: out/psnr_time, 4000 iterations, an evaluation every 250, "tiny small". A preset

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # One encode with several sets of extra options, a table row each (docs/results.md, "What
 # does not move the point at 60 kB" and "What rounding alone costs"):
-#   scripts/encode_variants.sh OUT DATASET [--threads T] --variant "NAME [OPTIONS]" ... \
+#   experiments/encode_variants.sh OUT DATASET [--threads T] --variant "NAME [OPTIONS]" ... \
 #     -- ENCODE OPTIONS
 # Each variant runs `cnerf encode DATASET -o OUT/NAME.cnrf ENCODE OPTIONS OPTIONS` (a
 # variant's option given again replaces the common one). Writes OUT/NAME.cnrf and .log (a

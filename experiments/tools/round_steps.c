@@ -1,6 +1,6 @@
 /* round_steps IN.ckpt OUT.ckpt layer|row C: rounds every kernel that a stream sends of a
  * float checkpoint (cnerf train) to a uniform step, and writes the result as a float
- * checkpoint that `cnerf eval` scores (scripts/round_steps.sh). The step is C times the RMS
+ * checkpoint that `cnerf eval` scores (experiments/round_steps.sh). The step is C times the RMS
  * of the layer's kernel ("layer": one step per layer, what the stream's affine decoder can
  * express) or of each output row ("row": a step per row, which it cannot). Prints one line:
  *   scheme C latent_bytes step_bytes total_bytes

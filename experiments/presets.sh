@@ -1,15 +1,15 @@
 #!/usr/bin/env bash
 # Which preset is on the rate-distortion frontier at each file size: for every preset, one
-# rate-controlled `cnerf encode --size S --preset P` per size (scripts/rate_control.sh, dual
+# rate-controlled `cnerf encode --size S --preset P` per size (experiments/rate_control.sh, dual
 # ascent), then the table of test PSNR by size and preset, the best per size marked.
-#   scripts/presets.sh OUT DATASET "PRESETS" "SIZES" [-- ENCODE OPTIONS]
-# e.g. scripts/presets.sh /tmp/p ../shared/data/lego "tiny small" "6000 12000 20000 40000 80000" \
+#   experiments/presets.sh OUT DATASET "PRESETS" "SIZES" [-- ENCODE OPTIONS]
+# e.g. experiments/presets.sh /tmp/p ../shared/data/lego "tiny small" "6000 12000 20000 40000 80000" \
 #        -- --downscale 4 --iters 3000 --every 40
 # Runs go to OUT/PRESET/ and resume as rate_control.sh's do. Writes OUT/presets.csv
 # (preset, target, file, deviation, latents, bits per latent, test PSNR) and OUT/presets.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-[ $# -ge 4 ] || { echo "usage: scripts/presets.sh OUT DATASET \"PRESETS\" \"SIZES\" [-- OPTIONS]" >&2; exit 2; }
+[ $# -ge 4 ] || { echo "usage: experiments/presets.sh OUT DATASET \"PRESETS\" \"SIZES\" [-- OPTIONS]" >&2; exit 2; }
 out=$1; data=$2; presets=$3; sizes=$4; shift 4
 [ $# -gt 0 ] && [ "$1" = "--" ] && shift
 opts=("$@")
@@ -17,7 +17,7 @@ mkdir -p "$out"
 csv=$out/presets.csv
 echo "preset,target_bytes,file_bytes,deviation_percent,latents,bits_per_latent,test_psnr_db" > "$csv"
 for p in $presets; do
-  scripts/rate_control.sh "$out/$p" "$data" "$sizes" dual -- --preset "$p" "${opts[@]}" > /dev/null
+  experiments/rate_control.sh "$out/$p" "$data" "$sizes" dual -- --preset "$p" "${opts[@]}" > /dev/null
   for s in $sizes; do
     log=$out/$p/dual-$s.log
     awk -v p="$p" -v s="$s" '

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Table overhead against latent payload for synthetic models of each preset: latents drawn
 # from a rounded Laplacian of scale SPREAD (0.5: mostly 0 and +-1, as strong rate penalties
-# give; 8: wide). Prints a Markdown table. Usage: scripts/table_overhead.sh [BUILD_DIR]
+# give; 8: wide). Prints a Markdown table. Usage: experiments/table_overhead.sh [BUILD_DIR]
 set -euo pipefail
 build=${1:-build}
 tmp=$(mktemp -d)

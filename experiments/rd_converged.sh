@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # Rate-distortion at convergence, with the compress-the-views baseline, on one chart
 # (docs/results.md, "At convergence"): the scene at preset small, 20,000 iterations,
-# downscale 4 (options after -- replace these). scripts/rd.sh gives float32, uniform
+# downscale 4 (options after -- replace these). experiments/rd.sh gives float32, uniform
 # quantization of it, cnerf encoded to each of FROM_FLOAT sizes from the float model
 # (encode --init, +1/10 of the iterations) and to each of SIZES from scratch (the same
-# iterations as float32); scripts/hevc_views.sh gives the training views coded with HEVC
+# iterations as float32); experiments/hevc_views.sh gives the training views coded with HEVC
 # at each QP and a NeRF trained on the decoded views by the receiver.
-#   scripts/rd_converged.sh OUT [DATASET] [--from-float "S ..."] [--sizes "S ..."]
+#   experiments/rd_converged.sh OUT [DATASET] [--from-float "S ..."] [--sizes "S ..."]
 #                           [--qps "Q ..."] [--jobs J] [--no-run] [-- RUN OPTIONS]
 # --no-run only assembles the table and chart from OUT/rd/rd.csv and OUT/hevc/hevc.csv.
 # Writes OUT/converged.csv, OUT/converged.md and OUT/converged.png; OUT/rd and OUT/hevc
@@ -29,11 +29,11 @@ while [ $# -gt 0 ]; do
 done
 mkdir -p "$out"
 if [ "$sweep" = 1 ]; then
-  scripts/rd.sh "$data" "$out/rd" "${run[@]}" --lambdas "" --sizes "$sizes" --from-float "$ff" \
+  experiments/rd.sh "$data" "$out/rd" "${run[@]}" --lambdas "" --sizes "$sizes" --from-float "$ff" \
     > "$out/rd.out" 2>&1 &
   rd=$!
   [ "$jobs" -gt 1 ] || wait "$rd"
-  scripts/hevc_views.sh "$out/hevc" "$data" "$qps" -- "${run[@]}" > "$out/hevc.out" 2>&1
+  experiments/hevc_views.sh "$out/hevc" "$data" "$qps" -- "${run[@]}" > "$out/hevc.out" 2>&1
   wait "$rd" || { echo "rd_converged.sh: rd.sh failed (see $out/rd.out)" >&2; exit 1; }
 fi
 

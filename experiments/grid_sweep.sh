@@ -6,11 +6,11 @@
 # ray (and the in-bounds samples a decoder without the grid evaluates), test PSNR of the
 # fixed-point decoder and of the float reference.
 #
-#   scripts/grid_sweep.sh CKPT DATASET OUT -- ENCODE_OPTIONS...
+#   experiments/grid_sweep.sh CKPT DATASET OUT -- ENCODE_OPTIONS...
 #
 # ENCODE_OPTIONS are the encode's own (--lambda, --preset, --downscale, --iters, ...), so that
 # the checkpoint resumes with nothing left to train; the test views are every 40th (RENDER_EVERY).
-# Example: scripts/grid_sweep.sh out/lego.cnrf.ckpt ../shared/data/lego out/grid -- \
+# Example: experiments/grid_sweep.sh out/lego.cnrf.ckpt ../shared/data/lego out/grid -- \
 #   --lambda 3 --preset small --downscale 4 --iters 3000
 set -euo pipefail
 [ $# -ge 4 ] && [ "$4" = "--" ] || { sed -n '2,14p' "$0" >&2; exit 2; }

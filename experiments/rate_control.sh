@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Rate control measured: one `cnerf encode --size S --rate-control C` per size and
 # controller, one after the other (both threads), and the table of what each file came to.
-#   scripts/rate_control.sh OUT DATASET "SIZES" ["CONTROLLERS"] [-- ENCODE OPTIONS]
+#   experiments/rate_control.sh OUT DATASET "SIZES" ["CONTROLLERS"] [-- ENCODE OPTIONS]
 # Controllers default to "pi dual"; the options to "--preset tiny --downscale 4 --iters 3000
 # --every 40". Each run's log is OUT/C-S.log; a run whose log is complete is not run again,
 # so an interrupted sweep resumes where it stopped. Writes OUT/rate_control.csv and
@@ -9,7 +9,7 @@
 # the training time, which another job on the machine inflates).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-[ $# -ge 3 ] || { echo "usage: scripts/rate_control.sh OUT DATASET \"SIZES\" [\"CONTROLLERS\"] [-- OPTIONS]" >&2; exit 2; }
+[ $# -ge 3 ] || { echo "usage: experiments/rate_control.sh OUT DATASET \"SIZES\" [\"CONTROLLERS\"] [-- OPTIONS]" >&2; exit 2; }
 out=$1; data=$2; sizes=$3; shift 3
 ctls="pi dual"
 if [ $# -gt 0 ] && [ "$1" != "--" ]; then ctls=$1; shift; fi

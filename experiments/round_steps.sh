@@ -3,14 +3,14 @@
 # decoder expresses) against one step per output row (what it does not): a float model's
 # kernels rounded to C times the RMS of their layer or row, for each C, each scored with
 # `cnerf eval`. Nothing is trained.
-#   scripts/round_steps.sh OUT FLOAT.ckpt DATASET "C..." [-- EVAL OPTIONS]
+#   experiments/round_steps.sh OUT FLOAT.ckpt DATASET "C..." [-- EVAL OPTIONS]
 # The eval options default to "--downscale 4 --every 40 --threads 2". Bytes are the
 # integers' empirical entropy, one distribution per layer (tables not counted), plus two
-# bytes per row for the per-row steps (tests/tools/round_steps.c). A run whose log is
+# bytes per row for the per-row steps (experiments/tools/round_steps.c). A run whose log is
 # complete is not run again. Writes OUT/round_steps.csv and OUT/round_steps.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-[ $# -ge 4 ] || { echo "usage: scripts/round_steps.sh OUT FLOAT.ckpt DATASET \"C...\" [-- EVAL OPTIONS]" >&2; exit 2; }
+[ $# -ge 4 ] || { echo "usage: experiments/round_steps.sh OUT FLOAT.ckpt DATASET \"C...\" [-- EVAL OPTIONS]" >&2; exit 2; }
 out=$1; ckpt=$2; data=$3; cs=$4; shift 4
 [ $# -gt 0 ] && [ "$1" = "--" ] && shift
 opts=("$@")

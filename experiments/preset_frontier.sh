@@ -1,16 +1,16 @@
 #!/usr/bin/env bash
 # Which preset is on the rate-distortion frontier at each size, and where the larger preset
 # takes over: the rule behind `cnerf encode --preset auto` (CN_AUTO_BITS, encoder/nerf/cn_train.h).
-#   scripts/preset_frontier.sh CSV LATENTS FLOOR
+#   experiments/preset_frontier.sh CSV LATENTS FLOOR
 # CSV: preset,how,file_bytes,test_psnr_db rows of two presets, "tiny" and "small" (rows
-# copied from scripts/rate_control.sh's and scripts/quality.sh's CSVs; docs/img/
+# copied from experiments/rate_control.sh's and experiments/quality.sh's CSVs; docs/img/
 # preset_frontier.csv). LATENTS and FLOOR: the small preset's latent count and floor in bytes
 # (test_ratectl prints them). Both curves are read linearly in PSNR against log bytes
 # between their points; beyond its last point tiny keeps its best (it cannot use more
 # bytes). Prints the crossing in bytes and in the small preset's bits per latent beyond
 # its floor.
 set -euo pipefail
-[ $# -eq 3 ] || { echo "usage: scripts/preset_frontier.sh CSV LATENTS FLOOR" >&2; exit 2; }
+[ $# -eq 3 ] || { echo "usage: experiments/preset_frontier.sh CSV LATENTS FLOOR" >&2; exit 2; }
 tail -n +2 "$1" | sort -t, -k3 -n | awk -F, -v lat="$2" -v fl="$3" '
   # tiny(x): the tiny curve at x bytes, linear in PSNR against log bytes between its points,
   # its best beyond its last point (it cannot use more bytes), -1 below its first.

@@ -5,7 +5,7 @@
 # trainer and options (`cnerf train --train-images`). Such a receiver has to train a
 # network, which a low-power device cannot; this is the paper's second comparison, with
 # cnerf's trainer in place of LLFF's learned renderer.
-#   scripts/hevc_views.sh OUT DATASET "QPS" [-- TRAIN OPTIONS]
+#   experiments/hevc_views.sh OUT DATASET "QPS" [-- TRAIN OPTIONS]
 # Options default to "--preset tiny --downscale 4 --iters 3000 --every 40". For each QP:
 # OUT/qpQ.hevc (the raw HEVC stream, no container: its bytes are the rate), OUT/qpQ/ (the
 # decoded views) and OUT/qpQ.log (the training run; a complete log is not run again, so an
@@ -14,7 +14,7 @@
 # against the uncoded ones, the NeRF's test PSNR).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-[ $# -ge 3 ] || { echo "usage: scripts/hevc_views.sh OUT DATASET \"QPS\" [-- OPTIONS]" >&2; exit 2; }
+[ $# -ge 3 ] || { echo "usage: experiments/hevc_views.sh OUT DATASET \"QPS\" [-- OPTIONS]" >&2; exit 2; }
 out=$1; data=$2; qps=$3; shift 3
 [ $# -gt 0 ] && [ "$1" = "--" ] && shift
 opts=("$@")

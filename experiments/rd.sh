@@ -3,7 +3,7 @@
 # trained without compression (float32, 4 bytes a parameter), and the naive baseline
 # (post-training uniform quantization of that float model to B bits, coded with the same
 # entropy coder). Writes OUT/rd.csv, OUT/rd.md (a table) and, with gnuplot, OUT/rd.png.
-#   scripts/rd.sh DATASET OUT [--downscale F] [--iters N] [--preset P] [--every N]
+#   experiments/rd.sh DATASET OUT [--downscale F] [--iters N] [--preset P] [--every N]
 #                 [--lambdas "L1 L2 ..."] [--sizes "S1 S2 ..."] [--bits "B1 B2 ..."]
 #                 [--jobs J] [--lr X] [--lr-decay N]
 #                 [--from-float "S1 S2 ..."] [--from-float-iters N] [--from-float-lr X]

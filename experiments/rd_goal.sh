@@ -4,10 +4,10 @@
 # bytes in --iters more iterations, and a copy of the float model trains for as many more,
 # so that the file and the float model it is compared with have trained equally long. All
 # three are scored on the test split (every --every-th view, default all of them).
-#   scripts/rd_goal.sh OUT DATASET FLOAT.CKPT [--at N] [--iters N] [--size BYTES]
+#   experiments/rd_goal.sh OUT DATASET FLOAT.CKPT [--at N] [--iters N] [--size BYTES]
 #                      [--seed S] [--preset P] [--downscale F] [--threads T] [--every N]
 #                      [--average N]
-# FLOAT.CKPT is a float checkpoint of DATASET (scripts/rd_converged.sh leaves one in
+# FLOAT.CKPT is a float checkpoint of DATASET (experiments/rd_converged.sh leaves one in
 # OUT/rd/float.ckpt); it is copied, never changed. Defaults: --at 32000 --iters 12000
 # --size 60000 --seed 1 --preset small --downscale 4 --threads 2 --every 1; --average N
 # passes encode --average N (the file holds the mean of its last N iterations).

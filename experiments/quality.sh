@@ -3,7 +3,7 @@
 # `cnerf train` of the same preset and iterations (the uncompressed model), one after the
 # other, both threads. Run it once per scene with the same OUT: the table covers every scene
 # whose logs are in OUT.
-#   scripts/quality.sh OUT DATASET "QUALITIES" [-- OPTIONS]
+#   experiments/quality.sh OUT DATASET "QUALITIES" [-- OPTIONS]
 # The options default to "--preset tiny --downscale 4 --iters 3000 --every 40" (give
 # "--every 1" for an LLFF scene, whose test views are every 8th image). Logs are
 # OUT/SCENE-float.log and OUT/SCENE-qQ.log (SCENE: the dataset's directory name); a run
@@ -13,7 +13,7 @@
 # against the uncompressed model.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-[ $# -ge 3 ] || { echo "usage: scripts/quality.sh OUT DATASET \"QUALITIES\" [-- OPTIONS]" >&2; exit 2; }
+[ $# -ge 3 ] || { echo "usage: experiments/quality.sh OUT DATASET \"QUALITIES\" [-- OPTIONS]" >&2; exit 2; }
 out=$1; data=$2; qs=$3; shift 3
 [ $# -gt 0 ] && [ "$1" = "--" ] && shift
 opts=("$@")

@@ -4,13 +4,13 @@
 # the run). One `cnerf train --eval-every N` run each, one after the other, both threads.
 # Writes OUT/lr_time.csv (schedule, iteration, training seconds without the evaluations,
 # test PSNR, SSIM), OUT/lr_time.md (the table) and, with gnuplot, OUT/lr_time.png.
-#   scripts/lr_time.sh OUT DATASET [ITERS] [EVAL_EVERY] [-- TRAIN OPTIONS]
+#   experiments/lr_time.sh OUT DATASET [ITERS] [EVAL_EVERY] [-- TRAIN OPTIONS]
 # Defaults: 3000 iterations, an evaluation every 250; the options default to
 # "--preset tiny --downscale 4 --every 40" (give e.g. "--preset tiny --downscale 4 --every 1"
 # for an LLFF scene, whose test views are every 8th image).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-[ $# -ge 2 ] || { echo "usage: scripts/lr_time.sh OUT DATASET [ITERS] [EVAL_EVERY] [-- OPTIONS]" >&2; exit 2; }
+[ $# -ge 2 ] || { echo "usage: experiments/lr_time.sh OUT DATASET [ITERS] [EVAL_EVERY] [-- OPTIONS]" >&2; exit 2; }
 out=$1; data=$2; shift 2
 iters=3000; every=250
 if [ $# -gt 0 ] && [ "$1" != "--" ]; then iters=$1; shift; fi

@@ -4,14 +4,14 @@
 # same options. Compares the joint stream's size with the sum of the two single-scene
 # streams, at the mean test PSNR of the pair. Writes OUT/scenes_rd.csv, OUT/scenes_rd.md and,
 # with gnuplot, OUT/scenes_rd.png.
-#   scripts/scenes_rd.sh OUT DATASET_A DATASET_B "LAMBDAS" [-- ENCODE OPTIONS]
+#   experiments/scenes_rd.sh OUT DATASET_A DATASET_B "LAMBDAS" [-- ENCODE OPTIONS]
 # Options default to "--preset tiny --downscale 4 --iters 3000 --every 8". Runs one after the
 # other on every core; a run whose log has its test line is not run again, so an interrupted
 # sweep picks up where it stopped (an interrupted run restarts from its checkpoint).
 # CNERF=path runs another cnerf binary than build/cnerf.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-[ $# -ge 4 ] || { echo "usage: scripts/scenes_rd.sh OUT DATASET_A DATASET_B \"LAMBDAS\" [-- OPTIONS]" >&2; exit 2; }
+[ $# -ge 4 ] || { echo "usage: experiments/scenes_rd.sh OUT DATASET_A DATASET_B \"LAMBDAS\" [-- OPTIONS]" >&2; exit 2; }
 out=$1 a=$2 b=$3 lambdas=$4
 shift 4
 [ $# -gt 0 ] && [ "$1" = "--" ] && shift
