@@ -3,7 +3,7 @@
  * (Cortex-M4, M7, M33: __smlad from arm_acle.h), Helium (Cortex-M55, M85: arm_mve.h) and
  * Advanced SIMD (aarch64: arm_neon.h). Each computes exactly cn_dot_c's sums (cn_kernels.h).
  */
-#include "cn_fixed.h"
+#include "../common/cn_fixed.h"
 #include "cn_kernels.h"
 
 #if defined(CN_HAVE_MVE)

@@ -2,7 +2,7 @@
  * Container walk, header and layer parsing, workspace layout and latent decoding.
  * Every read is bounds-checked; limits are checked before any size is computed.
  */
-#include "cn_fixed.h"
+#include "../common/cn_fixed.h"
 #include "cn_internal.h"
 #include "cn_kernels.h"
 

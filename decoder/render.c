@@ -9,7 +9,7 @@
  *   turns uint32 encoding phases: 2^32 = one period of sin / cos
  * One ray at a time, one sample at a time; all state lives in the caller's scratch.
  */
-#include "cn_fixed.h"
+#include "../common/cn_fixed.h"
 #include "cn_internal.h"
 #include "cn_kernels.h"
 #include "cn_tables.h"

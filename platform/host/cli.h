@@ -18,8 +18,9 @@ int cmd_synth(int argc, char **argv);
 int cmd_train(int argc, char **argv);
 int cmd_eval(int argc, char **argv);
 int cmd_encode(int argc, char **argv);
-/* cnerf encode with several datasets: one stream of several scenes (cmd_encode_set.c). */
-int cmd_encode_set(int argc, char **argv);
+/* cnerf encode with several datasets: one stream of several scenes (encode_set.c, reached from
+ * cmd_encode). */
+int cli_encode_set(int argc, char **argv);
 int cmd_quantize(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 int cmd_views(int argc, char **argv);
@@ -28,6 +29,8 @@ int cmd_views(int argc, char **argv);
  * (as `cnerf views` writes them, the same size), dropping their alpha. Returns 0, or 1 with
  * the message printed (a missing, mis-sized or extra file). */
 int cli_replace_views(const char *cmd, struct cn_view *views, int n, const char *dir);
+/* DIR/NNNN.png, the name of view i as `cnerf views` writes it. */
+void cli_view_path(char *path, size_t len, const char *dir, int i);
 
 /* Before any work: `path` can be created as a regular file (its directory exists and is
  * writable; an existing output must be a regular file, not a link, device or directory), is

@@ -6,15 +6,14 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "cn_file.h"
 #include "cli.h"
 #include "cli_args.h"
 #include "progress.h"
 #include "cn_export.h"
-#include "cn_grid.h"
+#include "cn_pipeline.h"
 #include "cn_metrics.h"
-#include "cn_prune.h"
-#include "cn_ratectl.h"
-#include "cn_scales.h"
+#include "cn_rate.h"
 #include "cn_synth.h"
 #include "cn_report.h"
 #include "cn_train.h"
@@ -76,6 +75,17 @@ static void print_pruning(const cnerf_info *T, const cn_prune_report *pr)
 
 /* --init without a preset: the float model's depth, width and samples, under the name of
  * the preset that has them (else small's, overridden) unless the command line sets them. */
+/* The pipeline's reports between its steps: the units removed, and the grid's measurement
+ * about to start (it renders the training views). */
+static void report_stage(void *ctx, cn_encode_stage stage, const cn_encoded *enc)
+{
+    if (stage == CN_STAGE_PRUNED) /* ctx: the model's topology */
+        print_pruning((const cnerf_info *)ctx, &enc->prune);
+    else if (stage == CN_STAGE_GRID_START)
+        say("occupancy grid: measuring the density on a 129^3 lattice and rendering "
+            "training views with and without the grid");
+}
+
 static int init_topology(const char *path, const char **preset, long *depth, long *width,
                          long *coarse, long *fine)
 {
@@ -175,7 +185,7 @@ int cmd_encode(int argc, char **argv)
                   CNERF_MAX_SCENES, &n_pos))
         return 2;
     if (n_pos > 1) /* several scenes: their own command line */
-        return cmd_encode_set(argc, argv);
+        return cli_encode_set(argc, argv);
     if (lr_shift >= 0)
         return cli_usage("encode", "--shift-lr sets the shared shifts' rate of a stream of "
                          "several scenes; this encode has one");
@@ -409,9 +419,8 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
         printf("interrupted: resume with --resume %s\n", ckpt);
         rc = 128 + stopped;
     }
-    cn_export e;
-    cn_buf b = {0};
-    cn_write_report rep;
+    cn_encoded enc;
+    memset(&enc, 0, sizeof enc);
     char meta[1024], sizebuf[64] = "";
     if (t.rate_control)
         snprintf(sizebuf, sizeof sizebuf, "size=%.0f; ", t.rc.target);
@@ -424,57 +433,33 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
              CNERF_VERSION_STRING, pos[0], o.preset, t.step, sizebuf, t.opts.lambda,
              (long)ds.downscale, (unsigned long long)seed, levels, latent_lr, coarse_color,
              o.coarse_weight, init ? "; init=" : "", init ? init : "");
-    if (rc == 0 && (cn_model_snap(&t.model, err, sizeof err) ||
-                    cn_export_compressed(&t.model, meta, &e, err, sizeof err)))
-        rc = cli_fail("encode", "%s", err);
-    else if (rc == 0) {
-        cn_grid_choice grid;
-        memset(&grid, 0, sizeof grid);
-        /* The grid is measured on the kernels of the exported numbers (the last step's
-         * update, and a resumed run's parameters, are not materialized yet). */
-        cn_model_materialize(&t.model);
-        cn_prune_report pr;
-        /* The layers' input scales first: the pruning proof accounts for the decoder's
-         * inputs at those scales (removing dead units changes no other activation). */
-        if (cn_choose_scales(&e.src, seed, NULL, err, sizeof err))
+    if (rc == 0) {
+        cn_model *model = &t.model;
+        const cn_dataset *views = &ds;
+        const cn_encode_job job = {.models = &model, .n = 1, .meta = meta, .seed = seed,
+                                   .prune = !strcmp(prune, "on"), .grid_g = (int)grid_g,
+                                   .views = &views, .grid_log = grid_verbose ? say : NULL,
+                                   .report = report_stage, .report_ctx = &t.model.topo};
+        if (cn_encode_finish(&job, &enc, err, sizeof err))
             rc = cli_fail("encode", "%s", err);
-        if (rc == 0 && !strcmp(prune, "on")) {
-            if (cn_export_prune(&e, &pr, err, sizeof err))
-                rc = cli_fail("encode", "%s", err);
-            else
-                print_pruning(&t.model.topo, &pr);
-        }
-        if (rc == 0 && cn_write_stream(&e.src, &b, &rep, err, sizeof err))
-            rc = cli_fail("encode", "%s", err);
-        if (rc == 0 && grid_g != 0)
-            say("occupancy grid: measuring the density on a 129^3 lattice and rendering "
-                "training views with and without the grid");
-        if (rc == 0 && grid_g != 0 &&
-            cn_grid_choose(&t.model, &ds, b.n, (int)grid_g, &grid, grid_verbose ? say : NULL,
-                           err, sizeof err))
-            rc = cli_fail("encode", "%s", err);
-        if (rc == 0 && grid.g) {
-            printf("occupancy grid: %d^3, %.1f%% of the cells occupied, %zu bytes; %.1f%% of the "
-                   "evaluations left on the training rays, %+.3f dB on the training views "
-                   "(threshold %.3g, dilation %d)\n",
-                   grid.g, 100 * grid.occupied, grid.bytes, 100 * grid.eval_fraction,
-                   0.0 - grid.psnr_drop + 0.0, grid.threshold, grid.dilation); /* no "-0.000" */
-            e.src.grid = grid.occ;
-            e.src.grid_g = (uint32_t)grid.g;
-            if (cn_write_stream(&e.src, &b, &rep, err, sizeof err))
-                rc = cli_fail("encode", "%s", err);
-        } else if (rc == 0 && grid_g > 0) {
-            printf("occupancy grid: none: at every threshold tried, the %ld^3 grid cost the "
-                   "training views more than 0.025 dB\n", grid_g);
-        } else if (rc == 0 && grid_g != 0) {
-            printf("occupancy grid: none (no resolution skips enough to pay for its bytes, or "
-                   "none kept the training views within 0.025 dB)\n");
-        }
-        if (rc == 0 && cn_write_file_atomic(out, b.p, b.n, err, sizeof err))
-            rc = cli_fail("encode", "%s", err);
-        cn_grid_choice_free(&grid);
-        cn_export_free(&e);
     }
+    const cn_grid_choice *grid = &enc.grid[0];
+    if (rc == 0 && grid->g) {
+        printf("occupancy grid: %d^3, %.1f%% of the cells occupied, %zu bytes; %.1f%% of the "
+               "evaluations left on the training rays, %+.3f dB on the training views "
+               "(threshold %.3g, dilation %d)\n",
+               grid->g, 100 * grid->occupied, grid->bytes, 100 * grid->eval_fraction,
+               0.0 - grid->psnr_drop + 0.0, grid->threshold, grid->dilation); /* no "-0.000" */
+    } else if (rc == 0 && grid_g > 0) {
+        printf("occupancy grid: none: at every threshold tried, the %ld^3 grid cost the "
+               "training views more than 0.025 dB\n", grid_g);
+    } else if (rc == 0 && grid_g != 0) {
+        printf("occupancy grid: none (no resolution skips enough to pay for its bytes, or "
+               "none kept the training views within 0.025 dB)\n");
+    }
+    if (rc == 0 && cn_write_file_atomic(out, enc.stream.p, enc.stream.n, err, sizeof err))
+        rc = cli_fail("encode", "%s", err);
+    const cn_write_report rep = enc.rep;
     /* The closed loop: read the file back through the decoder's parser. */
     cli_stream st;
     cn_model ref;
@@ -532,7 +517,7 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
     if (ref.params)
         cn_model_free(&ref);
     cli_stream_free(&st);
-    cn_buf_free(&b);
+    cn_encoded_free(&enc);
     cn_trainer_free(&t);
     cn_dataset_free(&ds);
     cli_unlock_output(lk, lock);

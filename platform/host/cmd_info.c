@@ -5,7 +5,7 @@
 
 #include "cli.h"
 #include "cn_report.h"
-#include "cn_stream.h"
+#include "cn_file.h"
 
 #define INFO_USAGE                                                                            \
     "usage: cnerf info [--check] [--scene I] FILE.cnrf\n"                                    \

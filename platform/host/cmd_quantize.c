@@ -6,9 +6,8 @@
 
 #include "cli.h"
 #include "cli_args.h"
-#include "cn_export.h"
-#include "cn_scales.h"
-#include "cn_stream.h"
+#include "cn_pipeline.h"
+#include "cn_file.h"
 #include "cn_train.h"
 
 #define QUANTIZE_USAGE                                                                        \
@@ -49,20 +48,14 @@ int cmd_quantize(int argc, char **argv)
     snprintf(meta, sizeof meta,
              "encoder=cnerf %s; command=quantize; checkpoint=%s; iters=%ld; bits=%ld; "
              "coarse-color=%s", CNERF_VERSION_STRING, pos[0], step, bits, coarse_color);
-    cn_export e;
-    cn_buf b = {0};
-    cn_write_report rep;
-    if (rc == 0 && cn_export_quantized(&m, (unsigned)bits, meta, &e, err, sizeof err))
+    cn_encoded enc;
+    memset(&enc, 0, sizeof enc);
+    const cn_encode_job job = {.float_model = &m, .bits = (unsigned)bits,
+                               .drop_coarse_color = !strcmp(coarse_color, "off"), .n = 1,
+                               .meta = meta, .seed = 1};
+    if (rc == 0 && (cn_encode_finish(&job, &enc, err, sizeof err) ||
+                    cn_write_file_atomic(out, enc.stream.p, enc.stream.n, err, sizeof err)))
         rc = cli_fail("quantize", "%s", err);
-    else if (rc == 0) {
-        if (!strcmp(coarse_color, "off") && m.topo.n_nets > 1)
-            cn_export_drop_color(&e, 0);
-        if (cn_choose_scales(&e.src, 1, NULL, err, sizeof err) ||
-            cn_write_stream(&e.src, &b, &rep, err, sizeof err) ||
-            cn_write_file_atomic(out, b.p, b.n, err, sizeof err))
-            rc = cli_fail("quantize", "%s", err);
-        cn_export_free(&e);
-    }
     cli_stream st;
     if (rc == 0 && cli_stream_open("quantize", out, &st, NULL) == 0) {
         printf("wrote ");
@@ -72,7 +65,7 @@ int cmd_quantize(int argc, char **argv)
         cli_stream_free(&st);
     } else if (rc == 0)
         rc = 1;
-    cn_buf_free(&b);
+    cn_encoded_free(&enc);
     cn_model_free(&m);
     return rc;
 }

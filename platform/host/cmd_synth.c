@@ -4,9 +4,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "cn_file.h"
 #include "cli.h"
 #include "cli_args.h"
-#include "cn_scales.h"
+#include "cn_pipeline.h"
 #include "cn_synth.h"
 
 #define SYNTH_USAGE                                                                          \
@@ -192,12 +193,14 @@ int cmd_synth(int argc, char **argv)
         rc = cn_synth_shift_make(&sh, &syn[0], seed ^ 0x5348465475ull, shift_spread, shift_gain,
                                  err, sizeof err);
         have_shift = rc == 0;
-        if (rc == 0)
-            rc = cn_choose_scales_set(src, M, sh.src, seed, NULL, err, sizeof err);
     }
-    cn_buf b = {0};
+    cn_encoded enc;
+    memset(&enc, 0, sizeof enc);
+    const cn_encode_job job = {.src = src, .shift_src = scenes ? sh.src : NULL, .n = M,
+                               .seed = seed};
     if (rc == 0)
-        rc = cn_write_set(src, M, scenes ? sh.src : NULL, &b, NULL, NULL, err, sizeof err);
+        rc = cn_encode_finish(&job, &enc, err, sizeof err);
+    const cn_buf b = enc.stream;
     if (rc == 0)
         rc = cn_write_file_atomic(out, b.p, b.n, err, sizeof err);
     size_t n = b.n;
@@ -207,7 +210,7 @@ int cmd_synth(int argc, char **argv)
         cn_synth_shift_free(&sh);
     free(syn);
     free(src);
-    cn_buf_free(&b);
+    cn_encoded_free(&enc);
     free(occ);
     if (rc)
         return cli_fail("synth", "%s", err);

@@ -15,11 +15,7 @@
 #define VIEWS_USAGE                                                                         \
     "usage: cnerf views DATASET -o DIR [--split train|val|test] [--downscale F|--max-size N] [--black]"
 
-static void view_path(char *path, size_t len, const char *dir, int i)
-{
-    snprintf(path, len, "%s/%04d.png", dir, i);
-}
-
+/* The order of views in a path through them for a video coder: nearest camera centre next. */
 static double centre_dist2(const cn_view *a, const cn_view *b)
 {
     double d = 0;
@@ -100,7 +96,7 @@ int cmd_views(int argc, char **argv)
         rc = cli_fail("views", "out of memory");
     char err[1024], path[4200];
     for (int i = 0; rc == 0 && i < n; i++) {
-        view_path(path, sizeof path, outdir, i);
+        cli_view_path(path, sizeof path, outdir, i);
         if (cli_write_png(path, views[i].rgb, views[i].w, views[i].h, err, sizeof err))
             rc = cli_fail("views", "%s", err);
     }
@@ -122,41 +118,3 @@ int cmd_views(int argc, char **argv)
     return rc;
 }
 
-int cli_replace_views(const char *cmd, struct cn_view *views, int n, const char *dir)
-{
-    char err[1024], path[4200];
-    for (int i = 0; i < n; i++) {
-        cn_view *v = &views[i];
-        cn_image img;
-        view_path(path, sizeof path, dir, i);
-        if (cn_png_read(path, &img, err, sizeof err))
-            return cli_fail(cmd, "%s (--train-images takes the files `cnerf views` writes: "
-                            "one per training view)", err);
-        if (img.c != 3) {
-            cn_image_free(&img);
-            return cli_fail(cmd, "%s has an alpha channel: --train-images takes opaque RGB "
-                            "views, composited as `cnerf views` writes them", path);
-        }
-        if (img.w != v->w || img.h != v->h) {
-            const int w = img.w, h = img.h;
-            cn_image_free(&img);
-            return cli_fail(cmd, "%s is %dx%d and training view %d (%s) %dx%d: give the same "
-                            "--downscale as to `cnerf views`", path, w, h, i, v->name, v->w,
-                            v->h);
-        }
-        for (size_t p = 0; p < (size_t)v->w * v->h; p++)
-            for (int c = 0; c < 3; c++)
-                v->rgb[3 * p + c] = img.px[(size_t)img.c * p + (size_t)c];
-        cn_image_free(&img);
-        free(v->alpha); /* the files are opaque: nothing to recomposite */
-        v->alpha = NULL;
-    }
-    view_path(path, sizeof path, dir, n);
-    FILE *extra = fopen(path, "rb");
-    if (extra) {
-        fclose(extra);
-        return cli_fail(cmd, "%s has more views than the dataset's %d training views (%s "
-                        "exists): give the same dataset as to `cnerf views`", dir, n, path);
-    }
-    return 0;
-}

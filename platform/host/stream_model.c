@@ -8,7 +8,7 @@
 #include "cli.h"
 #include "cn_export.h"
 #include "cn_report.h"
-#include "cn_stream.h"
+#include "cn_file.h"
 
 int cli_stream_open_scene(const char *cmd, const char *path, unsigned scene, cli_stream *s,
                           cn_model *ref)

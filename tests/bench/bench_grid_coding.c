@@ -16,7 +16,7 @@
 #include <string.h>
 
 #include "../../decoder/cn_internal.h"
-#include "cn_stream.h"
+#include "cn_file.h"
 
 static unsigned eg0_bits(uint64_t v) /* order-0 Exp-Golomb of v >= 0 */
 {

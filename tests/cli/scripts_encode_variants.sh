@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# scripts/encode_variants.sh on the shared Lego at 25x25 for a few iterations: one row per
+# experiments/encode_variants.sh on the shared Lego at 25x25 for a few iterations: one row per
 # variant with its file's bytes, a variant's option replacing the common one, a file that
 # misses its --size kept with a warning, and a second run that keeps the finished variants.
 set -euo pipefail
@@ -9,7 +9,7 @@ fail() { echo "FAIL: $*" >&2; exit 1; }
 export CNERF=$cnerf
 run=(--preset tiny --downscale 16 --iters 4 --every 100 --batch 64)
 go() {
-  bash "$src/scripts/encode_variants.sh" "$work" "$data/lego" --threads 2 \
+  bash "$src/experiments/encode_variants.sh" "$work" "$data/lego" --threads 2 \
     --variant "base --lambda 1" --variant "pc0 --lambda 1 --precrop-iters 0" \
     --variant "l30 --lambda 1 --lambda 30" --variant "big --size 150000" -- "${run[@]}"
 }

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# scripts/round_steps.sh on a float model of the shared Lego at 25x25 trained for a few
+# experiments/round_steps.sh on a float model of the shared Lego at 25x25 trained for a few
 # iterations: a row per scheme and step with bytes and PSNR; bytes fall as the step grows;
 # a tiny step leaves the picture as the float model renders it, a huge one does not; the
 # per-row rows pay two bytes a row; a compressed checkpoint is refused; a second run keeps
@@ -12,7 +12,7 @@ export CNERF=$cnerf ROUND_STEPS=$tool
 "$cnerf" train "$data/lego" -o "$work/f.ckpt" --preset tiny --downscale 16 --iters 150 \
   --batch 256 --threads 2 > "$work/train.out" 2>&1 || fail "train: $(cat "$work/train.out")"
 ev=(--downscale 16 --every 100 --threads 2)
-go() { bash "$src/scripts/round_steps.sh" "$work/r" "$work/f.ckpt" "$data/lego" "0.0001 0.3 10" -- "${ev[@]}"; }
+go() { bash "$src/experiments/round_steps.sh" "$work/r" "$work/f.ckpt" "$data/lego" "0.0001 0.3 10" -- "${ev[@]}"; }
 go > "$work/a.out" 2>&1 || fail "round_steps.sh failed: $(cat "$work/a.out")"
 csv=$work/r/round_steps.csv
 [ "$(wc -l < "$csv")" -eq 8 ] || fail "rows: $(cat "$csv")"

@@ -7,7 +7,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "cn_stream.h"
+#include "cn_file.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 

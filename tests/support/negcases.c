@@ -90,7 +90,7 @@ int neg_base_make(cn_buf *out, cnerf_info *info)
     tu_small_header(&hdr, 3, 6, 1);
     cn_synth s;
     char err[256];
-    if (cn_synth_make(&s, &hdr, 77, 2.0, err, sizeof err))
+    if (tu_synth(&s, &hdr, 77, 2.0, err, sizeof err))
         return -1;
     s.k[L_INT16][0] = 300; /* forces int16 storage */
     cnerf_info topo = hdr;
@@ -126,10 +126,10 @@ static int set_base_make(void)
     cn_synth s[2];
     cn_synth_shift sh;
     char err[256];
-    if (cn_synth_make(&s[0], &hdr, 77, 2.0, err, sizeof err))
+    if (tu_synth(&s[0], &hdr, 77, 2.0, err, sizeof err))
         return -1;
     hdr.background[1] = 40;
-    if (cn_synth_make(&s[1], &hdr, 78, 2.0, err, sizeof err)) {
+    if (tu_synth(&s[1], &hdr, 78, 2.0, err, sizeof err)) {
         cn_synth_free(&s[0]);
         return -1;
     }

@@ -1,10 +1,10 @@
 /* The table of broken streams: one row per case, each an edit of one valid base stream
  * with the status cnerf_peek and cnerf_open must return. Shared by tests/unit/test_negative.c
- * and the conformance vectors' generator (tests/tools/make_invalid.c). */
+ * and the conformance vectors' generator (tools/make_invalid.c). */
 #ifndef CNERF_NEGCASES_H
 #define CNERF_NEGCASES_H
 
-#include "cn_stream.h"
+#include "cn_buf.h"
 #include "cnerf/cnerf.h"
 
 typedef struct chunks chunks;

@@ -3,13 +3,27 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "cn_scales.h"
+
+int tu_synth(cn_synth *s, const cnerf_info *hdr, uint64_t seed, double spread, char *err,
+             size_t errlen)
+{
+    if (cn_synth_make(s, hdr, seed, spread, err, errlen))
+        return -1;
+    if (cn_choose_scales(&s->src, seed, NULL, err, errlen)) {
+        cn_synth_free(s);
+        return -1;
+    }
+    return 0;
+}
+
 void tu_synth_stream(const cnerf_info *hdr, uint64_t seed, double spread, cn_buf *out,
                      cn_synth *model)
 {
     char err[256] = "";
     cn_synth local;
     cn_synth *s = model ? model : &local;
-    if (cn_synth_make(s, hdr, seed, spread, err, sizeof err))
+    if (tu_synth(s, hdr, seed, spread, err, sizeof err))
         fail_msg("synth: %s", err);
     memset(out, 0, sizeof *out);
     if (cn_write_stream(&s->src, out, NULL, err, sizeof err))

@@ -9,9 +9,13 @@
 
 #include <cmocka.h>
 
-#include "cn_stream.h"
+#include "cn_buf.h"
 #include "cn_synth.h"
 
+/* A synthetic model as cnerf synth makes it (cn_synth_make), its input scales chosen from
+ * seed as the encode pipeline would: ready for cn_write_stream. Returns 0 or -1. */
+int tu_synth(cn_synth *s, const cnerf_info *hdr, uint64_t seed, double spread, char *err,
+             size_t errlen);
 /* A stream written from a synthetic model (header `hdr`, seed, spread). Fails the test
  * on error. The caller frees out->p. */
 void tu_synth_stream(const cnerf_info *hdr, uint64_t seed, double spread, cn_buf *out,

@@ -60,7 +60,7 @@ static void roundtrip_header(const cnerf_info *hdr, uint64_t seed, double spread
 {
     cn_synth s;
     char err[256];
-    if (cn_synth_make(&s, hdr, seed, spread, err, sizeof err))
+    if (tu_synth(&s, hdr, seed, spread, err, sizeof err))
         fail_msg("synth: %s", err);
     check_roundtrip(&s);
     cn_synth_free(&s);
@@ -115,7 +115,7 @@ static void test_constant_layers(void **state)
     tu_small_header(&hdr, 3, 8, 1);
     cn_synth s;
     char err[256];
-    assert_int_equal(cn_synth_make(&s, &hdr, 3, 0.0, err, sizeof err), 0);
+    assert_int_equal(tu_synth(&s, &hdr, 3, 0.0, err, sizeof err), 0);
     cnerf_info info = hdr;
     assert_int_equal(cnerf_expand_topology(&info), CNERF_OK);
     /* Constant at different values, including the extremes (int16 storage). */
@@ -143,7 +143,7 @@ static void test_full_latent_range(void **state)
     tu_small_header(&hdr, 2, 16, 0);
     cn_synth s;
     char err[256];
-    assert_int_equal(cn_synth_make(&s, &hdr, 9, 20000.0, err, sizeof err), 0);
+    assert_int_equal(tu_synth(&s, &hdr, 9, 20000.0, err, sizeof err), 0);
     s.k[0][0] = -CNERF_MAX_ABS_K;
     s.k[0][1] = CNERF_MAX_ABS_K;
     check_roundtrip(&s);
@@ -204,7 +204,7 @@ static void test_table_choice(void **state)
     tu_small_header(&hdr, 2, 32, 0);
     cn_synth s;
     char err[256];
-    assert_int_equal(cn_synth_make(&s, &hdr, 21, 3.0, err, sizeof err), 0);
+    assert_int_equal(tu_synth(&s, &hdr, 21, 3.0, err, sizeof err), 0);
     /* A deliberately wrong prior (uniform over a huge range). */
     static double flat[2001];
     for (int i = 0; i < 2001; i++)

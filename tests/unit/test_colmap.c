@@ -9,7 +9,8 @@
 #include "cn_dataset.h"
 #include "cn_image.h"
 #include "cn_rng.h"
-#include "cn_stream.h"
+#include "cn_buf.h"
+#include "cn_file.h"
 #include "testutil.h"
 
 #define TMP CNERF_BINARY_DIR "/test_colmap_tmp"

@@ -14,6 +14,7 @@
 #include <cjson/cJSON.h>
 #include <png.h>
 
+#include "cn_file.h"
 #include "cn_dataset.h"
 #include "cn_image.h"
 #include "testutil.h"

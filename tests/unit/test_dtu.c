@@ -8,6 +8,7 @@
 
 #include <zip.h>
 
+#include "cn_file.h"
 #include "cn_dataset.h"
 #include "cn_image.h"
 #include "testutil.h"

@@ -1,4 +1,4 @@
-/* The encoder's occupancy grid (encoder/grid.c): cells from a density lattice, the
+/* The encoder's occupancy grid (encoder/compress/grid.c): cells from a density lattice, the
  * evaluation estimate, and the grid a model's density puts in the stream. */
 #include <math.h>
 #include <stdio.h>

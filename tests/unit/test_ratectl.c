@@ -9,6 +9,7 @@
 #include "cn_nerf.h"
 #include "cn_prune.h"
 #include "cn_ratectl.h"
+#include "cn_rate.h"
 #include "cn_scales.h"
 #include "cn_synth.h"
 #include "cn_train.h"

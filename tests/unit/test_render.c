@@ -125,7 +125,7 @@ static void make_scene_edit(scene *s, const cnerf_info *hdr, double spread, uint
     cn_synth syn;
     char err[256];
     memset(s, 0, sizeof *s);
-    if (cn_synth_make(&syn, hdr, seed, spread, err, sizeof err))
+    if (tu_synth(&syn, hdr, seed, spread, err, sizeof err))
         fail_msg("synth: %s", err);
     cnerf_info I = *hdr; /* with the expanded topology */
     assert_int_equal(cnerf_expand_topology(&I), CNERF_OK);
@@ -936,7 +936,7 @@ static void make_set(set2 *t, double spread, double g_rel)
     cnerf_info hdr;
     tu_small_header(&hdr, 3, 16, 1);
     for (unsigned m = 0; m < 2; m++) {
-        if (cn_synth_make(&t->syn[m], &hdr, 7 + m, 3.0, err, sizeof err))
+        if (tu_synth(&t->syn[m], &hdr, 7 + m, 3.0, err, sizeof err))
             fail_msg("synth: %s", err);
         hdr.background[0] = 30; /* scene 1: another background and bounds */
         for (unsigned a = 0; a < 3; a++)

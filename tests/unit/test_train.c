@@ -14,6 +14,8 @@
 #include "cn_metrics.h"
 #include "cn_scales.h"
 #include "cn_stream.h"
+#include "cn_file.h"
+#include "cn_rate.h"
 #include "cn_train.h"
 #include "testutil.h"
 

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "cn_metrics.h"
+#include "cn_rate.h"
 #include "cn_train.h"
 #include "cn_validate.h"
 #include "testutil.h"

@@ -11,7 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-#include "../../decoder/cn_fixed.h"
+#include "../../common/cn_fixed.h"
 #include "../../decoder/cn_kernels.h"
 
 static uint64_t rng = 0x9E3779B97F4A7C15u;

@@ -1,0 +1,465 @@
+/* COLMAP sparse models in text and binary form (cn_colmap.h). */
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cn_colmap.h"
+#include "cn_file.h"
+
+static const struct {
+    const char *name;
+    int n;
+} cn_models[CN_COLMAP_N_MODELS] = {
+    {"SIMPLE_PINHOLE", 3}, {"PINHOLE", 4},     {"SIMPLE_RADIAL", 4},
+    {"RADIAL", 5},         {"OPENCV", 8},      {"OPENCV_FISHEYE", 8},
+    {"FULL_OPENCV", 12},   {"FOV", 5},         {"SIMPLE_RADIAL_FISHEYE", 4},
+    {"RADIAL_FISHEYE", 5}, {"THIN_PRISM_FISHEYE", 12}};
+
+const char *cn_colmap_model_name(int model)
+{
+    return model >= 0 && model < CN_COLMAP_N_MODELS ? cn_models[model].name : NULL;
+}
+
+int cn_colmap_model_params(int model)
+{
+    return model >= 0 && model < CN_COLMAP_N_MODELS ? cn_models[model].n : 0;
+}
+
+__attribute__((format(printf, 3, 4))) static int fail(char *err, size_t errlen, const char *fmt,
+                                                      ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(err, errlen, fmt, ap);
+    va_end(ap);
+    return -1;
+}
+
+void cn_colmap_free(cn_colmap *m)
+{
+    free(m->cams);
+    free(m->imgs);
+    free(m->xyz);
+    memset(m, 0, sizeof *m);
+}
+
+/* Room for one more element in a growing array. */
+static int grow(void **p, int *cap, int n, size_t elem)
+{
+    if (n < *cap)
+        return 0;
+    const int c = *cap > n ? 2 * *cap : n + 16;
+    void *q = realloc(*p, elem * (size_t)c);
+    if (!q)
+        return -1;
+    *p = q;
+    *cap = c;
+    return 0;
+}
+
+static int add_camera(cn_colmap *m, int *cap, const cn_colmap_camera *c, const char *file,
+                      char *err, size_t errlen)
+{
+    for (int i = 0; i < m->n_cams; i++)
+        if (m->cams[i].id == c->id)
+            return fail(err, errlen, "%s: camera %u is listed twice", file, c->id);
+    if (grow((void **)&m->cams, cap, m->n_cams, sizeof *c))
+        return fail(err, errlen, "%s: out of memory", file);
+    m->cams[m->n_cams++] = *c;
+    return 0;
+}
+
+/* ---- binary ---- */
+
+typedef struct cn_cur {
+    const uint8_t *p;
+    size_t n, pos;
+} cn_cur;
+
+static int take(cn_cur *c, size_t k, const uint8_t **out)
+{
+    if (k > c->n - c->pos)
+        return -1;
+    *out = c->p + c->pos;
+    c->pos += k;
+    return 0;
+}
+
+static int rd_u64(cn_cur *c, uint64_t *v)
+{
+    const uint8_t *b;
+    if (take(c, 8, &b))
+        return -1;
+    *v = 0;
+    for (int i = 7; i >= 0; i--)
+        *v = *v << 8 | b[i];
+    return 0;
+}
+
+static int rd_u32(cn_cur *c, uint32_t *v)
+{
+    const uint8_t *b;
+    if (take(c, 4, &b))
+        return -1;
+    *v = (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 | (uint32_t)b[3] << 24;
+    return 0;
+}
+
+static int rd_f64(cn_cur *c, double *v)
+{
+    uint64_t u;
+    if (rd_u64(c, &u))
+        return -1;
+    memcpy(v, &u, 8);
+    return isfinite(*v) ? 0 : -2;
+}
+
+/* A count of entries of at least `least` bytes each that the rest of the file can hold. */
+static int rd_count(cn_cur *c, size_t least, uint64_t max, uint64_t *n)
+{
+    if (rd_u64(c, n))
+        return -1;
+    return *n > max || *n > (c->n - c->pos) / least ? -1 : 0;
+}
+
+static int bin_cameras(const char *file, cn_cur *c, cn_colmap *m, char *err, size_t errlen)
+{
+    uint64_t n;
+    if (rd_count(c, 24, 1u << 20, &n))
+        return fail(err, errlen, "%s: truncated or implausible camera count", file);
+    int cap = 0;
+    for (uint64_t i = 0; i < n; i++) {
+        cn_colmap_camera cam;
+        memset(&cam, 0, sizeof cam);
+        uint32_t model;
+        if (rd_u32(c, &cam.id) || rd_u32(c, &model) || rd_u64(c, &cam.w) || rd_u64(c, &cam.h))
+            return fail(err, errlen, "%s: camera %llu: truncated", file, (unsigned long long)i);
+        if (model >= CN_COLMAP_N_MODELS)
+            return fail(err, errlen, "%s: camera %u: unknown camera model id %u", file, cam.id,
+                        model);
+        cam.model = (int)model;
+        for (int k = 0; k < cn_models[model].n; k++) {
+            const int r = rd_f64(c, &cam.params[k]);
+            if (r)
+                return fail(err, errlen, "%s: camera %u: %s", file, cam.id,
+                            r == -2 ? "a parameter is not a finite number" : "truncated");
+        }
+        if (add_camera(m, &cap, &cam, file, err, errlen))
+            return -1;
+    }
+    return 0;
+}
+
+static int bin_images(const char *file, cn_cur *c, cn_colmap *m, char *err, size_t errlen)
+{
+    uint64_t n;
+    if (rd_count(c, 73, 1u << 20, &n))
+        return fail(err, errlen, "%s: truncated or implausible image count", file);
+    int cap = 0;
+    for (uint64_t i = 0; i < n; i++) {
+        cn_colmap_image im;
+        memset(&im, 0, sizeof im);
+        int r = rd_u32(c, &im.id);
+        for (int k = 0; k < 4 && !r; k++)
+            r = rd_f64(c, &im.q[k]);
+        for (int k = 0; k < 3 && !r; k++)
+            r = rd_f64(c, &im.t[k]);
+        if (!r)
+            r = rd_u32(c, &im.camera_id);
+        if (r)
+            return fail(err, errlen, "%s: image %llu: %s", file, (unsigned long long)i,
+                        r == -2 ? "a pose value is not a finite number" : "truncated");
+        size_t k = 0;
+        const uint8_t *ch;
+        for (;;) {
+            if (take(c, 1, &ch))
+                return fail(err, errlen, "%s: image %u: truncated name", file, im.id);
+            if (!*ch)
+                break;
+            if (k + 1 >= sizeof im.name)
+                return fail(err, errlen, "%s: image %u: name longer than %d bytes", file, im.id,
+                            CN_COLMAP_NAME - 1);
+            im.name[k++] = (char)*ch;
+        }
+        uint64_t n2d;
+        const uint8_t *skip;
+        if (rd_u64(c, &n2d) || n2d > (c->n - c->pos) / 24 || take(c, (size_t)n2d * 24, &skip))
+            return fail(err, errlen, "%s: image %u (%s): truncated 2D points", file, im.id,
+                        im.name);
+        if (grow((void **)&m->imgs, &cap, m->n_imgs, sizeof im))
+            return fail(err, errlen, "%s: out of memory", file);
+        m->imgs[m->n_imgs++] = im;
+    }
+    return 0;
+}
+
+static int bin_points(const char *file, cn_cur *c, cn_colmap *m, char *err, size_t errlen)
+{
+    uint64_t n;
+    if (rd_count(c, 43, (uint64_t)1 << 28, &n))
+        return fail(err, errlen, "%s: truncated or implausible point count", file);
+    m->xyz = malloc(sizeof(double) * 3 * (n ? (size_t)n : 1));
+    if (!m->xyz)
+        return fail(err, errlen, "%s: out of memory", file);
+    for (uint64_t i = 0; i < n; i++) {
+        uint64_t id, track;
+        const uint8_t *skip;
+        int r = rd_u64(c, &id);
+        for (int k = 0; k < 3 && !r; k++)
+            r = rd_f64(c, &m->xyz[3 * i + (size_t)k]);
+        if (!r)
+            r = take(c, 3, &skip);
+        if (!r)
+            r = rd_f64(c, &(double){0});
+        if (!r)
+            r = rd_u64(c, &track) || track > (c->n - c->pos) / 8 ||
+                take(c, (size_t)track * 8, &skip);
+        if (r)
+            return fail(err, errlen, "%s: point %llu: %s", file, (unsigned long long)i,
+                        r == -2 ? "not a finite number" : "truncated");
+        m->n_points++;
+    }
+    return 0;
+}
+
+/* ---- text ---- */
+
+/* The next line (without its end) from *pos; 0 at the end of the data. */
+static int next_line(const uint8_t *data, size_t len, size_t *pos, char *line, size_t cap,
+                     int *too_long)
+{
+    if (*pos >= len)
+        return 0;
+    size_t k = 0;
+    *too_long = 0;
+    while (*pos < len && data[*pos] != '\n') {
+        if (k + 1 < cap)
+            line[k++] = (char)data[*pos];
+        else
+            *too_long = 1;
+        (*pos)++;
+    }
+    if (*pos < len)
+        (*pos)++;
+    if (k && line[k - 1] == '\r')
+        k--;
+    line[k] = '\0';
+    return 1;
+}
+
+/* Splits off the next blank-separated word of *s. */
+static char *word(char **s)
+{
+    char *p = *s;
+    while (*p == ' ' || *p == '\t')
+        p++;
+    if (!*p)
+        return NULL;
+    char *w = p;
+    while (*p && *p != ' ' && *p != '\t')
+        p++;
+    if (*p)
+        *p++ = '\0';
+    *s = p;
+    return w;
+}
+
+static int num(char **s, double *v)
+{
+    char *w = word(s), *end;
+    if (!w)
+        return -1;
+    errno = 0;
+    *v = strtod(w, &end);
+    return *end || errno || !isfinite(*v) ? -1 : 0;
+}
+
+static int uint_word(char **s, uint64_t max, uint64_t *v)
+{
+    char *w = word(s), *end;
+    if (!w || *w == '-' || *w == '+')
+        return -1;
+    errno = 0;
+    const unsigned long long x = strtoull(w, &end, 10);
+    if (*end || errno || x > max)
+        return -1;
+    *v = x;
+    return 0;
+}
+
+enum { TXT_CAMERAS, TXT_IMAGES, TXT_POINTS };
+
+static int txt_parse(const char *file, int kind, const uint8_t *data, size_t len, cn_colmap *m,
+                     char *err, size_t errlen)
+{
+    char line[8192];
+    size_t pos = 0;
+    int lineno = 0, cap = 0, too_long, expect_points2d = 0;
+    size_t pcap = 0;
+    while (next_line(data, len, &pos, line, sizeof line, &too_long)) {
+        lineno++;
+        if (too_long && kind != TXT_IMAGES)
+            return fail(err, errlen, "%s:%d: line longer than %zu bytes", file, lineno,
+                        sizeof line - 1);
+        if (line[0] == '#')
+            continue;
+        if (kind == TXT_IMAGES && expect_points2d) { /* the image's 2D points: not used */
+            expect_points2d = 0;
+            continue;
+        }
+        if (too_long)
+            return fail(err, errlen, "%s:%d: line longer than %zu bytes", file, lineno,
+                        sizeof line - 1);
+        char *s = line;
+        char *probe = s;
+        while (*probe == ' ' || *probe == '\t')
+            probe++;
+        if (!*probe)
+            continue; /* blank line */
+        uint64_t id;
+        if (uint_word(&s, kind == TXT_POINTS ? UINT64_MAX : UINT32_MAX, &id))
+            return fail(err, errlen, "%s:%d: expected an id", file, lineno);
+        if (kind == TXT_CAMERAS) {
+            cn_colmap_camera cam;
+            memset(&cam, 0, sizeof cam);
+            cam.id = (uint32_t)id;
+            const char *model = word(&s);
+            cam.model = -1;
+            for (int i = 0; model && i < CN_COLMAP_N_MODELS; i++)
+                if (!strcmp(model, cn_models[i].name))
+                    cam.model = i;
+            if (cam.model < 0)
+                return fail(err, errlen, "%s:%d: camera %u: unknown camera model '%s'", file,
+                            lineno, cam.id, model ? model : "");
+            if (uint_word(&s, UINT32_MAX, &cam.w) || uint_word(&s, UINT32_MAX, &cam.h))
+                return fail(err, errlen, "%s:%d: camera %u: expected its width and height",
+                            file, lineno, cam.id);
+            for (int k = 0; k < cn_models[cam.model].n; k++)
+                if (num(&s, &cam.params[k]))
+                    return fail(err, errlen, "%s:%d: camera %u: %s takes %d parameters", file,
+                                lineno, cam.id, model, cn_models[cam.model].n);
+            if (word(&s))
+                return fail(err, errlen, "%s:%d: camera %u: %s takes %d parameters", file,
+                            lineno, cam.id, model, cn_models[cam.model].n);
+            if (add_camera(m, &cap, &cam, file, err, errlen))
+                return -1;
+        } else if (kind == TXT_IMAGES) {
+            cn_colmap_image im;
+            memset(&im, 0, sizeof im);
+            im.id = (uint32_t)id;
+            uint64_t cam;
+            int r = 0;
+            for (int k = 0; k < 4 && !r; k++)
+                r = num(&s, &im.q[k]);
+            for (int k = 0; k < 3 && !r; k++)
+                r = num(&s, &im.t[k]);
+            if (r || uint_word(&s, UINT32_MAX, &cam))
+                return fail(err, errlen, "%s:%d: image %u: expected QW QX QY QZ TX TY TZ "
+                            "CAMERA_ID NAME", file, lineno, im.id);
+            im.camera_id = (uint32_t)cam;
+            while (*s == ' ' || *s == '\t')
+                s++;
+            size_t n = strlen(s);
+            while (n && (s[n - 1] == ' ' || s[n - 1] == '\t'))
+                s[--n] = '\0';
+            if (!n || n >= sizeof im.name)
+                return fail(err, errlen, "%s:%d: image %u: %s", file, lineno, im.id,
+                            n ? "name too long" : "no name");
+            memcpy(im.name, s, n + 1);
+            if (grow((void **)&m->imgs, &cap, m->n_imgs, sizeof im))
+                return fail(err, errlen, "%s: out of memory", file);
+            m->imgs[m->n_imgs++] = im;
+            expect_points2d = 1;
+        } else {
+            if (m->n_points == pcap) {
+                pcap = pcap ? 2 * pcap : 1024;
+                double *p = realloc(m->xyz, sizeof(double) * 3 * pcap);
+                if (!p)
+                    return fail(err, errlen, "%s: out of memory", file);
+                m->xyz = p;
+            }
+            for (int k = 0; k < 3; k++)
+                if (num(&s, &m->xyz[3 * m->n_points + (size_t)k]))
+                    return fail(err, errlen, "%s:%d: point %llu: expected X Y Z", file, lineno,
+                                (unsigned long long)id);
+            m->n_points++;
+        }
+    }
+    return 0;
+}
+
+static int ends_with(const char *s, const char *e)
+{
+    const size_t n = strlen(s), k = strlen(e);
+    return n >= k && !strcmp(s + n - k, e);
+}
+
+int cn_colmap_parse(const char *file, const uint8_t *data, size_t len, cn_colmap *m, char *err,
+                    size_t errlen)
+{
+    const char *base = strrchr(file, '/');
+    base = base ? base + 1 : file;
+    const int kind = !strncmp(base, "cameras", 7) ? TXT_CAMERAS
+                     : !strncmp(base, "images", 6) ? TXT_IMAGES
+                     : !strncmp(base, "points3D", 8) ? TXT_POINTS
+                                                     : -1;
+    if (kind < 0)
+        return fail(err, errlen, "%s: not a COLMAP cameras, images or points3D file", file);
+    if (ends_with(base, ".txt"))
+        return txt_parse(file, kind, data, len, m, err, errlen);
+    cn_cur c = {data, len, 0};
+    const int rc = kind == TXT_CAMERAS  ? bin_cameras(file, &c, m, err, errlen)
+                   : kind == TXT_IMAGES ? bin_images(file, &c, m, err, errlen)
+                                        : bin_points(file, &c, m, err, errlen);
+    if (rc == 0 && c.pos != c.n)
+        return fail(err, errlen, "%s: %zu bytes after the last entry", file, c.n - c.pos);
+    return rc;
+}
+
+static int read_one(const char *dir, const char *stem, int optional, cn_colmap *m, char *err,
+                    size_t errlen)
+{
+    char path[4096];
+    const char *ext[2] = {".bin", ".txt"};
+    for (int i = 0; i < 2; i++) {
+        snprintf(path, sizeof path, "%s/%s%s", dir, stem, ext[i]);
+        FILE *f = fopen(path, "rb");
+        if (!f)
+            continue;
+        fclose(f);
+        uint8_t *data;
+        size_t len;
+        if (cn_read_file(path, &data, &len, err, errlen))
+            return -1;
+        const int rc = cn_colmap_parse(path, data, len, m, err, errlen);
+        free(data);
+        return rc;
+    }
+    if (optional)
+        return 0;
+    return fail(err, errlen, "%s: no %s.bin or %s.txt", dir, stem, stem);
+}
+
+int cn_colmap_read(const char *dir, cn_colmap *m, char *err, size_t errlen)
+{
+    memset(m, 0, sizeof *m);
+    int rc = read_one(dir, "cameras", 0, m, err, errlen);
+    if (rc == 0)
+        rc = read_one(dir, "images", 0, m, err, errlen);
+    if (rc == 0)
+        rc = read_one(dir, "points3D", 1, m, err, errlen);
+    for (int i = 0; rc == 0 && i < m->n_imgs; i++) {
+        int found = 0;
+        for (int k = 0; k < m->n_cams && !found; k++)
+            found = m->cams[k].id == m->imgs[i].camera_id;
+        if (!found)
+            rc = fail(err, errlen, "%s/images: image %u (%s) names camera %u, which is not in "
+                      "cameras", dir, m->imgs[i].id, m->imgs[i].name, m->imgs[i].camera_id);
+    }
+    if (rc)
+        cn_colmap_free(m);
+    return rc;
+}

@@ -1,0 +1,29 @@
+/*
+ * Decoder functions for encoders and tools: what the host-side programs need beside the
+ * decoding API of cnerf.h, which alone decodes and renders a stream. Freestanding, like the
+ * rest of the decoder; a firmware that does not call them does not link them.
+ */
+#ifndef CNERF_TOOLS_H
+#define CNERF_TOOLS_H
+
+#include "cnerf/cnerf.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Parses a HEAD chunk's payload p[0..n) into info: the render parameters and the expanded
+ * topology. info->version_minor says which values the HEAD may hold (docs/bitstream.md). */
+cnerf_status cnerf_parse_head(const uint8_t *p, uint32_t n, cnerf_info *info);
+
+/* Decodes a GRID chunk's payload[0..len) (g^3 cells, precision prec, the context model's
+ * frequencies f1[8]) into the bitmap bits ((g^3 + 7) / 8 bytes: cell i at bit i & 7 of
+ * bits[i >> 3]) and counts the occupied cells into *occupied. */
+cnerf_status cnerf_grid_bitmap(const uint8_t *payload, size_t len, uint32_t g, unsigned prec,
+                               const uint16_t *f1, uint8_t *bits, uint32_t *occupied);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* CNERF_TOOLS_H */

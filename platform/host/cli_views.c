@@ -1,0 +1,143 @@
+/* Views on disk: PNGs written and read back, a split's views listed, rendered and scored. */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "cli.h"
+#include "cn_dataset.h"
+#include "cn_image.h"
+#include "cn_metrics.h"
+#include "cn_train.h"
+#include "progress.h"
+
+/* Writes rgb floats in [0, 1] as an 8-bit PNG. */
+int cli_write_png(const char *path, const float *rgb, int w, int h, char *err, size_t errlen)
+{
+    uint8_t *px = malloc((size_t)w * h * 3);
+    if (!px) {
+        snprintf(err, errlen, "%s: out of memory", path);
+        return -1;
+    }
+    for (size_t i = 0; i < (size_t)w * h * 3; i++) {
+        float v = rgb[i] * 255.0f + 0.5f;
+        px[i] = (uint8_t)(v < 0 ? 0 : v > 255 ? 255 : v);
+    }
+    int rc = cn_png_write_rgb8(path, px, w, h, (size_t)w * 3, err, errlen);
+    free(px);
+    return rc;
+}
+
+int cli_make_dir(const char *cmd, const char *dir)
+{
+    if (mkdir(dir, 0755) != 0 && errno != EEXIST)
+        return cli_fail(cmd, "%s: cannot create directory: %s", dir, strerror(errno));
+    return 0;
+}
+
+int cli_eval_views(const cn_model *m, const cn_view *views, int n, int ndc, long every,
+                   const char *outdir, int quiet, double *mean_psnr, double *mean_ssim,
+                   double *secs)
+{
+    double sp = 0, ss = 0, st = 0;
+    int count = 0;
+    char err[1024];
+    for (int i = 0; i < n; i += (int)every) {
+        const cn_view *v = &views[i];
+        const size_t npx = (size_t)v->w * v->h;
+        float *rgb = malloc(sizeof(float) * 3 * npx);
+        cn_camera cam;
+        cn_view_camera(v, &cam);
+        const double t0 = cli_now();
+        if (!rgb || cn_render_view(m, &cam, ndc, rgb, 4096)) {
+            free(rgb);
+            return cli_fail("eval", "out of memory rendering %s", v->name), -1;
+        }
+        const double dt = cli_now() - t0;
+        const double psnr = cn_psnr_from_mse(cn_mse(rgb, v->rgb, 3 * npx));
+        const double ssim = cn_ssim(rgb, v->rgb, v->w, v->h);
+        if (!quiet) {
+            printf("  %-16s psnr %6.2f dB  ssim %.4f  %.2f s\n", v->name, psnr, ssim, dt);
+            fflush(stdout);
+        }
+        sp += psnr;
+        ss += ssim;
+        st += dt;
+        count++;
+        int bad = 0;
+        if (outdir) {
+            char path[4096];
+            snprintf(path, sizeof path, "%s/%s.png", outdir, v->name);
+            bad = cli_write_png(path, rgb, v->w, v->h, err, sizeof err);
+        }
+        free(rgb);
+        if (bad)
+            return cli_fail("eval", "%s", err), -1;
+    }
+    *mean_psnr = count ? sp / count : 0;
+    *mean_ssim = count ? ss / count : 0;
+    *secs = count ? st / count : 0;
+    return count;
+}
+
+int cli_split_views(const char *cmd, const cn_dataset *ds, const char *dir, const char *split,
+                    const cn_view **views, int *n)
+{
+    if (!strcmp(split, "test"))
+        *views = ds->test, *n = ds->n_test;
+    else if (!strcmp(split, "val"))
+        *views = ds->val, *n = ds->n_val;
+    else if (!strcmp(split, "train"))
+        *views = ds->train, *n = ds->n_train;
+    else
+        return cli_fail(cmd, "unknown split '%s' (test, val, train)", split);
+    if (*n == 0)
+        return cli_fail(cmd, "%s: the %s split has no views", dir, split);
+    return 0;
+}
+
+void cli_view_path(char *path, size_t len, const char *dir, int i)
+{
+    snprintf(path, len, "%s/%04d.png", dir, i);
+}
+
+int cli_replace_views(const char *cmd, struct cn_view *views, int n, const char *dir)
+{
+    char err[1024], path[4200];
+    for (int i = 0; i < n; i++) {
+        cn_view *v = &views[i];
+        cn_image img;
+        cli_view_path(path, sizeof path, dir, i);
+        if (cn_png_read(path, &img, err, sizeof err))
+            return cli_fail(cmd, "%s (--train-images takes the files `cnerf views` writes: "
+                            "one per training view)", err);
+        if (img.c != 3) {
+            cn_image_free(&img);
+            return cli_fail(cmd, "%s has an alpha channel: --train-images takes opaque RGB "
+                            "views, composited as `cnerf views` writes them", path);
+        }
+        if (img.w != v->w || img.h != v->h) {
+            const int w = img.w, h = img.h;
+            cn_image_free(&img);
+            return cli_fail(cmd, "%s is %dx%d and training view %d (%s) %dx%d: give the same "
+                            "--downscale as to `cnerf views`", path, w, h, i, v->name, v->w,
+                            v->h);
+        }
+        for (size_t p = 0; p < (size_t)v->w * v->h; p++)
+            for (int c = 0; c < 3; c++)
+                v->rgb[3 * p + c] = img.px[(size_t)img.c * p + (size_t)c];
+        cn_image_free(&img);
+        free(v->alpha); /* the files are opaque: nothing to recomposite */
+        v->alpha = NULL;
+    }
+    cli_view_path(path, sizeof path, dir, n);
+    FILE *extra = fopen(path, "rb");
+    if (extra) {
+        fclose(extra);
+        return cli_fail(cmd, "%s has more views than the dataset's %d training views (%s "
+                        "exists): give the same dataset as to `cnerf views`", dir, n, path);
+    }
+    return 0;
+}

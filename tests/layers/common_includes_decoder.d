@@ -1,0 +1,1 @@
+x.o: common/cn_reader.h decoder/cn_internal.h

@@ -1,0 +1,2 @@
+x.o: encoder/stream/writer.c encoder/stream/cn_stream.h \
+ decoder/cn_internal.h
