@@ -115,331 +115,293 @@ static int init_topology(const char *path, const char **preset, long *depth, lon
     return 0;
 }
 
-int cmd_encode(int argc, char **argv)
-{
+/* The encode command's options, and what follows from them. */
+typedef struct encode_args {
     cn_train_opts o;
-    cn_train_defaults(&o);
-    o.compress = 1;
-    const char *out = NULL, *resume = NULL, *init = NULL, *pos[CNERF_MAX_SCENES], *latent_lr = "weight";
-    const char *random_bg = "auto", *background = "constant", *prune = "on";
-    const char *coarse_color = "off";
-    double coarse_weight = -1;
-    long iters = o.iters, downscale = 1, max_size = 0, threads = 0, batch = o.batch, every = 1;
-    long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 0, log_every = 100;
-    long view_width = -1;
-    double ckpt_secs = CLI_CKPT_SECS;
-    long eval_every = 0, grid_g = -1, precrop = -1, val_views = -1;
-    double lambda = -1, levels = o.levels, size = 0, bpp = 0, quality = -1, lr_shift = -1;
-    const char *scheme = "dual", *preset = NULL;
-    uint64_t seed = o.seed;
-    int black = 0, n_pos, grid_verbose = 0;
+    const char *out, *resume, *init, *pos[CNERF_MAX_SCENES], *latent_lr, *random_bg, *background;
+    const char *prune, *coarse_color, *scheme, *preset;
+    double coarse_weight, ckpt_secs, lambda, levels, size, bpp, quality, lr_shift;
+    long iters, downscale, max_size, threads, batch, every, depth, width, coarse, fine;
+    long ckpt_every, log_every, view_width, eval_every, grid_g, precrop, val_views;
+    uint64_t seed;
+    int black, n_pos, grid_verbose;
+    int controlled; /* --size or --bits-per-param: lambda follows rate control */
+    int autop;      /* --preset auto */
+    char ckpt[4096];
+} encode_args;
+
+/* Parses and checks the command line into A (its defaults first). Returns -1 to go on, or
+ * the command's exit status. */
+static int parse_args(int argc, char **argv, encode_args *A)
+{
+    memset(A, 0, sizeof *A);
+    cn_train_defaults(&A->o);
+    A->o.compress = 1;
+    A->latent_lr = "weight";
+    A->random_bg = "auto";
+    A->background = "constant";
+    A->prune = "on";
+    A->coarse_color = "off";
+    A->coarse_weight = -1;
+    A->iters = A->o.iters;
+    A->downscale = 1;
+    A->batch = A->o.batch;
+    A->every = 1;
+    A->depth = A->width = A->coarse = A->fine = A->view_width = -1;
+    A->log_every = 100;
+    A->ckpt_secs = CLI_CKPT_SECS;
+    A->grid_g = A->precrop = A->val_views = -1;
+    A->lambda = -1;
+    A->levels = A->o.levels;
+    A->quality = A->lr_shift = -1;
+    A->scheme = "dual";
+    A->seed = A->o.seed;
     const cli_opt opts[] = {
-        {"-o", CLI_STR, &out, 0, 0},
-        {"--lambda", CLI_DOUBLE, &lambda, 0, 1e3},
-        {"--quality", CLI_DOUBLE, &quality, 0, 100},
-        {"--size", CLI_DOUBLE, &size, 1, 1e9},
-        {"--bits-per-param", CLI_DOUBLE, &bpp, 1e-3, 32},
-        {"--rate-control", CLI_STR, &scheme, 0, 0},
-        {"--preset", CLI_STR, &preset, 0, 0},
-        {"--iters", CLI_LONG, &iters, 0, 1e9},
-        {"--downscale", CLI_LONG, &downscale, 1, 64},
-        {"--max-size", CLI_LONG, &max_size, 1, 1 << 20},
-        {"--threads", CLI_LONG, &threads, 1, 256},
-        {"--seed", CLI_U64, &seed, 0, 0},
-        {"--resume", CLI_STR, &resume, 0, 0},
-        {"--init", CLI_STR, &init, 0, 0},
-        {"--levels", CLI_DOUBLE, &levels, 0.5, 10000},
-        {"--batch", CLI_LONG, &batch, 1, 65536},
-        {"--every", CLI_LONG, &every, 1, 1e6},
-        {"--black", CLI_FLAG, &black, 0, 0},
-        {"--ckpt-every", CLI_LONG, &ckpt_every, 1, 1e9},
-        {"--ckpt-secs", CLI_DOUBLE, &ckpt_secs, 1, 1e6},
-        {"--log-every", CLI_LONG, &log_every, 1, 1e9},
-        {"--eval-every", CLI_LONG, &eval_every, 0, 1e9},
-        {"--val-views", CLI_LONG, &val_views, 0, 1e6},
-        {"--depth", CLI_LONG, &depth, 1, CNERF_MAX_DEPTH},
-        {"--width", CLI_LONG, &width, 1, CNERF_MAX_WIDTH},
-        {"--view-width", CLI_LONG, &view_width, 0, CNERF_MAX_VIEW_WIDTH},
-        {"--coarse", CLI_LONG, &coarse, 1, CNERF_MAX_SAMPLES},
-        {"--fine", CLI_LONG, &fine, 0, CNERF_MAX_SAMPLES},
-        {"--latent-lr", CLI_STR, &latent_lr, 0, 0},
-        {"--lr", CLI_DOUBLE, &o.lr, 1e-8, 1},
-        {"--lr-decay", CLI_DOUBLE, &o.lr_decay_steps, 1, 1e12},
-        {"--precrop-iters", CLI_LONG, &precrop, 0, 1e9},
-        {"--average", CLI_LONG, &o.average, 1, 1e9},
-        {"--prior-lr", CLI_DOUBLE, &o.lr_prior, 0, 1},
-        {"--skip-saturated", CLI_DOUBLE, &o.sat_eps, 0, 1},
-        {"--group-penalty", CLI_DOUBLE, &o.group, 0, 1000},
-        {"--affine-lr", CLI_DOUBLE, &o.lr_affine, 0, 1},
-        {"--scale-lr", CLI_DOUBLE, &o.lr_scale, 0, 1},
-        {"--grid", CLI_LONG, &grid_g, -1, CNERF_MAX_GRID},
-        {"--grid-verbose", CLI_FLAG, &grid_verbose, 0, 0},
-        {"--random-bg", CLI_STR, &random_bg, 0, 0},
-        {"--background", CLI_STR, &background, 0, 0},
-        {"--prune", CLI_STR, &prune, 0, 0},
-        {"--coarse-color", CLI_STR, &coarse_color, 0, 0},
-        {"--coarse-weight", CLI_DOUBLE, &coarse_weight, 1e-3, 10},
-        {"--shift-lr", CLI_DOUBLE, &lr_shift, 0, 1},
+        {"-o", CLI_STR, &A->out, 0, 0},
+        {"--lambda", CLI_DOUBLE, &A->lambda, 0, 1e3},
+        {"--quality", CLI_DOUBLE, &A->quality, 0, 100},
+        {"--size", CLI_DOUBLE, &A->size, 1, 1e9},
+        {"--bits-per-param", CLI_DOUBLE, &A->bpp, 1e-3, 32},
+        {"--rate-control", CLI_STR, &A->scheme, 0, 0},
+        {"--preset", CLI_STR, &A->preset, 0, 0},
+        {"--iters", CLI_LONG, &A->iters, 0, 1e9},
+        {"--downscale", CLI_LONG, &A->downscale, 1, 64},
+        {"--max-size", CLI_LONG, &A->max_size, 1, 1 << 20},
+        {"--threads", CLI_LONG, &A->threads, 1, 256},
+        {"--seed", CLI_U64, &A->seed, 0, 0},
+        {"--resume", CLI_STR, &A->resume, 0, 0},
+        {"--init", CLI_STR, &A->init, 0, 0},
+        {"--levels", CLI_DOUBLE, &A->levels, 0.5, 10000},
+        {"--batch", CLI_LONG, &A->batch, 1, 65536},
+        {"--every", CLI_LONG, &A->every, 1, 1e6},
+        {"--black", CLI_FLAG, &A->black, 0, 0},
+        {"--ckpt-every", CLI_LONG, &A->ckpt_every, 1, 1e9},
+        {"--ckpt-secs", CLI_DOUBLE, &A->ckpt_secs, 1, 1e6},
+        {"--log-every", CLI_LONG, &A->log_every, 1, 1e9},
+        {"--eval-every", CLI_LONG, &A->eval_every, 0, 1e9},
+        {"--val-views", CLI_LONG, &A->val_views, 0, 1e6},
+        {"--depth", CLI_LONG, &A->depth, 1, CNERF_MAX_DEPTH},
+        {"--width", CLI_LONG, &A->width, 1, CNERF_MAX_WIDTH},
+        {"--view-width", CLI_LONG, &A->view_width, 0, CNERF_MAX_VIEW_WIDTH},
+        {"--coarse", CLI_LONG, &A->coarse, 1, CNERF_MAX_SAMPLES},
+        {"--fine", CLI_LONG, &A->fine, 0, CNERF_MAX_SAMPLES},
+        {"--latent-lr", CLI_STR, &A->latent_lr, 0, 0},
+        {"--lr", CLI_DOUBLE, &A->o.lr, 1e-8, 1},
+        {"--lr-decay", CLI_DOUBLE, &A->o.lr_decay_steps, 1, 1e12},
+        {"--precrop-iters", CLI_LONG, &A->precrop, 0, 1e9},
+        {"--average", CLI_LONG, &A->o.average, 1, 1e9},
+        {"--prior-lr", CLI_DOUBLE, &A->o.lr_prior, 0, 1},
+        {"--skip-saturated", CLI_DOUBLE, &A->o.sat_eps, 0, 1},
+        {"--group-penalty", CLI_DOUBLE, &A->o.group, 0, 1000},
+        {"--affine-lr", CLI_DOUBLE, &A->o.lr_affine, 0, 1},
+        {"--scale-lr", CLI_DOUBLE, &A->o.lr_scale, 0, 1},
+        {"--grid", CLI_LONG, &A->grid_g, -1, CNERF_MAX_GRID},
+        {"--grid-verbose", CLI_FLAG, &A->grid_verbose, 0, 0},
+        {"--random-bg", CLI_STR, &A->random_bg, 0, 0},
+        {"--background", CLI_STR, &A->background, 0, 0},
+        {"--prune", CLI_STR, &A->prune, 0, 0},
+        {"--coarse-color", CLI_STR, &A->coarse_color, 0, 0},
+        {"--coarse-weight", CLI_DOUBLE, &A->coarse_weight, 1e-3, 10},
+        {"--shift-lr", CLI_DOUBLE, &A->lr_shift, 0, 1},
     };
-    if (cli_parse("encode", ENCODE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos,
-                  CNERF_MAX_SCENES, &n_pos))
+    if (cli_parse("encode", ENCODE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], A->pos,
+                  CNERF_MAX_SCENES, &A->n_pos))
         return 2;
-    if (n_pos > 1) /* several scenes: their own command line */
+    if (A->n_pos > 1) /* several scenes: their own command line */
         return cli_encode_set(argc, argv);
-    if (lr_shift >= 0)
+    if (A->lr_shift >= 0)
         return cli_usage("encode", "--shift-lr sets the shared shifts' rate of a stream of "
                          "several scenes; this encode has one");
-    if (n_pos != 1 || !out || (lambda < 0 && size == 0 && bpp == 0 && quality < 0))
+    if (A->n_pos != 1 || !A->out || (A->lambda < 0 && A->size == 0 && A->bpp == 0 && A->quality < 0))
         return cli_usage("encode", "need a dataset directory, -o FILE and one of --lambda L, "
                          "--quality Q, --size BYTES or --bits-per-param X\n%s", ENCODE_USAGE);
-    if ((lambda >= 0) + (size > 0) + (bpp > 0) + (quality >= 0) > 1)
+    if ((A->lambda >= 0) + (A->size > 0) + (A->bpp > 0) + (A->quality >= 0) > 1)
         return cli_usage("encode", "--lambda, --quality, --size and --bits-per-param each set "
                          "the rate: give one of them");
-    if (strcmp(scheme, "pi") && strcmp(scheme, "dual"))
+    if (strcmp(A->scheme, "pi") && strcmp(A->scheme, "dual"))
         return cli_usage("encode", "--rate-control takes dual (dual ascent, the default) or pi "
-                         "(log-lambda PI control), not '%s'", scheme);
-    const int controlled = size > 0 || bpp > 0;
-    if (init && resume)
+                         "(log-lambda PI control), not '%s'", A->scheme);
+    A->controlled = A->size > 0 || A->bpp > 0;
+    if (A->init && A->resume)
         return cli_usage("encode", "--init starts a run from a float model and --resume goes on "
                          "with an encode's checkpoint: give one of them");
-    if (init && preset && !strcmp(preset, "auto"))
+    if (A->init && A->preset && !strcmp(A->preset, "auto"))
         return cli_usage("encode", "--init takes the model of its checkpoint: leave out "
                          "--preset auto");
-    if (preset)
-        o.preset = preset;
-    else if (init) {
-        if (access(init, F_OK) != 0)
-            return cli_fail("encode", "%s: no such checkpoint", init);
-        if (init_topology(init, &o.preset, &depth, &width, &coarse, &fine))
+    if (A->preset)
+        A->o.preset = A->preset;
+    else if (A->init) {
+        if (access(A->init, F_OK) != 0)
+            return cli_fail("encode", "%s: no such checkpoint", A->init);
+        if (init_topology(A->init, &A->o.preset, &A->depth, &A->width, &A->coarse, &A->fine))
             return 1;
-    } else if (size > 0)
-        o.preset = "auto";
-    if (strcmp(o.preset, "tiny") && strcmp(o.preset, "small") && strcmp(o.preset, "paper") &&
-        strcmp(o.preset, "auto"))
-        return cli_usage("encode", "unknown preset '%s' (tiny, small, paper, auto)", o.preset);
-    const int autop = !strcmp(o.preset, "auto");
-    if (autop && size == 0)
+    } else if (A->size > 0)
+        A->o.preset = "auto";
+    if (strcmp(A->o.preset, "tiny") && strcmp(A->o.preset, "small") && strcmp(A->o.preset, "paper") &&
+        strcmp(A->o.preset, "auto"))
+        return cli_usage("encode", "unknown preset '%s' (tiny, small, paper, auto)", A->o.preset);
+    A->autop = !strcmp(A->o.preset, "auto");
+    if (A->autop && A->size == 0)
         return cli_usage("encode", "--preset auto chooses the model from the file's size: give "
                          "--size BYTES, or a preset (tiny, small, paper)");
-    if (autop && (depth > 0 || width > 0 || coarse > 0 || fine >= 0))
+    if (A->autop && (A->depth > 0 || A->width > 0 || A->coarse > 0 || A->fine >= 0))
         return cli_usage("encode", "--preset auto chooses depth, width and samples itself: "
                          "give a preset to set them");
-    if (controlled || quality >= 0)
-        lambda = 0;
-    if (quality >= 0)
-        o.quality_slope = cn_quality_slope(quality);
-    if (grid_g > 0 && (grid_g < 16 || (grid_g & (grid_g - 1))))
+    if (A->controlled || A->quality >= 0)
+        A->lambda = 0;
+    if (A->quality >= 0)
+        A->o.quality_slope = cn_quality_slope(A->quality);
+    if (A->grid_g > 0 && (A->grid_g < 16 || (A->grid_g & (A->grid_g - 1))))
         return cli_usage("encode", "--grid takes 16, 32, 64 or 128 cells per axis, or 0 for no "
-                        "grid, not %ld", grid_g);
-    if (strcmp(latent_lr, "latent") && strcmp(latent_lr, "weight"))
+                        "grid, not %ld", A->grid_g);
+    if (strcmp(A->latent_lr, "latent") && strcmp(A->latent_lr, "weight"))
         return cli_usage("encode", "--latent-lr takes 'latent' (Adam's step in latent units, "
-                        "the paper's) or 'weight' (in weight units), not '%s'", latent_lr);
-    o.latent_lr_weight_units = !strcmp(latent_lr, "weight");
-    if (cli_background("encode", background, &o.contract))
+                        "the paper's) or 'weight' (in weight units), not '%s'", A->latent_lr);
+    A->o.latent_lr_weight_units = !strcmp(A->latent_lr, "weight");
+    if (cli_background("encode", A->background, &A->o.contract))
         return 2;
-    if (cli_random_bg("encode", random_bg, &o.random_bg))
+    if (cli_random_bg("encode", A->random_bg, &A->o.random_bg))
         return 2;
-    if (strcmp(prune, "on") && strcmp(prune, "off"))
+    if (strcmp(A->prune, "on") && strcmp(A->prune, "off"))
         return cli_usage("encode", "--prune takes on (remove dead units) or off, not '%s'",
-                        prune);
-    if (cli_coarse_color("encode", coarse_color, coarse_weight, &o))
+                        A->prune);
+    if (cli_coarse_color("encode", A->coarse_color, A->coarse_weight, &A->o))
         return 2;
-    if (o.average > iters)
+    if (A->o.average > A->iters)
         return cli_usage("encode", "--average %ld averages the parameters over the last %ld of "
-                         "the run's %ld iterations: give at most --iters", o.average, o.average,
-                         iters);
-    if (iters == 0 && !resume)
+                         "the run's %ld iterations: give at most --iters", A->o.average, A->o.average,
+                         A->iters);
+    if (A->iters == 0 && !A->resume)
         return cli_usage("encode", "--iters 0 trains nothing: give at least 1, or --resume a "
                          "checkpoint");
-    cli_set_threads(threads);
-    o.iters = iters;
-    o.seed = seed;
-    o.batch = (int)batch;
-    o.depth = (int)depth;
-    o.width = (int)width;
-    o.view_width = (int)view_width;
-    o.n_coarse = (int)coarse;
-    o.n_fine = (int)fine;
-    o.lambda = lambda;
-    o.levels = levels;
+    cli_set_threads(A->threads);
+    A->o.iters = A->iters;
+    A->o.seed = A->seed;
+    A->o.batch = (int)A->batch;
+    A->o.depth = (int)A->depth;
+    A->o.width = (int)A->width;
+    A->o.view_width = (int)A->view_width;
+    A->o.n_coarse = (int)A->coarse;
+    A->o.n_fine = (int)A->fine;
+    A->o.lambda = A->lambda;
+    A->o.levels = A->levels;
     /* A model from --init already holds the scene: the centre crop, which keeps a model
      * from scratch off the empty background, would only spend dearer iterations on it. */
-    if (precrop >= 0 || init)
-        o.precrop_iters = precrop >= 0 ? precrop : 0;
-    char ckpt[4096];
-    snprintf(ckpt, sizeof ckpt, "%s", resume ? resume : out);
-    if (!resume)
-        strncat(ckpt, ".ckpt", sizeof ckpt - strlen(ckpt) - 1);
-    const char *inputs[2] = {resume, init};
-    if (cli_check_output("encode", out, inputs, 2, pos[0]) ||
-        cli_check_output("encode", ckpt, inputs + 1, 1, pos[0])) /* resume writes its own */
-        return 1;
-    char lock[4200];
-    const int lk = cli_lock_output("encode", out, lock, sizeof lock);
-    if (lk < 0)
-        return 1;
-    cn_dataset ds;
-    if (cli_load_dataset("encode", pos[0], downscale, max_size, black, 0, 0, val_views, &ds)) {
-        cli_unlock_output(lk, lock);
-        return 1;
-    }
-    char err[1024];
-    int stepped_down = 0, trials_done = 0; /* --preset auto took tiny over the rule's choice */
-    if (autop) {
-        double bits;
-        if (cn_preset_auto(&ds, &o, size, &o.preset, &bits, err, sizeof err)) {
-            cn_dataset_free(&ds);
-            cli_unlock_output(lk, lock);
-            return cli_fail("encode", "%s", err);
-        }
-        printf("preset auto: %s (%.2f bits per latent beyond the topology's floor; small from "
-               "%.2f)\n", o.preset, bits, CN_AUTO_BITS);
-    }
-    int rc = 0, stopped = 0;
-step_down: /* --preset auto encodes again with tiny when the rate collapses a larger preset */
-    rc = 0;
-    cn_trainer t;
-    if (cn_trainer_init(&t, &ds, &o, err, sizeof err)) {
-        cn_dataset_free(&ds);
-        cli_unlock_output(lk, lock);
-        return cli_fail("encode", "%s", err);
-    }
-    cli_say_random_bg(&t);
-    if (controlled) {
-        const double latents = (double)cn_model_sent_latents(&t.model);
-        const double target = size > 0 ? size : bpp * latents / 8;
+    if (A->precrop >= 0 || A->init)
+        A->o.precrop_iters = A->precrop >= 0 ? A->precrop : 0;
+    snprintf(A->ckpt, sizeof A->ckpt, "%s", A->resume ? A->resume : A->out);
+    if (!A->resume)
+        strncat(A->ckpt, ".ckpt", sizeof A->ckpt - strlen(A->ckpt) - 1);
+    return -1;
+}
+
+/* Under --size (or --bits-per-param): refuses a target out of the preset's reach on this
+ * scene, else puts the trainer under rate control. Returns 0, or -1 with a message. */
+static int start_rate_control(encode_args *A, cn_trainer *t, const cn_dataset *ds, char *err,
+                              size_t errlen)
+{
+    if (!A->controlled)
+        return 0;
+    {
+        const double latents = (double)cn_model_sent_latents(&t->model);
+        const double target = A->size > 0 ? A->size : A->bpp * latents / 8;
         /* The sizes a preset can reach on this scene: at least the topology's floor and a
          * tenth of a bit per latent sent (docs/results.md: below that the models lose several
          * dB); at most every latent sent at 32 bits, as float32 weights would take (the
          * latents' range is bounded far below that). */
         size_t floor_bytes = 0;
-        int bad = cn_stream_floor(&t.model, seed, &floor_bytes, err, sizeof err);
+        int bad = cn_stream_floor(&t->model, A->seed, &floor_bytes, err, errlen);
         const double least = (double)floor_bytes + 0.1 * latents / 8 + 300;
         const double most = (double)floor_bytes + 4 * latents;
         if (!bad && target < least)
-            bad = snprintf(err, sizeof err, "a %.0f-byte file is too small for preset %s on "
+            bad = snprintf(err, errlen, "a %.0f-byte file is too small for preset %s on "
                            "this scene: its headers, affine decoders and biases alone take %zu "
                            "bytes, and below about %.0f bytes (0.1 bit per latent for the %.0f "
                            "latents it sends, and a grid) the model collapses; ask for at least "
-                           "%.0f bytes, or a smaller preset", target, o.preset, floor_bytes,
+                           "%.0f bytes, or a smaller preset", target, A->o.preset, floor_bytes,
                            least, latents, least) > 0;
         else if (!bad && target > most)
-            bad = snprintf(err, sizeof err, "a %.0f-byte file is more than preset %s can use "
+            bad = snprintf(err, errlen, "a %.0f-byte file is more than preset %s can use "
                            "on this scene: %.0f bytes hold its %.0f latents at 32 bits each, "
                            "as float32 weights, with its headers, affine decoders and biases; "
-                           "ask for at most %.0f bytes, or a larger preset", target, o.preset,
+                           "ask for at most %.0f bytes, or a larger preset", target, A->o.preset,
                            most, latents, most) > 0;
-        if (bad) {
-            cn_trainer_free(&t);
-            cn_dataset_free(&ds);
-            cli_unlock_output(lk, lock);
-            return cli_fail("encode", "%s", err);
-        }
+        if (bad)
+            return -1;
         char meta0[1024];
         const int mlen = snprintf(meta0, sizeof meta0,
                                   "encoder=cnerf %s; command=encode; dataset=%s; preset=%s; "
                                   "iters=%ld; size=%.0f; lambda=%g; downscale=%ld; seed=%llu; "
                                   "levels=%g; latent-lr=%s%s%s", CNERF_VERSION_STRING,
-                                  pos[0], o.preset, iters, target, 1.0, (long)ds.downscale,
-                                  (unsigned long long)seed, levels, latent_lr,
-                                  init ? "; init=" : "", init ? init : "");
-        cn_trainer_rate_control(&t, target, mlen + 16, strcmp(scheme, "dual") ? CN_RC_LOG_PI
+                                  A->pos[0], A->o.preset, A->iters, target, 1.0, (long)ds->downscale,
+                                  (unsigned long long)A->seed, A->levels, A->latent_lr,
+                                  A->init ? "; init=" : "", A->init ? A->init : "");
+        cn_trainer_rate_control(t, target, mlen + 16, strcmp(A->scheme, "dual") ? CN_RC_LOG_PI
                                                                                 : CN_RC_DUAL,
-                                (int)grid_g, !strcmp(prune, "on"));
+                                (int)A->grid_g, !strcmp(A->prune, "on"));
         printf("rate control (%s): a file of %.0f bytes (%.3f bits per latent); the topology "
-               "alone takes %zu\n", scheme, target, 8 * target / latents, floor_bytes);
+               "alone takes %zu\n", A->scheme, target, 8 * target / latents, floor_bytes);
     }
+    return 0;
+}
+
+/* --preset auto's trials of the rule's choice against tiny (cn_preset_trial), once.
+ * Returns 1 when tiny is taken instead, 0 to go on, -1 with a message. */
+static int auto_trials(encode_args *A, const cn_dataset *ds, int *trials_done, char *err,
+                       size_t errlen)
+{
     /* --preset auto checks the rule's choice of a larger preset on the scene, once the size is
      * known to be within its reach (cn_preset_trial). */
-    const long trial = iters / 10 < CN_AUTO_TRIAL_ITERS ? iters / 10 : CN_AUTO_TRIAL_ITERS;
-    if (autop && !trials_done && strcmp(o.preset, "tiny") && trial >= CN_AUTO_TRIAL_MIN &&
-        ds.n_val > 0 && !init && !resume) {
-        trials_done = 1;
+    const long trial = A->iters / 10 < CN_AUTO_TRIAL_ITERS ? A->iters / 10 : CN_AUTO_TRIAL_ITERS;
+    if (A->autop && !*trials_done && strcmp(A->o.preset, "tiny") && trial >= CN_AUTO_TRIAL_MIN &&
+        ds->n_val > 0 && !A->init && !A->resume) {
+        *trials_done = 1;
         const double t0 = cli_now();
-        const double big = cn_preset_trial(&ds, &o, o.preset, trial, err, sizeof err);
-        const double small = big < 0 ? -1 : cn_preset_trial(&ds, &o, "tiny", trial, err,
-                                                              sizeof err);
-        if (big < 0 || small < 0) {
-            cn_trainer_free(&t);
-            cn_dataset_free(&ds);
-            cli_unlock_output(lk, lock);
-            return cli_fail("encode", "%s", err);
-        }
+        const double big = cn_preset_trial(ds, &A->o, A->o.preset, trial, err, errlen);
+        const double small = big < 0 ? -1 : cn_preset_trial(ds, &A->o, "tiny", trial, err,
+                                                              errlen);
+        if (big < 0 || small < 0)
+            return -1;
         const int down = big < small - CN_AUTO_TRIAL_DB;
         printf("preset auto: trials of %ld iterations (%.0f s), validation psnr %s %.2f dB, "
-               "tiny %.2f dB: %s\n", trial, cli_now() - t0, o.preset, big, small,
-               down ? "tiny" : o.preset);
+               "tiny %.2f dB: %s\n", trial, cli_now() - t0, A->o.preset, big, small,
+               down ? "tiny" : A->o.preset);
         if (down) {
-            o.preset = "tiny";
-            stepped_down = 1;
-            cn_trainer_free(&t);
-            goto step_down;
+            A->o.preset = "tiny";
+            return 1;
         }
     }
-    if (resume) {
-        if (access(resume, F_OK) != 0)
-            rc = cli_fail("encode", "%s: no such checkpoint", resume);
-        else
-            rc = cli_resume("encode", &t, resume);
-    }
-    if (init && rc == 0) {
-        if (access(init, F_OK) != 0)
-            rc = cli_fail("encode", "%s: no such checkpoint", init);
-        else if (cn_trainer_init_from_float(&t, init, err, sizeof err))
-            rc = cli_fail("encode", "%s", err);
-        else
-            printf("starting from the float model %s\n", init);
-    }
-    if (rc == 0) {
-        char lam[80];
-        if (quality >= 0)
-            snprintf(lam, sizeof lam, "from --quality %g (%.3g dB per bit per latent)", quality,
-                     o.quality_slope);
-        else
-            snprintf(lam, sizeof lam, controlled ? "controlled" : "%g", lambda);
-        printf("encoding %s: %d train views %dx%d, %d validation views, lambda %s, %zu "
-               "latents, checkpoint %s\n", pos[0], ds.n_train, ds.train[0].w, ds.train[0].h,
-               ds.n_val, lam,
-               cn_model_sent_latents(&t.model), ckpt);
-        if (o.average > 0)
-            printf("the file will hold the mean of the parameters over the last %ld "
-                   "iterations\n", o.average);
-        rc = cli_run_training("encode", &t, ckpt, ckpt_every, ckpt_secs, log_every, eval_every,
-                              every, &stopped);
-        if (rc && t.collapsed && autop && !resume && !init && strcmp(o.preset, "tiny")) {
-            printf("preset auto: %s collapsed at %.0f bytes; encoding again with preset tiny\n",
-                   o.preset, t.rc.target);
-            o.preset = "tiny";
-            stepped_down = 1;
-            cn_trainer_free(&t);
-            goto step_down;
-        }
-    }
-    if (rc == 0 && stopped) {
-        printf("interrupted: resume with --resume %s\n", ckpt);
-        rc = 128 + stopped;
-    }
+    return 0;
+}
+
+/* The trained model through the encode pipeline into the file, read back through the
+ * decoder and reported: the sizes, the rate against the target, the test views. Returns the
+ * command's exit status (rc: the training's). */
+static int write_and_report(encode_args *A, cn_trainer *t, const cn_dataset *ds,
+                            int stepped_down, int rc)
+{
+    char err[1024];
     cn_encoded enc;
     memset(&enc, 0, sizeof enc);
     char meta[1024], sizebuf[64] = "";
-    if (t.rate_control)
-        snprintf(sizebuf, sizeof sizebuf, "size=%.0f; ", t.rc.target);
-    else if (quality >= 0)
-        snprintf(sizebuf, sizeof sizebuf, "quality=%g; ", quality);
+    if (t->rate_control)
+        snprintf(sizebuf, sizeof sizebuf, "size=%.0f; ", t->rc.target);
+    else if (A->quality >= 0)
+        snprintf(sizebuf, sizeof sizebuf, "quality=%g; ", A->quality);
     snprintf(meta, sizeof meta,
              "encoder=cnerf %s; command=encode; dataset=%s; preset=%s; iters=%ld; %slambda=%g; "
              "downscale=%ld; seed=%llu; levels=%g; latent-lr=%s; coarse-color=%s; "
              "coarse-weight=%g%s%s",
-             CNERF_VERSION_STRING, pos[0], o.preset, t.step, sizebuf, t.opts.lambda,
-             (long)ds.downscale, (unsigned long long)seed, levels, latent_lr, coarse_color,
-             o.coarse_weight, init ? "; init=" : "", init ? init : "");
+             CNERF_VERSION_STRING, A->pos[0], A->o.preset, t->step, sizebuf, t->opts.lambda,
+             (long)ds->downscale, (unsigned long long)A->seed, A->levels, A->latent_lr, A->coarse_color,
+             A->o.coarse_weight, A->init ? "; init=" : "", A->init ? A->init : "");
     if (rc == 0) {
-        cn_model *model = &t.model;
-        const cn_dataset *views = &ds;
-        const cn_encode_job job = {.models = &model, .n = 1, .meta = meta, .seed = seed,
-                                   .prune = !strcmp(prune, "on"), .grid_g = (int)grid_g,
-                                   .views = &views, .grid_log = grid_verbose ? say : NULL,
-                                   .report = report_stage, .report_ctx = &t.model.topo};
+        cn_model *model = &t->model;
+        const cn_dataset *views = ds;
+        const cn_encode_job job = {.models = &model, .n = 1, .meta = meta, .seed = A->seed,
+                                   .prune = !strcmp(A->prune, "on"), .grid_g = (int)A->grid_g,
+                                   .views = &views, .grid_log = A->grid_verbose ? say : NULL,
+                                   .report = report_stage, .report_ctx = &t->model.topo};
         if (cn_encode_finish(&job, &enc, err, sizeof err))
             rc = cli_fail("encode", "%s", err);
     }
@@ -450,14 +412,14 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
                "(threshold %.3g, dilation %d)\n",
                grid->g, 100 * grid->occupied, grid->bytes, 100 * grid->eval_fraction,
                0.0 - grid->psnr_drop + 0.0, grid->threshold, grid->dilation); /* no "-0.000" */
-    } else if (rc == 0 && grid_g > 0) {
+    } else if (rc == 0 && A->grid_g > 0) {
         printf("occupancy grid: none: at every threshold tried, the %ld^3 grid cost the "
-               "training views more than 0.025 dB\n", grid_g);
-    } else if (rc == 0 && grid_g != 0) {
+               "training views more than 0.025 dB\n", A->grid_g);
+    } else if (rc == 0 && A->grid_g != 0) {
         printf("occupancy grid: none (no resolution skips enough to pay for its bytes, or "
                "none kept the training views within 0.025 dB)\n");
     }
-    if (rc == 0 && cn_write_file_atomic(out, enc.stream.p, enc.stream.n, err, sizeof err))
+    if (rc == 0 && cn_write_file_atomic(A->out, enc.stream.p, enc.stream.n, err, sizeof err))
         rc = cli_fail("encode", "%s", err);
     const cn_write_report rep = enc.rep;
     /* The closed loop: read the file back through the decoder's parser. */
@@ -465,11 +427,11 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
     cn_model ref;
     memset(&st, 0, sizeof st);
     memset(&ref, 0, sizeof ref);
-    if (rc == 0 && cli_stream_open("encode", out, &st, &ref))
+    if (rc == 0 && cli_stream_open("encode", A->out, &st, &ref))
         rc = 1;
     if (rc == 0) {
         printf("wrote ");
-        cli_print_sizes(out, &st);
+        cli_print_sizes(A->out, &st);
         int prior = 0, counts = 0;
         for (uint32_t l = 0; l < st.dec->info.n_layers; l++) {
             prior += rep.table_source[l] == CN_TABLE_PRIOR;
@@ -477,18 +439,18 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
         }
         printf("tables: %d from the prior, %d from counts, %u constant layers\n", prior, counts,
                st.dec->info.n_layers - prior - counts);
-        if (quality >= 0)
+        if (A->quality >= 0)
             printf("quality: %g (%.3g dB per bit per latent), final lambda %.4g = %.4g x 3 "
-                   "pixels / latents\n", quality, o.quality_slope, t.opts.lambda,
-                   t.opts.lambda / cn_trainer_lambda_unit(&t));
-        if (t.rate_control) {
-            const double dev = (double)st.len / t.rc.target - 1;
+                   "pixels / latents\n", A->quality, A->o.quality_slope, t->opts.lambda,
+                   t->opts.lambda / cn_trainer_lambda_unit(t));
+        if (t->rate_control) {
+            const double dev = (double)st.len / t->rc.target - 1;
             printf("size: %zu bytes against the target %.0f (%+.2f%%), final lambda %.4g\n",
-                   st.len, t.rc.target, 100 * dev, t.opts.lambda);
+                   st.len, t->rc.target, 100 * dev, t->opts.lambda);
             if (dev > CLI_SIZE_TOLERANCE)
                 rc = cli_fail("encode", "%s is %.1f%% over the target of %.0f bytes (the file is "
                               "written): the run ended before the rate settled; give more "
-                              "--iters or a larger --size", out, 100 * dev, t.rc.target);
+                              "--iters or a larger --size", A->out, 100 * dev, t->rc.target);
             else if (dev < -CLI_SIZE_TOLERANCE && stepped_down)
                 printf("size: %.1f%% under the target: preset tiny, which --preset auto took for "
                        "this scene, does not use more\n", -100 * dev);
@@ -496,18 +458,18 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
                 rc = cli_fail("encode", "%s is %.1f%% under the target of %.0f bytes (the file "
                               "is written): preset %s does not use that many bytes on this "
                               "scene (lambda fell to %.3g); take a larger preset or a smaller "
-                              "--size", out, -100 * dev, t.rc.target, o.preset, t.opts.lambda);
+                              "--size", A->out, -100 * dev, t->rc.target, A->o.preset, t->opts.lambda);
         }
         /* The rate the training objective estimated, against what the coder wrote. */
         cn_totals tot;
         cn_breakdown(&st.dec->info, &tot);
-        const double est = cn_model_latent_bits(&t.model, NULL) / 8;
+        const double est = cn_model_latent_bits(&t->model, NULL) / 8;
         printf("rate: prior estimate %.0f bytes for the integer latents, coded payload %llu bytes "
                "(%+.2f%%)\n",
                est, (unsigned long long)tot.payload, 100.0 * ((double)tot.payload / est - 1));
         double psnr = 0, ssim = 0, secs = 0;
-        printf("float reference render of %s, test views:\n", out);
-        int n = cli_eval_views(&ref, ds.test, ds.n_test, ds.ndc, every, NULL, 0, &psnr, &ssim, &secs);
+        printf("float reference render of %s, test views:\n", A->out);
+        int n = cli_eval_views(&ref, ds->test, ds->n_test, ds->ndc, A->every, NULL, 0, &psnr, &ssim, &secs);
         if (n < 0)
             rc = 1;
         else if (n > 0)
@@ -518,6 +480,110 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
         cn_model_free(&ref);
     cli_stream_free(&st);
     cn_encoded_free(&enc);
+    return rc;
+}
+
+int cmd_encode(int argc, char **argv)
+{
+    encode_args args, *A = &args;
+    const int parsed = parse_args(argc, argv, A);
+    if (parsed >= 0)
+        return parsed;
+    const char *inputs[2] = {A->resume, A->init};
+    if (cli_check_output("encode", A->out, inputs, 2, A->pos[0]) ||
+        cli_check_output("encode", A->ckpt, inputs + 1, 1, A->pos[0])) /* resume writes its own */
+        return 1;
+    char lock[4200];
+    const int lk = cli_lock_output("encode", A->out, lock, sizeof lock);
+    if (lk < 0)
+        return 1;
+    cn_dataset ds;
+    if (cli_load_dataset("encode", A->pos[0], A->downscale, A->max_size, A->black, 0, 0,
+                         A->val_views, &ds)) {
+        cli_unlock_output(lk, lock);
+        return 1;
+    }
+    char err[1024];
+    int stepped_down = 0, trials_done = 0; /* --preset auto took tiny over the rule's choice */
+    if (A->autop) {
+        double bits;
+        if (cn_preset_auto(&ds, &A->o, A->size, &A->o.preset, &bits, err, sizeof err)) {
+            cn_dataset_free(&ds);
+            cli_unlock_output(lk, lock);
+            return cli_fail("encode", "%s", err);
+        }
+        printf("preset auto: %s (%.2f bits per latent beyond the topology's floor; small from "
+               "%.2f)\n", A->o.preset, bits, CN_AUTO_BITS);
+    }
+    int rc = 0, stopped = 0;
+step_down: /* --preset auto encodes again with tiny when the rate collapses a larger preset */
+    rc = 0;
+    cn_trainer t;
+    if (cn_trainer_init(&t, &ds, &A->o, err, sizeof err)) {
+        cn_dataset_free(&ds);
+        cli_unlock_output(lk, lock);
+        return cli_fail("encode", "%s", err);
+    }
+    cli_say_random_bg(&t);
+    int bad = start_rate_control(A, &t, &ds, err, sizeof err);
+    if (bad == 0 && !A->resume && !A->init)
+        bad = auto_trials(A, &ds, &trials_done, err, sizeof err);
+    if (bad < 0) {
+        cn_trainer_free(&t);
+        cn_dataset_free(&ds);
+        cli_unlock_output(lk, lock);
+        return cli_fail("encode", "%s", err);
+    }
+    if (bad == 1) {
+        stepped_down = 1;
+        cn_trainer_free(&t);
+        goto step_down;
+    }
+    if (A->resume) {
+        if (access(A->resume, F_OK) != 0)
+            rc = cli_fail("encode", "%s: no such checkpoint", A->resume);
+        else
+            rc = cli_resume("encode", &t, A->resume);
+    }
+    if (A->init && rc == 0) {
+        if (access(A->init, F_OK) != 0)
+            rc = cli_fail("encode", "%s: no such checkpoint", A->init);
+        else if (cn_trainer_init_from_float(&t, A->init, err, sizeof err))
+            rc = cli_fail("encode", "%s", err);
+        else
+            printf("starting from the float model %s\n", A->init);
+    }
+    if (rc == 0) {
+        char lam[80];
+        if (A->quality >= 0)
+            snprintf(lam, sizeof lam, "from --quality %g (%.3g dB per bit per latent)",
+                     A->quality, A->o.quality_slope);
+        else
+            snprintf(lam, sizeof lam, A->controlled ? "controlled" : "%g", A->lambda);
+        printf("encoding %s: %d train views %dx%d, %d validation views, lambda %s, %zu "
+               "latents, checkpoint %s\n", A->pos[0], ds.n_train, ds.train[0].w, ds.train[0].h,
+               ds.n_val, lam,
+               cn_model_sent_latents(&t.model), A->ckpt);
+        if (A->o.average > 0)
+            printf("the file will hold the mean of the parameters over the last %ld "
+                   "iterations\n", A->o.average);
+        rc = cli_run_training("encode", &t, A->ckpt, A->ckpt_every, A->ckpt_secs, A->log_every,
+                              A->eval_every, A->every, &stopped);
+        if (rc && t.collapsed && A->autop && !A->resume && !A->init &&
+            strcmp(A->o.preset, "tiny")) {
+            printf("preset auto: %s collapsed at %.0f bytes; encoding again with preset tiny\n",
+                   A->o.preset, t.rc.target);
+            A->o.preset = "tiny";
+            stepped_down = 1;
+            cn_trainer_free(&t);
+            goto step_down;
+        }
+    }
+    if (rc == 0 && stopped) {
+        printf("interrupted: resume with --resume %s\n", A->ckpt);
+        rc = 128 + stopped;
+    }
+    rc = write_and_report(A, &t, &ds, stepped_down, rc);
     cn_trainer_free(&t);
     cn_dataset_free(&ds);
     cli_unlock_output(lk, lock);
