@@ -31,7 +31,7 @@
     "       [--iters N] [--downscale F|--max-size N] [--threads T] [--seed S] [--resume CKPT]\n"          \
     "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N | --ckpt-secs S]\n" \
     "       [--log-every N] [--depth D] [--width W] [--view-width V] [--coarse N] [--fine N]\n"                \
-    "       [--latent-lr latent|weight]\n"                                                   \
+    "       [--latent-lr latent|weight] [--init FLOAT.ckpt]\n"                                                   \
     "       [--eval-every N] [--prior-lr X] [--affine-lr X] [--scale-lr R]\n"   \
     "       [--skip-saturated EPS] [--grid G|0] [--grid-verbose] [--random-bg auto|on|off]\n" \
     "       [--background constant|contract]\n"                                               \

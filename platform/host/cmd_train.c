@@ -18,7 +18,7 @@
     "       [--downscale F|--max-size N] [--threads T] [--seed S] [--resume] [--batch R] [--depth D]\n"     \
     "       [--width W] [--view-width V] [--coarse N] [--fine N] [--lr X] [--precrop-iters N] [--black]\n"     \
     "       [--near X] [--far X] [--ckpt-every N | --ckpt-secs S] [--log-every N] [--occupancy G]\n"     \
-    "       [--eval-every N] [--every K]\n"                                              \
+    "       [--eval-every N] [--every K] [--lr-decay N]\n"                                              \
     "       [--occupancy-start N] [--skip-saturated EPS] [--random-bg auto|on|off]\n"    \
     "       [--background constant|contract]\n"                                          \
     "       [--group-penalty MU] [--train-images DIR] [--val-views N]"
