@@ -211,6 +211,197 @@ static int tag_ok(uint32_t tag)
     return 1;
 }
 
+/* ---- the walk: the signature, then chunk by chunk, one handler per chunk type ---- */
+
+/* The walk's state between chunks. The order: the first HEAD, then SCNS (several scenes),
+ * UNIT, one SHFT per layer; then per scene its HEAD (not for scene 0), GRID and layers;
+ * DONE. `scene` is the scene whose chunks are being read; only the wanted one's go into
+ * info, the others are checked the same way into scratch fields. */
+typedef struct walk {
+    const uint8_t *buf;
+    cnerf_info *info;
+    uint32_t want, scene;
+    uint32_t next_layer, next_shift; /* the scene's layers and the shifts read so far */
+    uint32_t head0_off, head0_len;   /* the first HEAD's payload */
+    int seen_head, grid_seen, set;   /* set: a SCNS chunk was read */
+} walk;
+
+/* One chunk: its tag, its offset in the stream, its payload's offset and length, and its
+ * bytes with the framing. */
+typedef struct chunk {
+    uint32_t tag, off, poff, clen, cbytes;
+} chunk;
+
+/* 1 once the chunks every scene shares are read: the shifts, one per layer, after SCNS. */
+static int shared_done(const walk *w) { return !w->set || w->next_shift == w->info->n_layers; }
+
+/* HEAD: the first one describes the stream; each later one starts the next scene. */
+static cnerf_status on_head(walk *w, const chunk *c)
+{
+    cnerf_info *info = w->info;
+    cnerf_status st;
+    if (!w->seen_head) {
+        if ((st = cn_parse_head(w->buf + c->poff, c->clen, info)) != CNERF_OK)
+            return st;
+        w->seen_head = 1;
+        w->head0_off = c->poff;
+        w->head0_len = c->clen;
+    } else {
+        /* The next scene: after every layer of this one, within the scene count. */
+        if (w->scene + 1u >= info->n_scenes || w->next_layer != info->n_layers)
+            return CNERF_E_CHUNK_ORDER;
+        w->scene++;
+        w->next_layer = 0;
+        w->grid_seen = 0;
+        if ((st = cn_parse_scene_head(w->buf + c->poff, c->clen, w->buf + w->head0_off,
+                                      w->head0_len, info, w->scene == w->want)) != CNERF_OK)
+            return st;
+    }
+    if (w->scene == w->want) {
+        info->head_bytes = c->cbytes;
+        info->scene_bytes += c->cbytes;
+    }
+    return CNERF_OK;
+}
+
+/* SCNS: the scene count. Right after the first HEAD (ancillary chunks aside), at most once. */
+static cnerf_status on_scns(walk *w, const chunk *c)
+{
+    cnerf_info *info = w->info;
+    if (w->set || info->unit_bytes || w->grid_seen || w->next_layer > 0u)
+        return CNERF_E_CHUNK_ORDER;
+    if (c->clen != 1u)
+        return CNERF_E_CHUNK;
+    const uint32_t n = w->buf[c->poff];
+    if (n < 1u || n > CNERF_MAX_SCENES)
+        return CNERF_E_LIMIT;
+    info->n_scenes = (uint8_t)n;
+    w->set = 1;
+    info->shared_bytes += c->cbytes;
+    return CNERF_OK;
+}
+
+/* SHFT: a layer's shared shift. One per layer, in order, after SCNS and UNIT, before scene
+ * 0's grid and layers. */
+static cnerf_status on_shft(walk *w, const chunk *c)
+{
+    cnerf_info *info = w->info;
+    if (!w->set || w->scene > 0u || w->grid_seen || w->next_layer > 0u ||
+        w->next_shift >= info->n_layers)
+        return CNERF_E_CHUNK_ORDER;
+    cnerf_shift_info *S = &info->shift[w->next_shift];
+    const cnerf_layer_info *L = &info->layer[w->next_shift];
+    const cnerf_status st = parse_shift(w->buf, c->poff, c->clen, L, S);
+    if (st != CNERF_OK)
+        return st;
+    S->chunk_offset = c->off;
+    S->chunk_bytes = c->cbytes;
+    if (cn_has_shift(S))
+        info->n_shift_params += (uint32_t)L->n_in * L->n_out;
+    info->shared_bytes += c->cbytes;
+    w->next_shift++;
+    return CNERF_OK;
+}
+
+/* LAYR: the next layer of the scene, after the shared chunks. */
+static cnerf_status on_layr(walk *w, const chunk *c)
+{
+    cnerf_info *info = w->info;
+    if (w->next_layer >= info->n_layers || !shared_done(w))
+        return CNERF_E_CHUNK_ORDER;
+    const int record = w->scene == w->want;
+    cnerf_layer_info other, *L = &info->layer[w->next_layer];
+    if (!record) { /* another scene's layer: checked against the same shape */
+        cn_memzero(&other, sizeof other); /* field by field: no memcpy here */
+        other.net = L->net;
+        other.index = L->index;
+        other.n_in = L->n_in;
+        other.n_out = L->n_out;
+        L = &other;
+    }
+    const cnerf_status st = parse_layer(w->buf, c->poff, c->clen, L);
+    if (st != CNERF_OK)
+        return st;
+    L->chunk_offset = c->off;
+    L->chunk_bytes = c->cbytes;
+    if (record)
+        info->scene_bytes += c->cbytes;
+    w->next_layer++;
+    return CNERF_OK;
+}
+
+/* UNIT: the units per layer. At most one, before the shifts, the grid and the first layer. */
+static cnerf_status on_unit(walk *w, const chunk *c)
+{
+    cnerf_info *info = w->info;
+    if (info->unit_bytes || w->grid_seen || w->next_layer > 0u || w->next_shift > 0u ||
+        w->scene > 0u)
+        return CNERF_E_CHUNK_ORDER;
+    const cnerf_status st = cn_parse_units(w->buf + c->poff, c->clen, info);
+    if (st != CNERF_OK)
+        return st;
+    info->unit_bytes = c->cbytes;
+    return CNERF_OK;
+}
+
+/* GRID: the scene's occupancy grid. At most one per scene, before its first layer (and
+ * after the shifts). */
+static cnerf_status on_grid(walk *w, const chunk *c)
+{
+    cnerf_info *info = w->info;
+    if (w->grid_seen || w->next_layer > 0u || !shared_done(w))
+        return CNERF_E_CHUNK_ORDER;
+    grid_fields gf;
+    const cnerf_status st = parse_grid(w->buf, c->poff, c->clen, &gf);
+    if (st != CNERF_OK)
+        return st;
+    w->grid_seen = 1;
+    if (w->scene == w->want) {
+        info->grid_g = gf.g;
+        info->grid_prec = gf.prec;
+        for (unsigned i = 0; i < CNERF_GRID_CONTEXTS; i++)
+            info->grid_f1[i] = gf.f1[i];
+        info->grid_payload_offset = gf.payload_offset;
+        info->grid_payload_bytes = gf.payload_bytes;
+        info->grid_bytes = c->cbytes;
+        info->scene_bytes += c->cbytes;
+    }
+    return CNERF_OK;
+}
+
+/* DONE: the end, after every scene's layers, with nothing after it (`left` bytes are). */
+static cnerf_status on_done(walk *w, const chunk *c, size_t left)
+{
+    cnerf_info *info = w->info;
+    if (c->clen != 0u)
+        return CNERF_E_CHUNK;
+    if (w->next_layer != info->n_layers || w->scene + 1u != info->n_scenes || !shared_done(w))
+        return CNERF_E_CHUNK_ORDER;
+    info->done_bytes = c->cbytes;
+    info->file_bytes = c->off + c->cbytes;
+    if (left)
+        return CNERF_E_TRAILING;
+    if (w->want >= info->n_scenes)
+        return CNERF_E_ARG;
+    info->scene = (uint8_t)w->want;
+    return CNERF_OK;
+}
+
+/* Any other chunk: an error when critical (an upper-case first letter), else skipped and
+ * counted; the first META is remembered. */
+static cnerf_status on_other(walk *w, const chunk *c)
+{
+    cnerf_info *info = w->info;
+    if ((c->tag & 0xFFu) >= 'A' && (c->tag & 0xFFu) <= 'Z')
+        return CNERF_E_UNKNOWN_CHUNK;
+    info->ancillary_bytes += c->cbytes;
+    if (c->tag == CNERF_TAG_META && info->meta_offset == 0u) {
+        info->meta_offset = c->poff;
+        info->meta_len = c->clen;
+    }
+    return CNERF_OK;
+}
+
 cnerf_status cn_parse(const uint8_t *buf, size_t len, uint32_t want, cnerf_info *info)
 {
     cn_memzero(info, sizeof *info);
@@ -234,24 +425,26 @@ cnerf_status cn_parse(const uint8_t *buf, size_t len, uint32_t want, cnerf_info 
         return CNERF_E_VERSION;
     info->signature_bytes = CNERF_SIGNATURE_BYTES;
     info->n_scenes = 1;
-    /* The walk: the first HEAD, then SCNS (several scenes), UNIT, one SHFT per layer; then
-     * per scene its HEAD (not for scene 0), GRID and layers; DONE. `scene` is the scene whose
-     * chunks are being read; only the wanted one's go into info, the others are checked the
-     * same way into scratch fields. */
-    int seen_head = 0, grid_seen = 0, set = 0; /* set: a SCNS chunk was read */
-    uint32_t next_layer = 0, next_shift = 0, scene = 0, head0_off = 0, head0_len = 0;
+    walk w; /* field by field: an initializer may become a memset call */
+    w.buf = buf;
+    w.info = info;
+    w.want = want;
+    w.scene = w.next_layer = w.next_shift = w.head0_off = w.head0_len = 0;
+    w.seen_head = w.grid_seen = w.set = 0;
     for (;;) {
-        const uint32_t off = (uint32_t)(r.p - buf);
+        chunk c;
+        c.off = (uint32_t)(r.p - buf);
         if (cn_rd_left(&r) < 8u)
             return CNERF_E_TRUNCATED;
-        const uint32_t tag = cn_rd_u32(&r);
-        const uint32_t clen = cn_rd_u32(&r);
-        if (cn_rd_left(&r) < 4u || cn_rd_left(&r) - 4u < clen)
+        c.tag = cn_rd_u32(&r);
+        c.clen = cn_rd_u32(&r);
+        if (cn_rd_left(&r) < 4u || cn_rd_left(&r) - 4u < c.clen)
             return CNERF_E_TRUNCATED;
-        const uint32_t poff = off + 8u;
-        uint32_t crc = cnerf_crc32(0, buf + off, 4u);
-        crc = cnerf_crc32(crc, buf + poff, clen);
-        r.p += clen;
+        c.poff = c.off + 8u;
+        c.cbytes = c.clen + CNERF_CHUNK_OVERHEAD;
+        uint32_t crc = cnerf_crc32(0, buf + c.off, 4u);
+        crc = cnerf_crc32(crc, buf + c.poff, c.clen);
+        r.p += c.clen;
         const uint32_t stored = cn_rd_u32(&r);
 #ifndef FUZZING_BUILD_MODE_UNSAFE_FOR_PRODUCTION
         if (stored != crc)
@@ -259,133 +452,23 @@ cnerf_status cn_parse(const uint8_t *buf, size_t len, uint32_t want, cnerf_info 
 #else
         (void)stored; /* fuzz builds: let mutations reach the chunk parsers */
 #endif
-        if (!tag_ok(tag))
+        if (!tag_ok(c.tag))
             return CNERF_E_CHUNK;
-        const int critical = (tag & 0xFFu) >= 'A' && (tag & 0xFFu) <= 'Z';
-        const uint32_t cbytes = clen + CNERF_CHUNK_OVERHEAD;
-        const int record = scene == want;
-        const int shared_done = !set || next_shift == info->n_layers;
-        cnerf_status st;
-        if (!seen_head && tag != CNERF_TAG_HEAD)
+        if (!w.seen_head && c.tag != CNERF_TAG_HEAD)
             return CNERF_E_CHUNK_ORDER;
-        if (tag == CNERF_TAG_HEAD && !seen_head) {
-            if ((st = cn_parse_head(buf + poff, clen, info)) != CNERF_OK)
-                return st;
-            seen_head = 1;
-            head0_off = poff;
-            head0_len = clen;
-            if (record) {
-                info->head_bytes = cbytes;
-                info->scene_bytes += cbytes;
-            }
-        } else if (tag == CNERF_TAG_HEAD) {
-            /* The next scene: after every layer of this one, within the scene count. */
-            if (scene + 1u >= info->n_scenes || next_layer != info->n_layers)
-                return CNERF_E_CHUNK_ORDER;
-            scene++;
-            next_layer = 0;
-            grid_seen = 0;
-            if ((st = cn_parse_scene_head(buf + poff, clen, buf + head0_off, head0_len, info,
-                                          scene == want)) != CNERF_OK)
-                return st;
-            if (scene == want) {
-                info->head_bytes = cbytes;
-                info->scene_bytes += cbytes;
-            }
-        } else if (tag == CNERF_TAG_SCNS) {
-            /* Right after the first HEAD (ancillary chunks aside), at most once. */
-            if (set || info->unit_bytes || grid_seen || next_layer > 0u)
-                return CNERF_E_CHUNK_ORDER;
-            if (clen != 1u)
-                return CNERF_E_CHUNK;
-            const uint32_t n = buf[poff];
-            if (n < 1u || n > CNERF_MAX_SCENES)
-                return CNERF_E_LIMIT;
-            info->n_scenes = (uint8_t)n;
-            set = 1;
-            info->shared_bytes += cbytes;
-        } else if (tag == CNERF_TAG_SHFT) {
-            /* One per layer, in order, after SCNS and UNIT, before scene 0's grid and layers. */
-            if (!set || scene > 0u || grid_seen || next_layer > 0u ||
-                next_shift >= info->n_layers)
-                return CNERF_E_CHUNK_ORDER;
-            cnerf_shift_info *S = &info->shift[next_shift];
-            if ((st = parse_shift(buf, poff, clen, &info->layer[next_shift], S)) != CNERF_OK)
-                return st;
-            S->chunk_offset = off;
-            S->chunk_bytes = cbytes;
-            if (cn_has_shift(S))
-                info->n_shift_params +=
-                    (uint32_t)info->layer[next_shift].n_in * info->layer[next_shift].n_out;
-            info->shared_bytes += cbytes;
-            next_shift++;
-        } else if (tag == CNERF_TAG_LAYR) {
-            if (next_layer >= info->n_layers || !shared_done)
-                return CNERF_E_CHUNK_ORDER;
-            cnerf_layer_info other, *L = &info->layer[next_layer];
-            if (!record) { /* another scene's layer: checked against the same shape */
-                cn_memzero(&other, sizeof other); /* field by field: no memcpy here */
-                other.net = L->net;
-                other.index = L->index;
-                other.n_in = L->n_in;
-                other.n_out = L->n_out;
-                L = &other;
-            }
-            if ((st = parse_layer(buf, poff, clen, L)) != CNERF_OK)
-                return st;
-            L->chunk_offset = off;
-            L->chunk_bytes = cbytes;
-            if (record)
-                info->scene_bytes += cbytes;
-            next_layer++;
-        } else if (tag == CNERF_TAG_UNIT) {
-            /* At most one, before the shifts, the grid and the first layer. */
-            if (info->unit_bytes || grid_seen || next_layer > 0u || next_shift > 0u ||
-                scene > 0u)
-                return CNERF_E_CHUNK_ORDER;
-            if ((st = cn_parse_units(buf + poff, clen, info)) != CNERF_OK)
-                return st;
-            info->unit_bytes = cbytes;
-        } else if (tag == CNERF_TAG_GRID) {
-            /* At most one per scene, before its first layer (and after the shifts). */
-            if (grid_seen || next_layer > 0u || !shared_done)
-                return CNERF_E_CHUNK_ORDER;
-            grid_fields gf;
-            if ((st = parse_grid(buf, poff, clen, &gf)) != CNERF_OK)
-                return st;
-            grid_seen = 1;
-            if (record) {
-                info->grid_g = gf.g;
-                info->grid_prec = gf.prec;
-                for (unsigned c = 0; c < CNERF_GRID_CONTEXTS; c++)
-                    info->grid_f1[c] = gf.f1[c];
-                info->grid_payload_offset = gf.payload_offset;
-                info->grid_payload_bytes = gf.payload_bytes;
-                info->grid_bytes = cbytes;
-                info->scene_bytes += cbytes;
-            }
-        } else if (tag == CNERF_TAG_DONE) {
-            if (clen != 0u)
-                return CNERF_E_CHUNK;
-            if (next_layer != info->n_layers || scene + 1u != info->n_scenes || !shared_done)
-                return CNERF_E_CHUNK_ORDER;
-            info->done_bytes = cbytes;
-            info->file_bytes = off + cbytes;
-            if (cn_rd_left(&r))
-                return CNERF_E_TRAILING;
-            if (want >= info->n_scenes)
-                return CNERF_E_ARG;
-            info->scene = (uint8_t)want;
-            return CNERF_OK;
-        } else if (critical) {
-            return CNERF_E_UNKNOWN_CHUNK;
-        } else {
-            info->ancillary_bytes += cbytes;
-            if (tag == CNERF_TAG_META && info->meta_offset == 0u) {
-                info->meta_offset = poff;
-                info->meta_len = clen;
-            }
+        cnerf_status st;
+        switch (c.tag) {
+        case CNERF_TAG_HEAD: st = on_head(&w, &c); break;
+        case CNERF_TAG_SCNS: st = on_scns(&w, &c); break;
+        case CNERF_TAG_SHFT: st = on_shft(&w, &c); break;
+        case CNERF_TAG_LAYR: st = on_layr(&w, &c); break;
+        case CNERF_TAG_UNIT: st = on_unit(&w, &c); break;
+        case CNERF_TAG_GRID: st = on_grid(&w, &c); break;
+        case CNERF_TAG_DONE: return on_done(&w, &c, cn_rd_left(&r));
+        default: st = on_other(&w, &c); break;
         }
+        if (st != CNERF_OK)
+            return st;
     }
 }
 
