@@ -273,6 +273,70 @@ static void prove_layer(cnerf_decoder *dec, uint32_t l, uint32_t maxsum, uint32_
         dec->b_shift[l] = (uint8_t)nb;
 }
 
+/* The workspace's layout: per layer its packed latents (and shifts), bias mantissas, Q16
+ * biases and row order; then the grid's bitmap. Returns where open's scratch starts. */
+static uint8_t *lay_out(cnerf_decoder *dec, uint8_t *w)
+{
+    const cnerf_info *info = &dec->info;
+    for (uint32_t l = 0; l < info->n_layers; l++) {
+        const cnerf_layer_info *L = &info->layer[l];
+        dec->latent[l] = (const int16_t *)(void *)w;
+        w += align8((size_t)in_pad(L) * L->n_out * 2u);
+        if (cn_has_shift(&info->shift[l])) {
+            dec->shift[l] = (const int16_t *)(void *)w;
+            w += align8((size_t)in_pad(L) * L->n_out * 2u);
+        }
+        dec->bias[l] = (const int32_t *)(void *)w;
+        w += align8((size_t)L->n_out * 4u);
+        dec->bias_q16[l] = (const int32_t *)(void *)w;
+        w += align8((size_t)L->n_out * 4u);
+        dec->rows[l] = (const uint16_t *)(void *)w;
+        w += align8((size_t)L->n_out * 2u);
+        dec->n_pairs[l] = (uint16_t)(in_pad(L) / 2u);
+    }
+    if (info->grid_g) {
+        dec->grid = w;
+        w += align8(grid_bitmap_bytes(info->grid_g));
+    }
+    return w;
+}
+
+/* Decodes layer l into its place in the workspace: the bias mantissas; the latents (and
+ * shifts) widened to int16, their columns in the producer's row order, the live rows first
+ * and packed for the kernels; the Q16 biases in row order; and the layer's proofs. */
+static cnerf_status open_layer(cnerf_decoder *dec, const uint8_t *buf, uint32_t l,
+                               uint8_t *scratch)
+{
+    const cnerf_layer_info *L = &dec->info.layer[l];
+    int32_t *bias = (int32_t *)(uintptr_t)dec->bias[l];
+    int16_t *lat = (int16_t *)(uintptr_t)dec->latent[l];
+    uint16_t *rows = (uint16_t *)(uintptr_t)dec->rows[l];
+    int16_t *sh = (int16_t *)(uintptr_t)dec->shift[l]; /* NULL: no shift */
+    int16_t *tmp = (int16_t *)(void *)scratch;
+    const coded ck = coded_latents(L), cs = coded_shifts(L, &dec->info.shift[l]);
+    cnerf_status st = read_biases(buf, L, bias);
+    if (st == CNERF_OK)
+        st = decode_matrix(buf, &ck, lat, (uint32_t *)(void *)scratch);
+    if (st == CNERF_OK && sh)
+        st = decode_matrix(buf, &cs, sh, (uint32_t *)(void *)scratch);
+    if (st != CNERF_OK)
+        return st;
+    order_columns(dec, l, lat, tmp);
+    if (sh)
+        order_columns(dec, l, sh, tmp);
+    uint32_t maxsum, maxshift;
+    const uint16_t live = order_rows(L, lat, sh, rows, &maxsum, &maxshift);
+    dec->n_live[l] = live;
+    pack_rows(L, lat, rows, live, tmp);
+    if (sh)
+        pack_rows(L, sh, rows, live, tmp);
+    int32_t *bq = (int32_t *)(uintptr_t)dec->bias_q16[l];
+    for (uint32_t j = 0; j < L->n_out; j++)
+        bq[j] = L->bias_bits ? q16_bias(bias[rows[j]], L->bias_e) : 0;
+    prove_layer(dec, l, maxsum, maxshift);
+    return CNERF_OK;
+}
+
 cnerf_status cnerf_open_scene(cnerf_decoder *dec, const uint8_t *buf, size_t len,
                               uint32_t scene, void *ws, size_t ws_size)
 {
@@ -285,68 +349,19 @@ cnerf_status cnerf_open_scene(cnerf_decoder *dec, const uint8_t *buf, size_t len
         return CNERF_E_WS_ALIGN;
     if (!buf)
         buf = (const uint8_t *)""; /* no bytes: an empty stream */
-    cnerf_status st = cn_parse(buf, len, scene, &dec->info);
-    if (st == CNERF_OK && ws_size < cnerf_workspace_size(&dec->info))
-        st = CNERF_E_WS_SMALL;
-    uint8_t *w = (uint8_t *)ws;
     const cnerf_info *info = &dec->info;
-    uint8_t *scratch = (uint8_t *)0;
+    cnerf_status st = cn_parse(buf, len, scene, &dec->info);
+    if (st == CNERF_OK && ws_size < cnerf_workspace_size(info))
+        st = CNERF_E_WS_SMALL;
     if (st == CNERF_OK) {
-        /* Layout: per layer latents, biases and row order; the grid; open's scratch last. */
-        for (uint32_t l = 0; l < info->n_layers; l++) {
-            const cnerf_layer_info *L = &info->layer[l];
-            dec->latent[l] = (const int16_t *)(void *)w;
-            w += align8((size_t)in_pad(L) * L->n_out * 2u);
-            if (cn_has_shift(&info->shift[l])) {
-                dec->shift[l] = (const int16_t *)(void *)w;
-                w += align8((size_t)in_pad(L) * L->n_out * 2u);
-            }
-            dec->bias[l] = (const int32_t *)(void *)w;
-            w += align8((size_t)L->n_out * 4u);
-            dec->bias_q16[l] = (const int32_t *)(void *)w;
-            w += align8((size_t)L->n_out * 4u);
-            dec->rows[l] = (const uint16_t *)(void *)w;
-            w += align8((size_t)L->n_out * 2u);
-            dec->n_pairs[l] = (uint16_t)(in_pad(L) / 2u);
-        }
-        if (info->grid_g) {
-            const size_t nb = grid_bitmap_bytes(info->grid_g);
+        /* the layers' arrays, the grid, and open's scratch last */
+        uint8_t *scratch = lay_out(dec, (uint8_t *)ws);
+        if (info->grid_g)
             st = cn_grid_decode(buf + info->grid_payload_offset, info->grid_payload_bytes,
-                                info->grid_g, info->grid_prec, info->grid_f1, w,
-                                &dec->grid_occupied);
-            dec->grid = w;
-            w += align8(nb);
-        }
-        scratch = w;
-    }
-    for (uint32_t l = 0; st == CNERF_OK && l < info->n_layers; l++) {
-        const cnerf_layer_info *L = &info->layer[l];
-        int32_t *bias = (int32_t *)(uintptr_t)dec->bias[l];
-        int16_t *lat = (int16_t *)(uintptr_t)dec->latent[l];
-        uint16_t *rows = (uint16_t *)(uintptr_t)dec->rows[l];
-        int16_t *sh = (int16_t *)(uintptr_t)dec->shift[l]; /* NULL: no shift */
-        int16_t *tmp = (int16_t *)(void *)scratch;
-        const coded ck = coded_latents(L), cs = coded_shifts(L, &info->shift[l]);
-        st = read_biases(buf, L, bias);
-        if (st == CNERF_OK)
-            st = decode_matrix(buf, &ck, lat, (uint32_t *)(void *)scratch);
-        if (st == CNERF_OK && sh)
-            st = decode_matrix(buf, &cs, sh, (uint32_t *)(void *)scratch);
-        if (st != CNERF_OK)
-            break;
-        order_columns(dec, l, lat, tmp);
-        if (sh)
-            order_columns(dec, l, sh, tmp);
-        uint32_t maxsum, maxshift;
-        const uint16_t live = order_rows(L, lat, sh, rows, &maxsum, &maxshift);
-        dec->n_live[l] = live;
-        pack_rows(L, lat, rows, live, tmp);
-        if (sh)
-            pack_rows(L, sh, rows, live, tmp);
-        int32_t *bq = (int32_t *)(uintptr_t)dec->bias_q16[l];
-        for (uint32_t j = 0; j < L->n_out; j++)
-            bq[j] = L->bias_bits ? q16_bias(bias[rows[j]], L->bias_e) : 0;
-        prove_layer(dec, l, maxsum, maxshift);
+                                info->grid_g, info->grid_prec, info->grid_f1,
+                                (uint8_t *)(uintptr_t)dec->grid, &dec->grid_occupied);
+        for (uint32_t l = 0; st == CNERF_OK && l < info->n_layers; l++)
+            st = open_layer(dec, buf, l, scratch);
     }
     if (st == CNERF_OK) {
         const cn_dot_variant v = cn_dot_select();
