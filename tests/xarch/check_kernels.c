@@ -2,7 +2,7 @@
  * The decoder's kernels against its portable C, in the manner of dav1d's checkasm: every
  * dot-product kernel this build and CPU have (cn_dot_variants) on random packed layers of
  * every shape up to 13 rows and 71 input pairs and on the extremes (the largest latents a
- * row may hold for int32 sums, saturated inputs), cn_dot_c itself against a plain int64
+ * row may hold for int32 sums, saturated inputs), cn_dot_s16_c itself against a plain int64
  * sum over the unpacked rows, and the layers' fast rescale and input quantization against
  * the exact arithmetic they stand for. Decoder only, no libc beyond stdio: it also runs
  * under qemu-user for other architectures (scripts/xarch.sh).
@@ -132,7 +132,7 @@ int main(int argc, char **argv)
                         ok &= s >= INT32_MIN && s <= INT32_MAX;
                     }
                     check(ok, "the case keeps the int32 bound", "setup", rows, pairs);
-                    cn_dot64_c(kbuf, xq, pairs, rows, want64);
+                    cn_dot_s16_s64_c(kbuf, xq, pairs, rows, want64);
                     ok = 1;
                     for (uint32_t j = 0; j < rows; j++)
                         ok &= want64[j] == want[j];
