@@ -29,6 +29,8 @@ uint32_t cnerf_crc32(uint32_t crc, const uint8_t *p, size_t len)
     return ~crc;
 }
 
+/* ---- the payloads of LAYR, SHFT and GRID ---- */
+
 static int exp_ok(int32_t e) { return e >= CNERF_EXP_MIN && e <= CNERF_EXP_MAX; }
 
 /* Where a coded matrix (latents or shifts) lies in its chunk. */
@@ -201,6 +203,9 @@ static cnerf_status parse_grid(const uint8_t *buf, uint32_t off, uint32_t clen, 
     return gf->payload_bytes < 4u ? CNERF_E_PAYLOAD : CNERF_OK;
 }
 
+/* ---- the walk: the signature, then chunk by chunk, one handler per chunk type ---- */
+
+/* Four ASCII letters. */
 static int tag_ok(uint32_t tag)
 {
     for (int i = 0; i < 4; i++) {
@@ -210,8 +215,6 @@ static int tag_ok(uint32_t tag)
     }
     return 1;
 }
-
-/* ---- the walk: the signature, then chunk by chunk, one handler per chunk type ---- */
 
 /* The walk's state between chunks. The order: the first HEAD, then SCNS (several scenes),
  * UNIT, one SHFT per layer; then per scene its HEAD (not for scene 0), GRID and layers;

@@ -7,6 +7,8 @@
 #include "cn_internal.h"
 #include "cn_kernels.h"
 
+/* ---- the workspace's size ---- */
+
 static size_t align8(size_t n) { return (n + 7u) & ~(size_t)7u; }
 
 /* Alphabet size of a coded layer, 0 for a constant one. */
@@ -48,6 +50,8 @@ size_t cnerf_workspace_size(const cnerf_info *info)
         total += align8(grid_bitmap_bytes(info->grid_g));
     return total + align8(scratch);
 }
+
+/* ---- a layer's numbers: bias mantissas, latents and shifts ---- */
 
 /* Reads layer L's bias mantissas into `out`. */
 static cnerf_status read_biases(const uint8_t *buf, const cnerf_layer_info *L, int32_t *out)
@@ -115,6 +119,8 @@ static cnerf_status decode_matrix(const uint8_t *buf, const coded *C, int16_t *l
     }
     return CNERF_OK;
 }
+
+/* ---- the rows' order, the columns' order and the packing for the kernels ---- */
 
 /* The latents' packed layout (cnerf_decoder.latent): the index of k[j][i] of stored row j
  * among n_live live rows of `pairs` input pairs. */
@@ -242,6 +248,8 @@ static void order_columns(const cnerf_decoder *dec, uint32_t l, int16_t *lat, in
     }
 }
 
+/* ---- the Q16 biases and the proofs of the fixed-point sums ---- */
+
 /* sat32(round(v)) of the rounding rule of the layers (half up). */
 static int32_t q16_bias(int32_t m, int e)
 {
@@ -272,6 +280,8 @@ static void prove_layer(cnerf_decoder *dec, uint32_t l, uint32_t maxsum, uint32_
     if (nb >= 1 && nb <= 62 && (bbound >> 30) >> nb == 0u)
         dec->b_shift[l] = (uint8_t)nb;
 }
+
+/* ---- cnerf_open ---- */
 
 /* The workspace's layout: per layer its packed latents (and shifts), bias mantissas, Q16
  * biases and row order; then the grid's bitmap. Returns where open's scratch starts. */
@@ -379,6 +389,8 @@ cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void
 {
     return cnerf_open_scene(dec, buf, len, 0, ws, ws_size);
 }
+
+/* ---- the decoded matrices, for tools and tests ---- */
 
 /* Element (o, i) of layer l's packed matrix m (its latents or its shifts). */
 static int32_t packed_at(const cnerf_decoder *dec, uint32_t l, const int16_t *m, uint32_t o,
