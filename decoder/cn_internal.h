@@ -37,21 +37,37 @@ cnerf_status cn_rans_decode(const uint8_t *payload, size_t len, const uint32_t *
 cnerf_status cn_grid_decode(const uint8_t *payload, size_t len, uint32_t g, unsigned prec,
                             const uint16_t *f1, uint8_t *bits, uint32_t *occupied);
 
-/* ---- container walk ---- */
+/* ---- HEAD and topology (head.c) ---- */
 
 /* Parses a HEAD payload of clen bytes into info (render parameters, expanded topology);
  * info->version_minor says which values the HEAD may hold. */
 cnerf_status cn_parse_head(const uint8_t *p, uint32_t clen, cnerf_info *info);
 
+/* A later scene's HEAD (payload p, clen bytes) against the first one's (p0, len0): the same
+ * length and topology bytes (CNERF_E_HEADER otherwise), and valid render parameters, which
+ * go into info when `record`. */
+cnerf_status cn_parse_scene_head(const uint8_t *p, uint32_t clen, const uint8_t *p0,
+                                 uint32_t len0, cnerf_info *info, int record);
+
+/* Parses a UNIT payload of clen bytes into info's networks and re-expands the topology. */
+cnerf_status cn_parse_units(const uint8_t *p, uint32_t clen, cnerf_info *info);
+
+/* ---- container walk (container.c) ---- */
+
 /* Parses the whole stream into `info`, describing scene `scene` (CNERF_E_ARG after a
  * complete walk when the stream has fewer scenes); used by cnerf_peek and cnerf_open. */
 cnerf_status cn_parse(const uint8_t *buf, size_t len, uint32_t scene, cnerf_info *info);
 
-/* 1 for the layers whose outputs leave the networks (density and colour): the renderer
- * writes them by output index, every other layer's outputs in its stored row order. */
-int cn_layer_final(const cnerf_layer_info *L);
+/* 1 when the layer's kernel has a shift term (not every shift 0). */
+static inline int cn_has_shift(const cnerf_shift_info *S) { return S->smin != 0 || S->smax != 0; }
 
 /* Freestanding memset. */
 void cn_memzero(void *p, size_t n);
+
+/* ---- the workspace (open.c) ---- */
+
+/* 1 for the layers whose outputs leave the networks (density and colour): the renderer
+ * writes them by output index, every other layer's outputs in its stored row order. */
+int cn_layer_final(const cnerf_layer_info *L);
 
 #endif /* CNERF_DECODER_INTERNAL_H */

@@ -1,9 +1,14 @@
 /*
- * The networks' dot-product kernels (docs/decoder.md, Kernels). A layer's live latent rows
- * are stored packed (cnerf_decoder.latent): blocks of four rows, each block input pair by
- * input pair, k[r][2p] and k[r][2p+1] for each row r; the remaining one to three rows
- * follow row after row. The portable C kernel is the definition; every other kernel
- * computes the same sums and is checked against it (tests/xarch/check_kernels.c).
+ * The networks' kernels (docs/decoder.md, Kernels), named by operation and operand types
+ * as CMSIS-NN names its functions, with the instruction set last: cn_dot_s16_dsp is the dot
+ * product of int16 operands (int32 sums) on the Arm DSP extension. The portable C in
+ * decoder/ (kernels.c) is the definition; the others sit by architecture in decoder/arm/
+ * and decoder/x86/, compute the same values and are checked against it
+ * (tests/xarch/check_kernels.c). The choice among them is made in one place, kernels.c.
+ *
+ * A layer's live latent rows are stored packed (cnerf_decoder.latent): blocks of four rows,
+ * each block input pair by input pair, k[r][2p] and k[r][2p+1] for each row r; the
+ * remaining one to three rows follow row after row.
  * Freestanding: <stdint.h> only.
  */
 #ifndef CNERF_DECODER_KERNELS_H
@@ -11,9 +16,11 @@
 
 #include <stdint.h>
 
-/* Which Arm kernels this build has (kernels_arm.c), chosen at compile time: the sums by
+/* Which kernels this build has. Arm (decoder/arm/), chosen at compile time: the sums by
  * Helium, else the DSP extension, else Advanced SIMD; the inputs' quantization and the
- * outputs' rescale by the DSP extension wherever it exists (Cortex-M4, M7, M33, M55). */
+ * outputs' rescale by the DSP extension wherever it exists (Cortex-M4, M7, M33, M55).
+ * x86-64 (decoder/x86/): AVX2, each function compiled for its target and chosen at run
+ * time. CNERF_PORTABLE builds have the portable C only. */
 #if !defined(CNERF_PORTABLE) && defined(__ARM_FEATURE_MVE) && (__ARM_FEATURE_MVE & 1)
 #define CN_HAVE_MVE 1
 #endif
@@ -23,71 +30,109 @@
 #if !defined(CNERF_PORTABLE) && defined(__aarch64__) && defined(__ARM_NEON)
 #define CN_HAVE_NEON 1
 #endif
+#if !defined(CNERF_PORTABLE) && defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define CN_HAVE_AVX2 1
+#endif
 
-/* acc[j] = sum_i k[j][i] x[i] over 2 n_pairs inputs for the n_rows packed rows, in int32:
- * the caller has proved that no partial sum leaves the int32 range (cnerf_open), so every
- * order of summation gives the same value. */
+/* ---- the operations ---- */
+
+/* dot_s16: acc[j] = sum_i k[j][i] x[i] over 2 n_pairs int16 inputs for the n_rows packed
+ * int16 rows, in int32: the caller has proved that no partial sum leaves the int32 range
+ * (cnerf_open), so every order of summation gives the same value. */
 typedef void (*cn_dot_fn)(const int16_t *k, const int16_t *x, uint32_t n_pairs,
                           uint32_t n_rows, int32_t *acc);
 
-void cn_dot_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
-              int32_t *acc);
-
-/* The same sums in int64, for layers whose int32 bound does not hold (portable C only). */
-void cn_dot64_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
-                int64_t *acc);
-
-
-/* A layer's inputs at its scale, for 1 <= s <= 16 (render.c's requant): xq[i] =
- * sat16(floor(x[i] / 2^s + 1/2)) for i < n; returns their sum. */
+/* requant_s16: a layer's inputs at its scale, for 1 <= s <= 16 (render.c's requant):
+ * xq[i] = sat16(floor(x[i] / 2^s + 1/2)) for i < n; returns their sum. */
 typedef int32_t (*cn_requant_fn)(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
 
-/* The outputs of a layer's live rows in stored row order, for 1 <= n < 32 where cnerf_open
- * proved the fast rescale (render.c's finish_fast): y[j] = sat32(sat32(((acc[j] am +
- * 2^(n-1)) >> n) + t) + bq[j]), then max(0, .) when relu. */
+/* finish_s32: the outputs of a layer's live rows in stored row order, for 1 <= n < 32 where
+ * cnerf_open proved the fast rescale (render.c's finish_fast): y[j] = sat32(sat32(((acc[j]
+ * am + 2^(n-1)) >> n) + t) + bq[j]), then max(0, .) when relu. */
 typedef void (*cn_finish_fn)(const int32_t *acc, uint32_t live, int32_t am, unsigned n,
                              int32_t t, const int32_t *bq, int32_t *y, int relu);
 
-typedef struct cn_dot_variant {
-    const char *name;
-    cn_dot_fn fn;
-    cn_requant_fn requant; /* NULL: the portable C */
-    cn_finish_fn finish;   /* NULL: the portable C */
-} cn_dot_variant;
+/* ---- the portable C (kernels.c; requant and finish: render.c) ---- */
 
-/* The fastest kernels this build and CPU have (x86-64: AVX2 when the CPU and the OS
- * support it; Arm: chosen at compile time; CNERF_PORTABLE builds: cn_dot_c). */
-cn_dot_variant cn_dot_select(void);
+void cn_dot_s16_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                  int32_t *acc);
+
+/* The same sums in int64, for layers whose int32 bound does not hold (portable C only). */
+void cn_dot_s16_s64_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                      int64_t *acc);
+
+/* ---- Arm (decoder/arm/) ---- */
+
+#if defined(CN_HAVE_DSP) && !defined(CN_HAVE_MVE)
+/* arm/dsp.c: SMLAD, 16 multiply-accumulates in 15 instructions */
+void cn_dot_s16_dsp(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                    int32_t *acc);
+#endif
+#if defined(CN_HAVE_DSP)
+/* arm/dsp.c: QADD, SSAT and PKHBT, two inputs a step */
+int32_t cn_requant_s16_dsp(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
+/* arm/dsp.c: SMLAL and two QADDs, two outputs a step */
+void cn_finish_s32_dsp(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
+                       const int32_t *bq, int32_t *y, int relu);
+#endif
+#if defined(CN_HAVE_MVE)
+/* arm/mve.c: Helium, vmullbq/vmulltq over a block's input pair */
+void cn_dot_s16_mve(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                    int32_t *acc);
+#endif
+#if defined(CN_HAVE_NEON)
+/* arm/neon.c: vmlal_s16/vmlal_high_s16 over a block's input pair */
+void cn_dot_s16_neon(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                     int32_t *acc);
+#endif
+
+/* ---- x86-64 (decoder/x86/) ---- */
+
+#if defined(CN_HAVE_AVX2)
+/* x86/avx2.c: 1 when the CPU has AVX2 and the operating system saves its registers */
+int cn_cpu_has_avx2(void);
+/* x86/avx2.c: vpmaddwd over two input pairs of a block */
+void cn_dot_s16_avx2(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                     int32_t *acc);
+/* x86/avx2.c: sixteen inputs a step */
+int32_t cn_requant_s16_avx2(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
+/* x86/avx2.c: eight outputs a step */
+void cn_finish_s32_avx2(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
+                        const int32_t *bq, int32_t *y, int relu);
+#endif
+
+/* ---- the choice (kernels.c) ---- */
+
+/* A set of kernels: the sums, and the inputs' quantization and the outputs' rescale that
+ * go with them (NULL: render.c's portable C). */
+typedef struct cn_dot_variant {
+    const char *name; /* the instruction set: "c", "dsp", "mve", "neon", "avx2" */
+    cn_dot_fn fn;
+    cn_requant_fn requant;
+    cn_finish_fn finish;
+} cn_dot_variant;
 
 #define CN_DOT_MAX_VARIANTS 4u
 
-/* Writes every kernel this build holds that can run on this CPU into out, the portable
+/* Writes every kernel set this build holds that can run on this CPU into out, the portable
  * one first and the fastest last; returns how many. This is the one place of the CPU
  * dispatch. */
 uint32_t cn_dot_variants(cn_dot_variant out[CN_DOT_MAX_VARIANTS]);
 
-/* The per-architecture parts (kernels_x86.c, kernels_arm.c): each appends the kernels of
- * its architecture that run here and returns how many (at most 2). */
-uint32_t cn_dot_variants_x86(cn_dot_variant *out);
-uint32_t cn_dot_variants_arm(cn_dot_variant *out);
-
-#if defined(CN_HAVE_DSP)
-/* The layer inputs' quantization of render.c (requant) for 1 <= s <= 16 on the DSP
- * extension: xq[i] = sat16(sat32(x[i] + 2^(s-1)) >> s) for i < n; returns their sum. */
-int32_t cn_requant_arm(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
-/* render.c's finish_fast for 1 <= n < 32 on the DSP extension (the same values). */
-void cn_finish_arm(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
-                   const int32_t *bq, int32_t *y, int relu);
-#endif
+/* The fastest kernels this build and CPU have (x86-64: AVX2 when the CPU and the OS
+ * support it; Arm: chosen at compile time; CNERF_PORTABLE builds: the portable C). */
+cn_dot_variant cn_dot_select(void);
 
 /* Builds whose kernel is fixed at compile time call it directly (a known call graph for
  * the stack bound of firmware builds); the others go through cnerf_decoder.dot. */
-#if defined(CN_HAVE_MVE) || defined(CN_HAVE_DSP) || defined(CN_HAVE_NEON)
-void cn_dot_arm(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
-                int32_t *acc);
-#define CN_DOT_DIRECT cn_dot_arm
-#elif defined(CNERF_PORTABLE) || !defined(__x86_64__)
-#define CN_DOT_DIRECT cn_dot_c
+#if defined(CN_HAVE_MVE)
+#define CN_DOT_DIRECT cn_dot_s16_mve
+#elif defined(CN_HAVE_DSP)
+#define CN_DOT_DIRECT cn_dot_s16_dsp
+#elif defined(CN_HAVE_NEON)
+#define CN_DOT_DIRECT cn_dot_s16_neon
+#elif !defined(CN_HAVE_AVX2)
+#define CN_DOT_DIRECT cn_dot_s16_c
 #endif
 
 #endif /* CNERF_DECODER_KERNELS_H */

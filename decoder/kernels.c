@@ -1,10 +1,11 @@
 /*
- * The portable dot-product kernels, which define the sums, and the choice of kernel.
+ * The portable dot-product kernels, which define the sums, and the choice among the kernels
+ * of decoder/arm/ and decoder/x86/: the one place of the dispatch.
  */
 #include "cn_kernels.h"
 
-void cn_dot_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
-              int32_t *acc)
+void cn_dot_s16_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                  int32_t *acc)
 {
     uint32_t j = 0;
     for (; j + 4u <= n_rows; j += 4u) {
@@ -26,8 +27,8 @@ void cn_dot_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_r
     }
 }
 
-void cn_dot64_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
-                int64_t *acc)
+void cn_dot_s16_s64_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                      int64_t *acc)
 {
     uint32_t j = 0;
     for (; j + 4u <= n_rows; j += 4u) {
@@ -49,16 +50,35 @@ void cn_dot64_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n
     }
 }
 
+/* One entry of the list; returns 1. */
+static uint32_t variant(cn_dot_variant *v, const char *name, cn_dot_fn fn, cn_requant_fn requant,
+                        cn_finish_fn finish)
+{
+    v->name = name;
+    v->fn = fn;
+    v->requant = requant;
+    v->finish = finish;
+    return 1;
+}
+
 uint32_t cn_dot_variants(cn_dot_variant out[CN_DOT_MAX_VARIANTS])
 {
-    uint32_t n = 0;
-    out[n].name = "c";
-    out[n].requant = (cn_requant_fn)0;
-    out[n].finish = (cn_finish_fn)0;
-    out[n++].fn = cn_dot_c;
-#ifndef CNERF_PORTABLE
-    n += cn_dot_variants_x86(out + n);
-    n += cn_dot_variants_arm(out + n);
+    const cn_requant_fn c_requant = (cn_requant_fn)0; /* render.c's portable C */
+    const cn_finish_fn c_finish = (cn_finish_fn)0;
+    uint32_t n = variant(out, "c", cn_dot_s16_c, c_requant, c_finish);
+#if defined(CN_HAVE_AVX2)
+    if (cn_cpu_has_avx2())
+        n += variant(out + n, "avx2", cn_dot_s16_avx2, cn_requant_s16_avx2, cn_finish_s32_avx2);
+#endif
+    /* Arm: one set, fixed at compile time */
+#if defined(CN_HAVE_MVE) && defined(CN_HAVE_DSP)
+    n += variant(out + n, "mve", cn_dot_s16_mve, cn_requant_s16_dsp, cn_finish_s32_dsp);
+#elif defined(CN_HAVE_MVE)
+    n += variant(out + n, "mve", cn_dot_s16_mve, c_requant, c_finish);
+#elif defined(CN_HAVE_DSP)
+    n += variant(out + n, "dsp", cn_dot_s16_dsp, cn_requant_s16_dsp, cn_finish_s32_dsp);
+#elif defined(CN_HAVE_NEON)
+    n += variant(out + n, "neon", cn_dot_s16_neon, c_requant, c_finish);
 #endif
     return n;
 }

@@ -142,7 +142,7 @@ CN_NOINLINE static int32_t requant(const int32_t *x, int16_t *xq, uint32_t n, un
         return sum;
     }
 #if defined(CN_HAVE_DSP)
-    return cn_requant_arm(x, xq, n, s);
+    return cn_requant_s16_dsp(x, xq, n, s);
 #else
     const int32_t h = (int32_t)1 << (s - 1u);
     for (uint32_t i = 0; i < n; i++) {
@@ -171,7 +171,7 @@ CN_NOINLINE static void finish_fast(const int32_t *acc, uint32_t live, int32_t a
 {
 #if defined(CN_HAVE_DSP)
     if (n < 32u) {
-        cn_finish_arm(acc, live, am, n, t, bq, y, relu);
+        cn_finish_s32_dsp(acc, live, am, n, t, bq, y, relu);
         return;
     }
 #endif
@@ -219,7 +219,7 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
         for (uint32_t j = 0; j < live; j += 4u) {
             const uint32_t rb = live - j < 4u ? live - j : 4u;
             int64_t a64[4]; /* a full block of four, or the last rows (the same layout) */
-            cn_dot64_c(k + (size_t)j * 2u * pairs, xq, pairs, rb, a64);
+            cn_dot_s16_s64_c(k + (size_t)j * 2u * pairs, xq, pairs, rb, a64);
             for (uint32_t q = 0; q < rb; q++)
                 y[j + q] = cn_sat32(cn_mul_exp_r(a64[q], L->a_m, L->a_e + e, 1));
         }
@@ -250,7 +250,7 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
             for (uint32_t j = 0; j < live; j += 4u) {
                 const uint32_t rb = live - j < 4u ? live - j : 4u;
                 int64_t a64[4];
-                cn_dot64_c(sh + (size_t)j * 2u * pairs, xq, pairs, rb, a64);
+                cn_dot_s16_s64_c(sh + (size_t)j * 2u * pairs, xq, pairs, rb, a64);
                 for (uint32_t q = 0; q < rb; q++)
                     y[j + q] = cn_qadd32(y[j + q],
                                          cn_sat32(cn_mul_exp_r(a64[q], S->g_m, S->g_e + e, 1)));

@@ -15,7 +15,7 @@ cnerf=build/cnerf
 work=build-xarch
 rm -rf "$work"
 mkdir -p "$work"
-src=(decoder/*.c tests/xarch/render_tile.c)
+dec=(decoder/*.c decoder/arm/*.c decoder/x86/*.c) # the portable C, the kernels by architecture
 flags=(-std=c99 -O2 -Wall -Wextra -Werror -Iinclude)
 
 # target: name compiler runner
@@ -32,8 +32,8 @@ done
 for t in "${targets[@]}"; do
   read -r name cc run <<< "$t"
   static=$([ "$run" = "-" ] && echo "" || echo "-static")
-  $cc "${flags[@]}" $static "${src[@]}" -o "$work/render_tile.$name"
-  $cc "${flags[@]}" $static decoder/*.c tests/xarch/check_kernels.c -o "$work/check_kernels.$name"
+  $cc "${flags[@]}" $static "${dec[@]}" tests/xarch/render_tile.c -o "$work/render_tile.$name"
+  $cc "${flags[@]}" $static "${dec[@]}" tests/xarch/check_kernels.c -o "$work/check_kernels.$name"
   echo "built for $name with $cc"
 done
 # Each architecture's kernels against its portable C (tests/xarch/check_kernels.c).

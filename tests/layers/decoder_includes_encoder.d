@@ -1,1 +1,1 @@
-x.o: decoder/parse.c decoder/cn_internal.h encoder/base/cn_buf.h
+x.o: decoder/container.c decoder/cn_internal.h encoder/base/cn_buf.h

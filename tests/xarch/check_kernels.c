@@ -2,14 +2,20 @@
  * The decoder's kernels against its portable C, in the manner of dav1d's checkasm: every
  * dot-product kernel this build and CPU have (cn_dot_variants) on random packed layers of
  * every shape up to 13 rows and 71 input pairs and on the extremes (the largest latents a
- * row may hold for int32 sums, saturated inputs), cn_dot_c itself against a plain int64
+ * row may hold for int32 sums, saturated inputs), cn_dot_s16_c itself against a plain int64
  * sum over the unpacked rows, and the layers' fast rescale and input quantization against
- * the exact arithmetic they stand for. Decoder only, no libc beyond stdio: it also runs
- * under qemu-user for other architectures (scripts/xarch.sh).
- *   check_kernels [ITERATIONS]
+ * the exact arithmetic they stand for. Decoder only, no libc beyond stdio, stdlib and the
+ * clock: it also runs under qemu-user for other architectures (scripts/xarch.sh).
+ *   check_kernels [--bench] [ITERATIONS]
+ * --bench: after the checks, times every kernel against the portable C on the shapes the
+ * checks use and prints the medians (checkasm's --bench). Timings are never pass or fail:
+ * the exit status is the checks'.
  */
+#define _POSIX_C_SOURCE 199309L /* clock_gettime under -std=c99 */
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
+#include <time.h>
 
 #include "../../common/cn_fixed.h"
 #include "../../decoder/cn_kernels.h"
@@ -106,8 +112,230 @@ static void fill(uint32_t rows, uint32_t pairs, int mode)
     }
 }
 
+/* ---- --bench ---- */
+
+#define BENCH_RUNS 15        /* timed runs per kernel and shape; the median is printed */
+#define BENCH_MIN_NS 20000u  /* a run makes calls until it lasts at least this long */
+#define BENCH_MAX_CALLS (1L << 24)
+
+static uint64_t now_ns(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (uint64_t)t.tv_sec * 1000000000u + (uint64_t)t.tv_nsec;
+}
+
+/* render.c's portable loops for 1 <= s <= 16 and n < 32 (its requant and finish_fast where
+ * there is no DSP extension), written here the same way: the C that the kernels' own input
+ * and output loops replace. */
+static int32_t requant_c(const int32_t *x, int16_t *q, uint32_t n, unsigned s)
+{
+    const int32_t h = (int32_t)1 << (s - 1u);
+    int32_t sum = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        const int32_t v = cn_sat16(cn_asr32(cn_qadd32(x[i], h), s));
+        q[i] = (int16_t)v;
+        sum += v;
+    }
+    return sum;
+}
+static void finish_c(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
+                     const int32_t *bq, int32_t *y, int relu)
+{
+    const uint64_t half = (uint64_t)1 << (n - 1u);
+    for (uint32_t j = 0; j < live; j++) {
+        const int32_t v = cn_qadd32(cn_qadd32(cn_rescale_fast(acc[j], am, n, half), t), bq[j]);
+        y[j] = relu && v < 0 ? 0 : v;
+    }
+}
+
+enum { OP_DOT, OP_REQUANT, OP_FINISH };
+static const char *const op_name[] = {"dot_s16", "requant_s16", "finish_s32"};
+
+/* One shape of one operation. */
+typedef struct bench_case {
+    int op;
+    uint32_t rows, pairs; /* dot */
+    uint32_t n;           /* requant: inputs; finish: outputs */
+    unsigned s;           /* requant: the scale's shift; finish: the rescale's */
+    int32_t am, t;
+    int relu;
+} bench_case;
+
+static int32_t b_x[97], b_acc[97], b_bq[97], b_y[97], b_out[MAX_ROWS];
+static int16_t b_q[98];
+static volatile int32_t b_sink;
+
+/* `calls` calls of set v's kernel for c's operation (through volatile pointers, so that
+ * none is merged or hoisted). */
+static void run(const cn_dot_variant *v, const bench_case *c, long calls)
+{
+    if (c->op == OP_DOT) {
+        cn_dot_fn volatile f = v->fn;
+        for (long i = 0; i < calls; i++)
+            f(kbuf, xq, c->pairs, c->rows, b_out);
+    } else if (c->op == OP_REQUANT) {
+        cn_requant_fn volatile f = v->requant;
+        for (long i = 0; i < calls; i++)
+            b_sink = f(b_x, b_q, c->n, c->s);
+    } else {
+        cn_finish_fn volatile f = v->finish;
+        for (long i = 0; i < calls; i++)
+            f(b_acc, c->n, c->am, c->s, c->t, b_bq, b_y, c->relu);
+    }
+}
+
+/* The median nanoseconds per call of each set of v[0..nv) (v[0]: the C) on c: the calls a
+ * run makes are doubled on the C until a run lasts BENCH_MIN_NS; then the sets take turns,
+ * BENCH_RUNS runs each. */
+static void bench_one(const cn_dot_variant *v, uint32_t nv, const bench_case *c, double *ns)
+{
+    for (uint32_t k = 0; k < nv; k++)
+        run(&v[k], c, 1); /* warm */
+    long calls = 1;
+    for (;;) {
+        const uint64_t t0 = now_ns();
+        run(&v[0], c, calls);
+        if (now_ns() - t0 >= BENCH_MIN_NS || calls >= BENCH_MAX_CALLS)
+            break;
+        calls *= 2;
+    }
+    static uint64_t t[CN_DOT_MAX_VARIANTS + 1][BENCH_RUNS];
+    for (int r = 0; r < BENCH_RUNS; r++)
+        for (uint32_t k = 0; k < nv; k++) {
+            const uint64_t t0 = now_ns();
+            run(&v[k], c, calls);
+            t[k][r] = now_ns() - t0;
+        }
+    for (uint32_t k = 0; k < nv; k++) {
+        for (int i = 1; i < BENCH_RUNS; i++) /* insertion sort: 15 values */
+            for (int j = i; j > 0 && t[k][j - 1] > t[k][j]; j--) {
+                const uint64_t x = t[k][j];
+                t[k][j] = t[k][j - 1];
+                t[k][j - 1] = x;
+            }
+        ns[k] = (double)t[k][BENCH_RUNS / 2] / (double)calls;
+    }
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    const double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* The median, least and largest speed-up of set k over the C among `count` shapes. */
+static void summary(const char *op, const char *name, double *ratio, uint32_t count)
+{
+    qsort(ratio, count, sizeof *ratio, cmp_double);
+    printf("%s %s: median speed-up over c %.2fx on %u shapes (least %.2fx, most %.2fx)\n", op,
+           name, ratio[count / 2], count, ratio[0], ratio[count - 1]);
+}
+
+#define N_PAIRS 17 /* the checks' input pairs: 1 to 9, then 16 to 65 by 7 */
+static const uint32_t bench_n[] = {1, 2, 3, 7, 8, 9, 15, 16, 17, 31, 32, 33, 63, 64, 65, 96, 97};
+#define N_BENCH_N (sizeof bench_n / sizeof bench_n[0])
+
+static void bench(const cn_dot_variant *v, uint32_t nv)
+{
+    printf("bench: nanoseconds per call, the median of %d runs of at least %u us each; "
+           "timings are not checked\n", BENCH_RUNS, BENCH_MIN_NS / 1000u);
+    /* dot_s16 on every shape the checks use: rows 1 to 13, the pairs of N_PAIRS */
+    static double dot_ns[MAX_ROWS][N_PAIRS][CN_DOT_MAX_VARIANTS];
+    uint32_t pairs_at[N_PAIRS], np = 0;
+    for (uint32_t pairs = 1; pairs <= MAX_PAIRS; pairs += pairs < 9 ? 1 : 7)
+        pairs_at[np++] = pairs;
+    for (uint32_t rows = 1; rows <= MAX_ROWS; rows++)
+        for (uint32_t p = 0; p < np; p++) {
+            fill(rows, pairs_at[p], 0);
+            pack(rows, pairs_at[p]);
+            bench_case c = {OP_DOT, rows, pairs_at[p], 0, 0, 0, 0, 0};
+            bench_one(v, nv, &c, dot_ns[rows - 1][p]);
+        }
+    for (uint32_t k = 0; k < nv; k++) {
+        printf("\ndot_s16 %s: %s; rows down, input pairs across\nrows", v[k].name,
+               k ? "speed-up over c" : "ns per call");
+        for (uint32_t p = 0; p < np; p++)
+            printf(" %6u", pairs_at[p]);
+        printf("\n");
+        for (uint32_t rows = 1; rows <= MAX_ROWS; rows++) {
+            printf("%4u", rows);
+            for (uint32_t p = 0; p < np; p++) {
+                const double *t = dot_ns[rows - 1][p];
+                printf(k ? " %5.2fx" : " %6.1f", k ? t[0] / t[k] : t[0]);
+            }
+            printf("\n");
+        }
+    }
+    printf("\n");
+    static double ratio[MAX_ROWS * N_PAIRS];
+    for (uint32_t k = 1; k < nv; k++) {
+        uint32_t count = 0;
+        for (uint32_t rows = 1; rows <= MAX_ROWS; rows++)
+            for (uint32_t p = 0; p < np; p++)
+                ratio[count++] = dot_ns[rows - 1][p][0] / dot_ns[rows - 1][p][k];
+        summary("dot_s16", v[k].name, ratio, count);
+    }
+    /* requant_s16 and finish_s32 on the checks' range of n, for the sets that have them */
+    for (int op = OP_REQUANT; op <= OP_FINISH; op++) {
+        cn_dot_variant w[CN_DOT_MAX_VARIANTS + 1];
+        uint32_t nw = 0;
+        w[nw].name = "c";
+        w[nw].fn = cn_dot_s16_c;
+        w[nw].requant = requant_c;
+        w[nw++].finish = finish_c;
+        for (uint32_t k = 0; k < nv; k++)
+            if (op == OP_REQUANT ? v[k].requant != NULL : v[k].finish != NULL)
+                w[nw++] = v[k];
+        if (nw == 1) {
+            printf("%s: no kernel but the c here\n", op_name[op]);
+            continue;
+        }
+        static double ns[N_BENCH_N][CN_DOT_MAX_VARIANTS + 1];
+        for (uint32_t i = 0; i < N_BENCH_N; i++) {
+            const uint32_t n = bench_n[i];
+            bench_case c = {op, 0, 0, n, 8, 0, 0, 1};
+            if (op == OP_REQUANT) {
+                for (uint32_t j = 0; j < n; j++)
+                    b_x[j] = rnd_shifted();
+            } else { /* a_m and sums within cnerf_open's bound for the fast rescale */
+                c.s = 20;
+                c.am = 3000000;
+                c.t = rnd_i32() >> 8;
+                const uint64_t lim = (((uint64_t)1 << (30 + c.s)) - 1u) / ((uint64_t)c.am + 1u);
+                for (uint32_t j = 0; j < n; j++) {
+                    b_acc[j] = rnd_signed(lim + 1u);
+                    b_bq[j] = rnd_i32() >> 8;
+                }
+            }
+            bench_one(w, nw, &c, ns[i]);
+        }
+        printf("\n%s: ns per call (speed-up over c)\n%5s", op_name[op], "n");
+        for (uint32_t k = 0; k < nw; k++)
+            printf(" %16s", w[k].name);
+        printf("\n");
+        for (uint32_t i = 0; i < N_BENCH_N; i++) {
+            printf("%5u %16.1f", bench_n[i], ns[i][0]);
+            for (uint32_t k = 1; k < nw; k++)
+                printf(" %8.1f (%5.2fx)", ns[i][k], ns[i][0] / ns[i][k]);
+            printf("\n");
+        }
+        for (uint32_t k = 1; k < nw; k++) {
+            for (uint32_t i = 0; i < N_BENCH_N; i++)
+                ratio[i] = ns[i][0] / ns[i][k];
+            summary(op_name[op], w[k].name, ratio, (uint32_t)N_BENCH_N);
+        }
+    }
+}
+
 int main(int argc, char **argv)
 {
+    int do_bench = 0;
+    if (argc > 1 && strcmp(argv[1], "--bench") == 0) {
+        do_bench = 1;
+        argc--;
+        argv++;
+    }
     const long iters = argc > 1 ? atol(argv[1]) : 3;
     cn_dot_variant v[CN_DOT_MAX_VARIANTS];
     const uint32_t nv = cn_dot_variants(v);
@@ -132,7 +360,7 @@ int main(int argc, char **argv)
                         ok &= s >= INT32_MIN && s <= INT32_MAX;
                     }
                     check(ok, "the case keeps the int32 bound", "setup", rows, pairs);
-                    cn_dot64_c(kbuf, xq, pairs, rows, want64);
+                    cn_dot_s16_s64_c(kbuf, xq, pairs, rows, want64);
                     ok = 1;
                     for (uint32_t j = 0; j < rows; j++)
                         ok &= want64[j] == want[j];
@@ -220,6 +448,12 @@ int main(int argc, char **argv)
                 check(ok, "outputs", v[k].name, n, nn);
             }
         }
+    }
+    if (do_bench) {
+        if (fails)
+            printf("bench: not run, a check failed\n");
+        else
+            bench(v, nv);
     }
     printf("%d passed, %d failed\n", passes, fails);
     return fails != 0;

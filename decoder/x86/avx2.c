@@ -1,12 +1,15 @@
 /*
- * x86-64 kernels, chosen at run time: AVX2 (vpmaddwd: sixteen 16-bit products summed in
- * pairs into eight int32) when the CPU has it and the operating system saves its
- * registers. Computes exactly cn_dot_c's sums (cn_kernels.h).
+ * x86-64 kernels, chosen at run time (kernels.c): AVX2 (vpmaddwd: sixteen 16-bit products
+ * summed in pairs into eight int32) when the CPU has it and the operating system saves its
+ * registers (cn_cpu_has_avx2). cn_dot_s16_avx2 computes exactly cn_dot_s16_c's sums,
+ * cn_requant_s16_avx2 and cn_finish_s32_avx2 render.c's input quantization and output
+ * rescale (cn_kernels.h). Each function carries its target, so the file builds with the
+ * compiler's default flags.
  */
-#include "cn_kernels.h"
+#include "../cn_kernels.h"
 #include "cnerf/format.h"
 
-#if !defined(CNERF_PORTABLE) && defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#if defined(CN_HAVE_AVX2)
 #include <cpuid.h>
 #include <immintrin.h>
 
@@ -17,7 +20,7 @@ __attribute__((target("avx2"))) static int32_t row_avx2(const int16_t *k, const 
  * first pair repeated in the low half and the second in the high half, vpmaddwd gives the
  * four rows' sums over each pair. The inputs are spread that way once per call (xx, on
  * the stack: at most 281 vectors), so a block's step is a load, a vpmaddwd and an add. */
-__attribute__((target("avx2"))) static void dot_avx2(const int16_t *k, const int16_t *x,
+__attribute__((target("avx2"))) void cn_dot_s16_avx2(const int16_t *k, const int16_t *x,
                                                      uint32_t n_pairs, uint32_t n_rows,
                                                      int32_t *acc)
 {
@@ -85,7 +88,7 @@ __attribute__((target("avx2"))) static int32_t row_avx2(const int16_t *k, const 
 /* render.c's requant for 1 <= s <= 16, sixteen inputs a step: floor(x / 2^s) plus bit s-1
  * of x in int32 lanes (exact), packed to int16 with signed saturation (vpackssdw, lanes
  * put back in order), and summed by vpmaddwd with ones. */
-__attribute__((target("avx2"))) static int32_t requant_avx2(const int32_t *x, int16_t *xq,
+__attribute__((target("avx2"))) int32_t cn_requant_s16_avx2(const int32_t *x, int16_t *xq,
                                                             uint32_t n, unsigned s)
 {
     const __m128i cs = _mm_cvtsi32_si128((int)s), cb = _mm_cvtsi32_si128((int)s - 1);
@@ -131,9 +134,9 @@ __attribute__((target("avx2"))) static inline __m256i qadd_avx2(__m256i a, __m25
 /* render.c's finish_fast for n < 32, eight outputs a step: the products acc am in 64-bit
  * lanes (even and odd lanes by vpmuldq), plus 2^(n-1), shifted right by n (the low word is
  * the result: bits n..n+31 of the sum, below 2^62), then the two saturating additions. */
-__attribute__((target("avx2"))) static void finish_avx2(const int32_t *acc, uint32_t live,
-                                                         int32_t am, unsigned n, int32_t t,
-                                                         const int32_t *bq, int32_t *y, int relu)
+__attribute__((target("avx2"))) void cn_finish_s32_avx2(const int32_t *acc, uint32_t live,
+                                                        int32_t am, unsigned n, int32_t t,
+                                                        const int32_t *bq, int32_t *y, int relu)
 {
     const __m256i amv = _mm256_set1_epi32(am), half = _mm256_set1_epi64x((long long)1 << (n - 1u));
     const __m256i tv = _mm256_set1_epi32(t), zero = _mm256_setzero_si256();
@@ -162,7 +165,8 @@ __attribute__((target("avx2"))) static void finish_avx2(const int32_t *acc, uint
     }
 }
 
-static int have_avx2(void)
+/* 1 when the CPU has AVX2 and the operating system saves the YMM registers. */
+int cn_cpu_has_avx2(void)
 {
     unsigned a, b, c, d;
     if (!__get_cpuid(1, &a, &b, &c, &d) || !(c & bit_OSXSAVE) || !(c & bit_AVX))
@@ -173,21 +177,6 @@ static int have_avx2(void)
         return 0;
     return __get_cpuid_count(7, 0, &a, &b, &c, &d) && (b & bit_AVX2);
 }
-
-uint32_t cn_dot_variants_x86(cn_dot_variant *out)
-{
-    if (!have_avx2())
-        return 0;
-    out[0].name = "avx2";
-    out[0].fn = dot_avx2;
-    out[0].requant = requant_avx2;
-    out[0].finish = finish_avx2;
-    return 1;
-}
 #else
-uint32_t cn_dot_variants_x86(cn_dot_variant *out)
-{
-    (void)out;
-    return 0;
-}
+typedef int cn_no_avx2; /* ISO C: a translation unit declares something */
 #endif

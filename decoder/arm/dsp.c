@@ -1,22 +1,17 @@
 /*
- * Arm kernels, chosen at compile time: the DSP extension's dual 16-bit multiply-accumulate
- * (Cortex-M4, M7, M33: __smlad from arm_acle.h), Helium (Cortex-M55, M85: arm_mve.h) and
- * Advanced SIMD (aarch64: arm_neon.h). Each computes exactly cn_dot_c's sums (cn_kernels.h).
+ * The Arm DSP extension's kernels (Cortex-M4, M7, M33, M55; Armv7-A): dual 16-bit
+ * multiply-accumulates (SMLAD), saturating additions and packing. cn_dot_s16_dsp computes
+ * exactly cn_dot_s16_c's sums, cn_requant_s16_dsp and cn_finish_s32_dsp render.c's input
+ * quantization and output rescale (cn_kernels.h). Where Helium is there too (Cortex-M55) its
+ * sums are the faster ones (mve.c), and the sums here are not built.
  */
-#include "../common/cn_fixed.h"
-#include "cn_kernels.h"
+#include "../../common/cn_fixed.h"
+#include "../cn_kernels.h"
 
-#if defined(CN_HAVE_MVE)
-#include <arm_mve.h>
-#endif
 #if defined(CN_HAVE_DSP)
 #include <arm_acle.h>
-#endif
-#if defined(CN_HAVE_NEON)
-#include <arm_neon.h>
-#endif
 
-#if defined(CN_HAVE_DSP)
+#if !defined(CN_HAVE_MVE)
 /* Two int16 of the packed latents or of the inputs as one word (an aligned load). */
 static inline int32_t rd2(const int16_t *p)
 {
@@ -25,7 +20,6 @@ static inline int32_t rd2(const int16_t *p)
     return v;
 }
 
-#if !defined(CN_HAVE_MVE)
 /* One step of the inner loop: two input words (one LDRD) against the block's eight latent
  * words (four LDRDs), eight dual multiply-accumulates. */
 #define CN_DSP_STEP                                                                         \
@@ -47,8 +41,8 @@ static inline int32_t rd2(const int16_t *p)
  * and the loop's compare and branch for 64 multiply-accumulates), then steps for the
  * remaining pairs two at a time and __smlad for a last odd pair. Every load is an LDRD with
  * write-back, so no operand spills. */
-void cn_dot_arm(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
-                int32_t *acc)
+void cn_dot_s16_dsp(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                    int32_t *acc)
 {
     uint32_t j = 0;
     for (; j + 4u <= n_rows; j += 4u) {
@@ -94,11 +88,7 @@ void cn_dot_arm(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n
     }
 }
 
-/* A layer's inputs at its scale for 1 <= s <= 16 (render.c's requant: sat16 of x plus
- * 2^(s-1) saturated, shifted right by s), two at a time: one LDRD, two QADDs, two shifts,
- * two SSATs, one PKHBT packing the pair, one store, and one SMLAD with (1, 1) adding both
- * to the sum. Returns the sum. */
-#endif /* the DSP extension's sums where there is no Helium */
+#endif /* the sums where there is no Helium */
 
 /* render.c's finish_fast for n < 32, two outputs per step: y[j] = sat32(sat32(((acc[j] a_m
  * + 2^(n-1)) >> n) + t) + bq[j]), then max(0, .) when relu. The 64-bit value starts at
@@ -134,8 +124,8 @@ void cn_dot_arm(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n
       [t] "r"(t)                                                                             \
     : "cc", "memory"
 
-void cn_finish_arm(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
-                   const int32_t *bq, int32_t *y, int relu)
+void cn_finish_s32_dsp(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
+                       const int32_t *bq, int32_t *y, int relu)
 {
     const uint32_t half = (uint32_t)1 << (n - 1u);
     if (live >= 2u) {
@@ -153,7 +143,11 @@ void cn_finish_arm(const int32_t *acc, uint32_t live, int32_t am, unsigned n, in
     }
 }
 
-int32_t cn_requant_arm(const int32_t *x, int16_t *xq, uint32_t n, unsigned s)
+/* A layer's inputs at its scale for 1 <= s <= 16 (render.c's requant: sat16 of x plus
+ * 2^(s-1) saturated, shifted right by s), two at a time: one LDRD, two QADDs, two shifts,
+ * two SSATs, one PKHBT packing the pair, one store, and one SMLAD with (1, 1) adding both
+ * to the sum. Returns the sum. */
+int32_t cn_requant_s16_dsp(const int32_t *x, int16_t *xq, uint32_t n, unsigned s)
 {
     const int32_t h = (int32_t)1 << (s - 1u), ones = 0x00010001;
     int32_t sum = 0;
@@ -189,97 +183,6 @@ int32_t cn_requant_arm(const int32_t *x, int16_t *xq, uint32_t n, unsigned s)
     }
     return sum;
 }
-#endif
-
-#if defined(CN_HAVE_MVE)
-/* Each vector holds one input pair of the block's four rows; multiplied lane by lane with
- * the pair repeated four times, the bottom (even) lanes give k[r][2p] x[2p] and the top
- * (odd) lanes k[r][2p+1] x[2p+1], both as four int32. Two pairs a step, into two
- * accumulators. */
-void cn_dot_arm(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
-                int32_t *acc)
-{
-    uint32_t j = 0;
-    for (; j + 4u <= n_rows; j += 4u) {
-        int32x4_t a = vdupq_n_s32(0), b = vdupq_n_s32(0);
-        const int16_t *xp = x;
-        for (uint32_t p = n_pairs >> 1; p > 0u; p--) {
-            int32_t xa, xb;
-            __builtin_memcpy(&xa, xp, 4);
-            __builtin_memcpy(&xb, xp + 2, 4);
-            xp += 4;
-            const int16x8_t x0 = vreinterpretq_s16_s32(vdupq_n_s32(xa));
-            const int16x8_t x1 = vreinterpretq_s16_s32(vdupq_n_s32(xb));
-            const int16x8_t w0 = vld1q_s16(k), w1 = vld1q_s16(k + 8);
-            k += 16;
-            a = vaddq_s32(a, vmullbq_int_s16(w0, x0));
-            b = vaddq_s32(b, vmulltq_int_s16(w0, x0));
-            a = vaddq_s32(a, vmullbq_int_s16(w1, x1));
-            b = vaddq_s32(b, vmulltq_int_s16(w1, x1));
-        }
-        if (n_pairs & 1u) {
-            int32_t xv;
-            __builtin_memcpy(&xv, xp, 4);
-            const int16x8_t xx = vreinterpretq_s16_s32(vdupq_n_s32(xv));
-            const int16x8_t w = vld1q_s16(k);
-            k += 8;
-            a = vaddq_s32(a, vmullbq_int_s16(w, xx));
-            b = vaddq_s32(b, vmulltq_int_s16(w, xx));
-        }
-        vst1q_s32(acc + j, vaddq_s32(a, b));
-    }
-    if (j < n_rows)
-        cn_dot_c(k, x, n_pairs, n_rows - j, acc + j);
-}
-#endif
-
-#if defined(CN_HAVE_NEON)
-void cn_dot_arm(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
-                int32_t *acc)
-{
-    uint32_t j = 0;
-    for (; j + 4u <= n_rows; j += 4u) {
-        int32x4_t lo = vdupq_n_s32(0), hi = vdupq_n_s32(0);
-        for (uint32_t p = 0; p < n_pairs; p++, k += 8) {
-            int32_t xv;
-            __builtin_memcpy(&xv, x + 2u * p, 4);
-            const int16x8_t xx = vreinterpretq_s16_s32(vdupq_n_s32(xv));
-            const int16x8_t w = vld1q_s16(k);
-            lo = vmlal_s16(lo, vget_low_s16(w), vget_low_s16(xx)); /* rows 0, 1 */
-            hi = vmlal_high_s16(hi, w, xx);                         /* rows 2, 3 */
-        }
-        vst1q_s32(acc + j, vpaddq_s32(lo, hi));
-    }
-    if (j < n_rows)
-        cn_dot_c(k, x, n_pairs, n_rows - j, acc + j);
-}
-#endif
-
-uint32_t cn_dot_variants_arm(cn_dot_variant *out)
-{
-    uint32_t n = 0;
-#if defined(CN_HAVE_MVE)
-    out[n].name = "mve";
-#if defined(CN_HAVE_DSP)
-    out[n].requant = cn_requant_arm;
-    out[n].finish = cn_finish_arm;
 #else
-    out[n].requant = (cn_requant_fn)0;
-    out[n].finish = (cn_finish_fn)0;
+typedef int cn_no_dsp; /* ISO C: a translation unit declares something */
 #endif
-    out[n++].fn = cn_dot_arm;
-#elif defined(CN_HAVE_DSP)
-    out[n].name = "dsp";
-    out[n].requant = cn_requant_arm;
-    out[n].finish = cn_finish_arm;
-    out[n++].fn = cn_dot_arm;
-#elif defined(CN_HAVE_NEON)
-    out[n].name = "neon";
-    out[n].requant = (cn_requant_fn)0;
-    out[n].finish = (cn_finish_fn)0;
-    out[n++].fn = cn_dot_arm;
-#else
-    (void)out;
-#endif
-    return n;
-}

@@ -1,0 +1,427 @@
+/*
+ * cnerf_open: the workspace's layout, the latents' and shifts' decoding, the rows' order and
+ * packing for the kernels, the per-layer proofs of the fixed-point sums, and the kernels'
+ * choice; and the accessors of the decoded matrices (cnerf_latent, cnerf_shift).
+ */
+#include "../common/cn_fixed.h"
+#include "cn_internal.h"
+#include "cn_kernels.h"
+
+/* ---- the workspace's size ---- */
+
+static size_t align8(size_t n) { return (n + 7u) & ~(size_t)7u; }
+
+/* Alphabet size of a coded layer, 0 for a constant one. */
+static uint32_t alphabet(const cnerf_layer_info *L)
+{
+    return L->kmin < L->kmax ? (uint32_t)(L->kmax - L->kmin) + 1u : 0u;
+}
+
+/* Bytes of the occupancy bitmap of g^3 cells (g <= CNERF_MAX_GRID: at most 2^18). */
+static size_t grid_bitmap_bytes(uint32_t g) { return ((size_t)g * g * g + 7u) >> 3; }
+
+/* Inputs of a layer padded to whole pairs (the kernels take two at a time). */
+static uint32_t in_pad(const cnerf_layer_info *L) { return ((uint32_t)L->n_in + 1u) & ~1u; }
+
+size_t cnerf_workspace_size(const cnerf_info *info)
+{
+    if (!info || info->n_layers > CNERF_MAX_LAYERS)
+        return 0;
+    /* Every term is bounded by the limits (see CNERF_WORKSPACE_BOUND), and the total is
+     * below 2^29 bytes, so size_t arithmetic cannot overflow even where it is 32 bits. */
+    size_t total = 0, scratch = 0;
+    for (uint32_t l = 0; l < info->n_layers; l++) {
+        const cnerf_layer_info *L = &info->layer[l];
+        const cnerf_shift_info *S = &info->shift[l];
+        total += align8((size_t)in_pad(L) * L->n_out * 2u); /* packed int16 latents */
+        if (cn_has_shift(S))
+            total += align8((size_t)in_pad(L) * L->n_out * 2u); /* packed int16 shifts */
+        total += 2u * align8((size_t)L->n_out * 4u);          /* bias mantissas, bias_q16 */
+        total += align8((size_t)L->n_out * 2u);               /* row order */
+        /* open's scratch: the frequency table, or four rows while packing them */
+        const size_t cum = alphabet(L) ? ((size_t)alphabet(L) + 1u) * 4u : 0u;
+        const size_t scum = S->smin < S->smax ? ((size_t)(S->smax - S->smin) + 2u) * 4u : 0u;
+        const size_t rows4 = (size_t)in_pad(L) * 4u * 2u;
+        scratch = cum > scratch ? cum : scratch;
+        scratch = scum > scratch ? scum : scratch;
+        scratch = rows4 > scratch ? rows4 : scratch;
+    }
+    if (info->grid_g)
+        total += align8(grid_bitmap_bytes(info->grid_g));
+    return total + align8(scratch);
+}
+
+/* ---- a layer's numbers: bias mantissas, latents and shifts ---- */
+
+/* Reads layer L's bias mantissas into `out`. */
+static cnerf_status read_biases(const uint8_t *buf, const cnerf_layer_info *L, int32_t *out)
+{
+    if (L->bias_bits == 0u) {
+        for (uint32_t j = 0; j < L->n_out; j++)
+            out[j] = 0;
+        return CNERF_OK;
+    }
+    cn_bits b;
+    cn_bits_init(&b, buf + L->bias_offset, (L->n_out * (uint32_t)L->bias_bits + 7u) >> 3);
+    for (uint32_t j = 0; j < L->n_out; j++)
+        out[j] = cn_sext(cn_bits_get(&b, L->bias_bits), L->bias_bits);
+    return b.err ? CNERF_E_CHUNK : CNERF_OK; /* cannot fail after cn_parse */
+}
+
+/* A coded integer matrix: a layer's latents or its shifts. */
+typedef struct coded {
+    uint32_t n_in, n_out;
+    int32_t lo, hi; /* range; lo == hi codes nothing */
+    uint32_t prec, order, table_offset, payload_offset, payload_bytes;
+} coded;
+
+static coded coded_latents(const cnerf_layer_info *L)
+{
+    coded c = {L->n_in, L->n_out, L->kmin, L->kmax, L->prec, L->eg_order, L->table_offset,
+               L->payload_offset, L->payload_bytes};
+    return c;
+}
+
+static coded coded_shifts(const cnerf_layer_info *L, const cnerf_shift_info *S)
+{
+    coded c = {L->n_in, L->n_out, S->smin, S->smax, S->prec, S->eg_order, S->table_offset,
+               S->payload_offset, S->payload_bytes};
+    return c;
+}
+
+/* Decodes a coded matrix row-major into lat, rows of in_pad int16 with a zero in the pad
+ * column. */
+static cnerf_status decode_matrix(const uint8_t *buf, const coded *C, int16_t *lat, uint32_t *cum)
+{
+    const uint32_t n_in = C->n_in, n_out = C->n_out, pad = (n_in + 1u) & ~1u;
+    const uint32_t count = n_in * n_out;
+    if (C->lo == C->hi) {
+        for (uint32_t i = 0; i < count; i++)
+            lat[i] = (int16_t)C->lo;
+    } else {
+        const uint32_t n = (uint32_t)(C->hi - C->lo) + 1u;
+        cn_bits b;
+        cn_bits_init(&b, buf + C->table_offset, C->payload_offset - C->table_offset);
+        cnerf_status st = cn_table_read(&b, n, C->prec, C->order, cum);
+        if (st == CNERF_OK)
+            st = cn_rans_decode(buf + C->payload_offset, C->payload_bytes, cum, n, C->prec,
+                                C->lo, lat, 2u, count);
+        if (st != CNERF_OK)
+            return st;
+    }
+    if (pad != n_in) {
+        /* spread the rows to their padded stride, last first (each moves up) */
+        for (uint32_t o = n_out; o-- > 0u;) {
+            lat[(size_t)o * pad + n_in] = 0;
+            for (uint32_t i = n_in; i-- > 0u;)
+                lat[(size_t)o * pad + i] = lat[(size_t)o * n_in + i];
+        }
+    }
+    return CNERF_OK;
+}
+
+/* ---- the rows' order, the columns' order and the packing for the kernels ---- */
+
+/* The latents' packed layout (cnerf_decoder.latent): the index of k[j][i] of stored row j
+ * among n_live live rows of `pairs` input pairs. */
+static size_t packed_index(uint32_t j, uint32_t i, uint32_t live, uint32_t pairs)
+{
+    const uint32_t b = j >> 2, q = j & 3u;
+    if ((b + 1u) * 4u > live) /* the last one to three rows: row after row */
+        return (size_t)b * 8u * pairs + (size_t)q * 2u * pairs + i;
+    return (size_t)b * 8u * pairs + (size_t)(i >> 1) * 8u + 2u * q + (i & 1u);
+}
+
+/* Sum |v| of row o of a padded matrix (<= 1124 * 32767 < 2^26). */
+static uint32_t row_abs_sum(const int16_t *m, uint32_t o, uint32_t pad)
+{
+    const int16_t *row = m + (size_t)o * pad;
+    uint32_t sum = 0;
+    for (uint32_t i = 0; i < pad; i++) {
+        const int32_t k = row[i];
+        sum += (uint32_t)(k < 0 ? -k : k);
+    }
+    return sum;
+}
+
+/* Orders the layer's rows: live ones (a non-zero latent, or a non-zero shift when `sh` is
+ * not NULL) first, in increasing output order; rows[] gets each stored row's output index,
+ * the all-zero rows last. Puts the largest sum |k| of a row into *maxsum and the largest
+ * sum |s| into *maxshift. Returns the live rows. */
+static uint16_t order_rows(const cnerf_layer_info *L, const int16_t *lat, const int16_t *sh,
+                           uint16_t *rows, uint32_t *maxsum, uint32_t *maxshift)
+{
+    const uint32_t pad = in_pad(L), n_out = L->n_out;
+    uint32_t live = 0, dead = n_out;
+    *maxsum = *maxshift = 0;
+    for (uint32_t o = 0; o < n_out; o++) {
+        const uint32_t sum = row_abs_sum(lat, o, pad), ss = sh ? row_abs_sum(sh, o, pad) : 0u;
+        *maxsum = sum > *maxsum ? sum : *maxsum;
+        *maxshift = ss > *maxshift ? ss : *maxshift;
+        if (sum || ss)
+            rows[live++] = (uint16_t)o;
+        else
+            rows[--dead] = (uint16_t)o; /* fills from the end, in decreasing order */
+    }
+    return (uint16_t)live;
+}
+
+/* Packs the live rows of lat (in the order of rows[]) into blocks of four, using `tmp`
+ * (4 padded rows), and zeroes the rest. A block's rows come from row slots at or after its
+ * own (a live row's output index is at least its rank), so writing block b overwrites only
+ * slots that were copied to tmp, belong to earlier blocks or hold zeros. */
+static void pack_rows(const cnerf_layer_info *L, int16_t *lat, const uint16_t *rows,
+                      uint32_t live, int16_t *tmp)
+{
+    const uint32_t pad = in_pad(L), n_out = L->n_out;
+    for (uint32_t b = 0; 4u * b < live; b++) {
+        const uint32_t rb = live - 4u * b < 4u ? live - 4u * b : 4u;
+        int16_t *blk = lat + (size_t)b * 4u * pad;
+        for (uint32_t q = 0; q < rb; q++)
+            for (uint32_t i = 0; i < pad; i++)
+                tmp[(size_t)q * pad + i] = lat[(size_t)rows[4u * b + q] * pad + i];
+        if (rb < 4u) { /* the last rows, row after row: as they are (packed_index) */
+            for (uint32_t i = 0; i < rb * pad; i++)
+                blk[i] = tmp[i];
+            continue;
+        }
+        for (uint32_t i = 0; i < pad; i++) /* pair by pair: k[q][i] at (i / 2) 8 + 2 q + i % 2 */
+            for (uint32_t q = 0; q < 4u; q++)
+                blk[(i >> 1) * 8u + 2u * q + (i & 1u)] = tmp[(size_t)q * pad + i];
+    }
+    for (size_t i = (size_t)live * pad; i < (size_t)n_out * pad; i++)
+        lat[i] = 0;
+}
+
+/* The layer whose outputs feed layer l's inputs from column *off on (the renderer keeps
+ * every layer's outputs in its stored row order, [fixed-point.md]: the consumer's columns
+ * follow that order), or -1 when l's inputs are all encodings. */
+static int producer(const cnerf_info *I, uint32_t l, uint32_t *off)
+{
+    const cnerf_layer_info *L = &I->layer[l];
+    const cnerf_net_info *N = &I->net[L->net];
+    const int first = N->first_layer, D = N->depth;
+    *off = 0;
+    switch (L->role) {
+    case CNERF_ROLE_TRUNK:
+        if (L->index == 0u)
+            return -1;
+        if (N->skip != CNERF_NO_SKIP && L->index == N->skip + 1u)
+            *off = I->in_pos;
+        return first + L->index - 1;
+    case CNERF_ROLE_SIGMA:
+    case CNERF_ROLE_FEATURE:
+    case CNERF_ROLE_OUTPUT:
+        return first + D - 1;
+    case CNERF_ROLE_VIEW:
+        return first + D + 1; /* the feature */
+    default:
+        return first + D + 2; /* rgb: the view layer */
+    }
+}
+
+/* 1 for the layers whose outputs leave the networks (density, colour, or both): they are
+ * written by output index; every other layer's in its stored row order. */
+int cn_layer_final(const cnerf_layer_info *L)
+{
+    return L->role == CNERF_ROLE_SIGMA || L->role == CNERF_ROLE_RGB ||
+           L->role == CNERF_ROLE_OUTPUT;
+}
+
+/* Reorders layer l's input columns from its producer's outputs into the producer's stored
+ * row order: column off + j takes column off + rows_p[j]. tmp holds one row. */
+static void order_columns(const cnerf_decoder *dec, uint32_t l, int16_t *lat, int16_t *tmp)
+{
+    uint32_t off;
+    const int p = producer(&dec->info, l, &off);
+    if (p < 0)
+        return;
+    const cnerf_layer_info *L = &dec->info.layer[l];
+    const uint32_t pad = in_pad(L), U = dec->info.layer[p].n_out;
+    const uint16_t *rows = dec->rows[p];
+    for (uint32_t o = 0; o < L->n_out; o++) {
+        int16_t *row = lat + (size_t)o * pad;
+        for (uint32_t j = 0; j < U; j++)
+            tmp[j] = row[off + rows[j]];
+        for (uint32_t j = 0; j < U; j++)
+            row[off + j] = tmp[j];
+    }
+}
+
+/* ---- the Q16 biases and the proofs of the fixed-point sums ---- */
+
+/* sat32(round(v)) of the rounding rule of the layers (half up). */
+static int32_t q16_bias(int32_t m, int e)
+{
+    return (int32_t)cn_clamp64(cn_mul_exp_r(m, 1, e + 16, 1), INT32_MIN, INT32_MAX);
+}
+
+/* The per-layer proofs of docs/fixed-point.md. |sum k x_q| of a row is at most
+ * 2^15 S, S its sum |k|; with every row's S <= 65535 it is below 2^31 (an int32 sum). The
+ * rescale round(acc a_m 2^-n) of such a sum needs no saturation when 2^15 max S |a_m| <
+ * 2^(30+n): it stays below 2^30 in magnitude. */
+static void prove_layer(cnerf_decoder *dec, uint32_t l, uint32_t maxsum, uint32_t maxshift)
+{
+    const cnerf_layer_info *L = &dec->info.layer[l];
+    dec->wide[l] = maxsum > 65535u;
+    dec->shift_wide[l] = maxshift > 65535u; /* the same bound for the sums s x_q */
+    const int n = -((int)L->a_e + 16 - (int)L->f_in);
+    const uint64_t am = (uint64_t)(L->a_m < 0 ? -L->a_m : L->a_m); /* < 2^23 */
+    const uint64_t bound = ((uint64_t)maxsum << 15) * am;           /* < 2^16 2^15 2^23 */
+    dec->a_shift[l] = 0;
+    /* A layer with a shift adds its term before the offset and bias: the general path. */
+    if (!dec->wide[l] && !dec->shift[l] && n >= 1 && n <= 62 && (bound >> 30) >> n == 0u)
+        dec->a_shift[l] = (uint8_t)n;
+    /* b sum x_q: |sum x_q| <= 2^15 n_in */
+    const int nb = -((int)L->b_e + 16 - (int)L->f_in);
+    const uint64_t bm = (uint64_t)(L->b_m < 0 ? -L->b_m : L->b_m);
+    const uint64_t bbound = ((uint64_t)L->n_in << 15) * bm; /* < 2^11 2^15 2^23 */
+    dec->b_shift[l] = 0;
+    if (nb >= 1 && nb <= 62 && (bbound >> 30) >> nb == 0u)
+        dec->b_shift[l] = (uint8_t)nb;
+}
+
+/* ---- cnerf_open ---- */
+
+/* The workspace's layout: per layer its packed latents (and shifts), bias mantissas, Q16
+ * biases and row order; then the grid's bitmap. Returns where open's scratch starts. */
+static uint8_t *lay_out(cnerf_decoder *dec, uint8_t *w)
+{
+    const cnerf_info *info = &dec->info;
+    for (uint32_t l = 0; l < info->n_layers; l++) {
+        const cnerf_layer_info *L = &info->layer[l];
+        dec->latent[l] = (const int16_t *)(void *)w;
+        w += align8((size_t)in_pad(L) * L->n_out * 2u);
+        if (cn_has_shift(&info->shift[l])) {
+            dec->shift[l] = (const int16_t *)(void *)w;
+            w += align8((size_t)in_pad(L) * L->n_out * 2u);
+        }
+        dec->bias[l] = (const int32_t *)(void *)w;
+        w += align8((size_t)L->n_out * 4u);
+        dec->bias_q16[l] = (const int32_t *)(void *)w;
+        w += align8((size_t)L->n_out * 4u);
+        dec->rows[l] = (const uint16_t *)(void *)w;
+        w += align8((size_t)L->n_out * 2u);
+        dec->n_pairs[l] = (uint16_t)(in_pad(L) / 2u);
+    }
+    if (info->grid_g) {
+        dec->grid = w;
+        w += align8(grid_bitmap_bytes(info->grid_g));
+    }
+    return w;
+}
+
+/* Decodes layer l into its place in the workspace: the bias mantissas; the latents (and
+ * shifts) widened to int16, their columns in the producer's row order, the live rows first
+ * and packed for the kernels; the Q16 biases in row order; and the layer's proofs. */
+static cnerf_status open_layer(cnerf_decoder *dec, const uint8_t *buf, uint32_t l,
+                               uint8_t *scratch)
+{
+    const cnerf_layer_info *L = &dec->info.layer[l];
+    int32_t *bias = (int32_t *)(uintptr_t)dec->bias[l];
+    int16_t *lat = (int16_t *)(uintptr_t)dec->latent[l];
+    uint16_t *rows = (uint16_t *)(uintptr_t)dec->rows[l];
+    int16_t *sh = (int16_t *)(uintptr_t)dec->shift[l]; /* NULL: no shift */
+    int16_t *tmp = (int16_t *)(void *)scratch;
+    const coded ck = coded_latents(L), cs = coded_shifts(L, &dec->info.shift[l]);
+    cnerf_status st = read_biases(buf, L, bias);
+    if (st == CNERF_OK)
+        st = decode_matrix(buf, &ck, lat, (uint32_t *)(void *)scratch);
+    if (st == CNERF_OK && sh)
+        st = decode_matrix(buf, &cs, sh, (uint32_t *)(void *)scratch);
+    if (st != CNERF_OK)
+        return st;
+    order_columns(dec, l, lat, tmp);
+    if (sh)
+        order_columns(dec, l, sh, tmp);
+    uint32_t maxsum, maxshift;
+    const uint16_t live = order_rows(L, lat, sh, rows, &maxsum, &maxshift);
+    dec->n_live[l] = live;
+    pack_rows(L, lat, rows, live, tmp);
+    if (sh)
+        pack_rows(L, sh, rows, live, tmp);
+    int32_t *bq = (int32_t *)(uintptr_t)dec->bias_q16[l];
+    for (uint32_t j = 0; j < L->n_out; j++)
+        bq[j] = L->bias_bits ? q16_bias(bias[rows[j]], L->bias_e) : 0;
+    prove_layer(dec, l, maxsum, maxshift);
+    return CNERF_OK;
+}
+
+cnerf_status cnerf_open_scene(cnerf_decoder *dec, const uint8_t *buf, size_t len,
+                              uint32_t scene, void *ws, size_t ws_size)
+{
+    if (!dec)
+        return CNERF_E_NULL;
+    cn_memzero(dec, sizeof *dec);
+    if ((!buf && len) || !ws)
+        return CNERF_E_NULL;
+    if ((uintptr_t)ws & (CNERF_WS_ALIGN - 1u))
+        return CNERF_E_WS_ALIGN;
+    if (!buf)
+        buf = (const uint8_t *)""; /* no bytes: an empty stream */
+    const cnerf_info *info = &dec->info;
+    cnerf_status st = cn_parse(buf, len, scene, &dec->info);
+    if (st == CNERF_OK && ws_size < cnerf_workspace_size(info))
+        st = CNERF_E_WS_SMALL;
+    if (st == CNERF_OK) {
+        /* the layers' arrays, the grid, and open's scratch last */
+        uint8_t *scratch = lay_out(dec, (uint8_t *)ws);
+        if (info->grid_g)
+            st = cn_grid_decode(buf + info->grid_payload_offset, info->grid_payload_bytes,
+                                info->grid_g, info->grid_prec, info->grid_f1,
+                                (uint8_t *)(uintptr_t)dec->grid, &dec->grid_occupied);
+        for (uint32_t l = 0; st == CNERF_OK && l < info->n_layers; l++)
+            st = open_layer(dec, buf, l, scratch);
+    }
+    if (st == CNERF_OK) {
+        const cn_dot_variant v = cn_dot_select();
+        dec->dot = v.fn;
+        dec->requant = v.requant;
+        dec->finish = v.finish;
+    }
+    if (st != CNERF_OK)
+        cn_memzero(dec, sizeof *dec);
+    return st;
+}
+
+cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void *ws,
+                        size_t ws_size)
+{
+    return cnerf_open_scene(dec, buf, len, 0, ws, ws_size);
+}
+
+/* ---- the decoded matrices, for tools and tests ---- */
+
+/* Element (o, i) of layer l's packed matrix m (its latents or its shifts). */
+static int32_t packed_at(const cnerf_decoder *dec, uint32_t l, const int16_t *m, uint32_t o,
+                         uint32_t i)
+{
+    const cnerf_layer_info *L = &dec->info.layer[l];
+    if (o >= L->n_out || i >= L->n_in || !m)
+        return 0;
+    /* Live rows are stored first, in increasing output order (order_rows): a search, since
+     * this accessor is for tools and tests, not for rendering. */
+    uint32_t j = 0;
+    while (j < dec->n_live[l] && dec->rows[l][j] != o)
+        j++;
+    if (j == dec->n_live[l])
+        return 0; /* an all-zero row */
+    uint32_t off, c = i;
+    const int p = producer(&dec->info, l, &off);
+    if (p >= 0 && i >= off && i - off < dec->info.layer[p].n_out) {
+        c = off; /* the column of input i: its producer's stored row */
+        while (dec->rows[p][c - off] != i - off)
+            c++;
+    }
+    return m[packed_index(j, c, dec->n_live[l], dec->n_pairs[l])];
+}
+
+int32_t cnerf_latent(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t i)
+{
+    return dec && l < dec->info.n_layers ? packed_at(dec, l, dec->latent[l], o, i) : 0;
+}
+
+int32_t cnerf_shift(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t i)
+{
+    return dec && l < dec->info.n_layers ? packed_at(dec, l, dec->shift[l], o, i) : 0;
+}
