@@ -30,6 +30,6 @@ run init encode "$data/lego" -o "$out/init.cnrf" --init "$out/float.ckpt" --lamb
   --preset tiny --iters 100 --downscale 8 --threads 2 --every 100
 # Synthetic streams: a plain one, one with a grid, pruned units and a set.
 run synth synth -o "$out/synth.cnrf" --preset tiny --seed 5
-run synthg synth -o "$out/synthg.cnrf" --preset tiny --seed 6 --grid 32 --units 40,30:20
+run synthg synth -o "$out/synthg.cnrf" --preset tiny --seed 6 --grid 32 --units 40,30,50,20:20
 run synths synth -o "$out/synths.cnrf" --preset tiny --seed 7 --scenes 2
 cd "$out" && md5sum ./*.cnrf ./*.ckpt
