@@ -8,11 +8,15 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:?usage: identity.sh OUT [CNERF]}
-cnerf=${2:-./build/cnerf}
-data=${CNERF_DATA:-../shared/data}
+cnerf=$(realpath "${2:-./build/cnerf}")
+data=$(realpath "${CNERF_DATA:-../shared/data}")
 mkdir -p "$out"
-rm -f "$out"/*.cnrf "$out"/*.ckpt
-run() { local name=$1; shift; echo "== $name: cnerf $*" >&2; "$cnerf" "$@" > "$out/$name.log" 2>&1; }
+# The files' metadata names the inputs' paths: run inside OUT with the same relative names, so
+# that two listings made in different directories compare.
+cd "$out"
+out=.
+rm -f ./*.cnrf ./*.ckpt
+run() { local name=$1; shift; echo "== $name: cnerf $*" >&2; "$cnerf" "$@" > "$name.log" 2>&1; }
 # The README main job (scripts/demo.sh's encode).
 run main encode "$data/lego" -o "$out/main.cnrf" --lambda 0.1 --preset tiny --downscale 4 \
   --iters 2000 --every 40 --log-every 100 --threads 2
@@ -32,4 +36,4 @@ run init encode "$data/lego" -o "$out/init.cnrf" --init "$out/float.ckpt" --lamb
 run synth synth -o "$out/synth.cnrf" --preset tiny --seed 5
 run synthg synth -o "$out/synthg.cnrf" --preset tiny --seed 6 --grid 32 --units 40,30,50,20:20
 run synths synth -o "$out/synths.cnrf" --preset tiny --seed 7 --scenes 2
-cd "$out" && md5sum ./*.cnrf ./*.ckpt
+md5sum ./*.cnrf ./*.ckpt
