@@ -2,8 +2,8 @@
  * The networks' kernels (docs/decoder.md, Kernels), named by operation and operand types
  * as CMSIS-NN names its functions, with the instruction set last: cn_dot_s16_dsp is the dot
  * product of int16 operands (int32 sums) on the Arm DSP extension. The portable C in
- * decoder/ (kernels.c) is the definition; the others sit by architecture in decoder/arm/
- * and decoder/x86/, compute the same values and are checked against it
+ * decoder/ (kernels.c) is the definition; the others, one file per instruction set
+ * (kernels_dsp.c, kernels_mve.c, kernels_neon.c, kernels_avx2.c), compute the same values and are checked against it
  * (tests/xarch/check_kernels.c). The choice among them is made in one place, kernels.c.
  *
  * A layer's live latent rows are stored packed (cnerf_decoder.latent): blocks of four rows,
@@ -16,10 +16,10 @@
 
 #include <stdint.h>
 
-/* Which kernels this build has. Arm (decoder/arm/), chosen at compile time: the sums by
+/* Which kernels this build has. Arm, chosen at compile time: the sums by
  * Helium, else the DSP extension, else Advanced SIMD; the inputs' quantization and the
  * outputs' rescale by the DSP extension wherever it exists (Cortex-M4, M7, M33, M55).
- * x86-64 (decoder/x86/): AVX2, each function compiled for its target and chosen at run
+ * x86-64: AVX2, each function compiled for its target and chosen at run
  * time. CNERF_PORTABLE builds have the portable C only. */
 #if !defined(CNERF_PORTABLE) && defined(__ARM_FEATURE_MVE) && (__ARM_FEATURE_MVE & 1)
 #define CN_HAVE_MVE 1
@@ -61,42 +61,42 @@ void cn_dot_s16_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t
 void cn_dot_s16_s64_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                       int64_t *acc);
 
-/* ---- Arm (decoder/arm/) ---- */
+/* ---- Arm ---- */
 
 #if defined(CN_HAVE_DSP) && !defined(CN_HAVE_MVE)
-/* arm/dsp.c: SMLAD, 16 multiply-accumulates in 15 instructions */
+/* kernels_dsp.c: SMLAD, 16 multiply-accumulates in 15 instructions */
 void cn_dot_s16_dsp(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                     int32_t *acc);
 #endif
 #if defined(CN_HAVE_DSP)
-/* arm/dsp.c: QADD, SSAT and PKHBT, two inputs a step */
+/* kernels_dsp.c: QADD, SSAT and PKHBT, two inputs a step */
 int32_t cn_requant_s16_dsp(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
-/* arm/dsp.c: SMLAL and two QADDs, two outputs a step */
+/* kernels_dsp.c: SMLAL and two QADDs, two outputs a step */
 void cn_finish_s32_dsp(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
                        const int32_t *bq, int32_t *y, int relu);
 #endif
 #if defined(CN_HAVE_MVE)
-/* arm/mve.c: Helium, vmullbq/vmulltq over a block's input pair */
+/* kernels_mve.c: Helium, vmullbq/vmulltq over a block's input pair */
 void cn_dot_s16_mve(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                     int32_t *acc);
 #endif
 #if defined(CN_HAVE_NEON)
-/* arm/neon.c: vmlal_s16/vmlal_high_s16 over a block's input pair */
+/* kernels_neon.c: vmlal_s16/vmlal_high_s16 over a block's input pair */
 void cn_dot_s16_neon(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                      int32_t *acc);
 #endif
 
-/* ---- x86-64 (decoder/x86/) ---- */
+/* ---- x86-64 ---- */
 
 #if defined(CN_HAVE_AVX2)
-/* x86/avx2.c: 1 when the CPU has AVX2 and the operating system saves its registers */
+/* kernels_avx2.c: 1 when the CPU has AVX2 and the operating system saves its registers */
 int cn_cpu_has_avx2(void);
-/* x86/avx2.c: vpmaddwd over two input pairs of a block */
+/* kernels_avx2.c: vpmaddwd over two input pairs of a block */
 void cn_dot_s16_avx2(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                      int32_t *acc);
-/* x86/avx2.c: sixteen inputs a step */
+/* kernels_avx2.c: sixteen inputs a step */
 int32_t cn_requant_s16_avx2(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
-/* x86/avx2.c: eight outputs a step */
+/* kernels_avx2.c: eight outputs a step */
 void cn_finish_s32_avx2(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
                         const int32_t *bq, int32_t *y, int relu);
 #endif

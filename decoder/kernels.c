@@ -1,6 +1,7 @@
 /*
  * The portable dot-product kernels, which define the sums, and the choice among the kernels
- * of decoder/arm/ and decoder/x86/: the one place of the dispatch.
+ * of kernels_dsp.c, kernels_mve.c, kernels_neon.c and kernels_avx2.c: the one place of the
+ * dispatch.
  */
 #include "cn_kernels.h"
 

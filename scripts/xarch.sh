@@ -15,7 +15,7 @@ cnerf=build/cnerf
 work=build-xarch
 rm -rf "$work"
 mkdir -p "$work"
-dec=(decoder/*.c decoder/arm/*.c decoder/x86/*.c) # the portable C, the kernels by architecture
+dec=(decoder/*.c) # the portable C and every instruction set's kernels
 flags=(-std=c99 -O2 -Wall -Wextra -Werror -Iinclude)
 
 # target: name compiler runner

@@ -3,7 +3,7 @@
  * block of four rows and input pair, one 128-bit load of the latents and two widening
  * multiply-accumulates (vmlal_s16, vmlal_high_s16) into two rows each.
  */
-#include "../cn_kernels.h"
+#include "cn_kernels.h"
 
 #if defined(CN_HAVE_NEON)
 #include <arm_neon.h>

@@ -6,7 +6,7 @@
  * rescale (cn_kernels.h). Each function carries its target, so the file builds with the
  * compiler's default flags.
  */
-#include "../cn_kernels.h"
+#include "cn_kernels.h"
 #include "cnerf/format.h"
 
 #if defined(CN_HAVE_AVX2)

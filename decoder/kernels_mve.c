@@ -3,7 +3,7 @@
  * cn_dot_s16_c's sums (cn_kernels.h). The inputs' quantization and the outputs' rescale are
  * the DSP extension's (dsp.c).
  */
-#include "../cn_kernels.h"
+#include "cn_kernels.h"
 
 #if defined(CN_HAVE_MVE)
 #include <arm_mve.h>

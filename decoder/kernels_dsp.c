@@ -5,8 +5,8 @@
  * quantization and output rescale (cn_kernels.h). Where Helium is there too (Cortex-M55) its
  * sums are the faster ones (mve.c), and the sums here are not built.
  */
-#include "../../common/cn_fixed.h"
-#include "../cn_kernels.h"
+#include "../common/cn_fixed.h"
+#include "cn_kernels.h"
 
 #if defined(CN_HAVE_DSP)
 #include <arm_acle.h>
