@@ -13,6 +13,57 @@
 #include "../common/cn_reader.h"
 #include "../common/cn_grid_model.h"
 
+/* ---- the decoder's state: cnerf_decoder's opaque part ---- */
+
+typedef struct cn_state {
+    /* Latents widened to int16 and packed for the dot-product kernels (docs/decoder.md):
+     * the n_live[l] rows with a non-zero latent, in increasing output order, in blocks of
+     * four rows, each block input pair by input pair: k[r][2p], k[r][2p+1] for each row r
+     * of the block; the remaining one to three rows row after row; inputs padded to
+     * n_pairs[l] pairs with zero; the columns fed by a hidden layer in that layer's stored
+     * row order. cnerf_latent reads one latent by output and input index. */
+    const int16_t *latent[CNERF_MAX_LAYERS];
+    const int32_t *bias[CNERF_MAX_LAYERS];     /* n_out bias mantissas, by output */
+    const int32_t *bias_q16[CNERF_MAX_LAYERS]; /* sat32(round(bias 2^16)), by stored row */
+    /* Per layer the output index of each stored row: the n_live[l] rows with a non-zero
+     * latent first, then the all-zero rows, whose sum k x is 0 and is not computed. */
+    const uint16_t *rows[CNERF_MAX_LAYERS];
+    /* Several-scene streams: the layer's shared shifts s, packed like its latents (same
+     * stored rows), or NULL for a layer without a shift. */
+    const int16_t *shift[CNERF_MAX_LAYERS];
+    uint16_t n_live[CNERF_MAX_LAYERS];
+    uint16_t n_pairs[CNERF_MAX_LAYERS]; /* (n_in + 1) / 2 */
+    /* How cnerf_open proved each layer's sums: wide = 1 when a sum of k x_q may leave the
+     * int32 range (then it is formed in int64); a_shift in 1..62 when the rescale of an
+     * int32 sum is one product and one shift with no saturation, else 0. Either way the
+     * values are the same; only the speed differs. shift_wide as wide, for the sums s x_q. */
+    uint8_t wide[CNERF_MAX_LAYERS];
+    uint8_t a_shift[CNERF_MAX_LAYERS];
+    uint8_t b_shift[CNERF_MAX_LAYERS]; /* the same for the term b sum x_q (|sum| < 2^26) */
+    uint8_t shift_wide[CNERF_MAX_LAYERS];
+    /* The kernels cnerf_open chose for this CPU (docs/decoder.md, Kernels): the sums, and,
+     * where the CPU has its own (NULL: the portable C), the inputs' quantization and the
+     * outputs' rescale. */
+    void (*dot)(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                int32_t *acc);
+    int32_t (*requant)(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
+    void (*finish)(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
+                   const int32_t *bq, int32_t *y, int relu);
+    const uint8_t *grid;    /* occupancy bitmap, bit (z g + y) g + x, LSB first; NULL: none */
+    uint32_t grid_occupied; /* occupied cells */
+} cn_state;
+
+/* The state in dec's opaque part (whose union aligns it for pointers and 64-bit integers;
+ * open.c checks at compile time that it fits). */
+static inline cn_state *cn_state_of(cnerf_decoder *dec)
+{
+    return (cn_state *)(void *)dec->opaque.bytes;
+}
+static inline const cn_state *cn_cstate_of(const cnerf_decoder *dec)
+{
+    return (const cn_state *)(const void *)dec->opaque.bytes;
+}
+
 /* ---- frequency tables and rANS ---- */
 
 /* Parses a coded frequency table of `n` >= 2 symbols with precision `prec` and

@@ -232,13 +232,14 @@ int cn_layer_final(const cnerf_layer_info *L)
  * row order: column off + j takes column off + rows_p[j]. tmp holds one row. */
 static void order_columns(const cnerf_decoder *dec, uint32_t l, int16_t *lat, int16_t *tmp)
 {
+    const cn_state *ds = cn_cstate_of(dec);
     uint32_t off;
     const int p = producer(&dec->info, l, &off);
     if (p < 0)
         return;
     const cnerf_layer_info *L = &dec->info.layer[l];
     const uint32_t pad = in_pad(L), U = dec->info.layer[p].n_out;
-    const uint16_t *rows = dec->rows[p];
+    const uint16_t *rows = ds->rows[p];
     for (uint32_t o = 0; o < L->n_out; o++) {
         int16_t *row = lat + (size_t)o * pad;
         for (uint32_t j = 0; j < U; j++)
@@ -262,23 +263,24 @@ static int32_t q16_bias(int32_t m, int e)
  * 2^(30+n): it stays below 2^30 in magnitude. */
 static void prove_layer(cnerf_decoder *dec, uint32_t l, uint32_t maxsum, uint32_t maxshift)
 {
+    cn_state *ds = cn_state_of(dec);
     const cnerf_layer_info *L = &dec->info.layer[l];
-    dec->wide[l] = maxsum > 65535u;
-    dec->shift_wide[l] = maxshift > 65535u; /* the same bound for the sums s x_q */
+    ds->wide[l] = maxsum > 65535u;
+    ds->shift_wide[l] = maxshift > 65535u; /* the same bound for the sums s x_q */
     const int n = -((int)L->a_e + 16 - (int)L->f_in);
     const uint64_t am = (uint64_t)(L->a_m < 0 ? -L->a_m : L->a_m); /* < 2^23 */
     const uint64_t bound = ((uint64_t)maxsum << 15) * am;           /* < 2^16 2^15 2^23 */
-    dec->a_shift[l] = 0;
+    ds->a_shift[l] = 0;
     /* A layer with a shift adds its term before the offset and bias: the general path. */
-    if (!dec->wide[l] && !dec->shift[l] && n >= 1 && n <= 62 && (bound >> 30) >> n == 0u)
-        dec->a_shift[l] = (uint8_t)n;
+    if (!ds->wide[l] && !ds->shift[l] && n >= 1 && n <= 62 && (bound >> 30) >> n == 0u)
+        ds->a_shift[l] = (uint8_t)n;
     /* b sum x_q: |sum x_q| <= 2^15 n_in */
     const int nb = -((int)L->b_e + 16 - (int)L->f_in);
     const uint64_t bm = (uint64_t)(L->b_m < 0 ? -L->b_m : L->b_m);
     const uint64_t bbound = ((uint64_t)L->n_in << 15) * bm; /* < 2^11 2^15 2^23 */
-    dec->b_shift[l] = 0;
+    ds->b_shift[l] = 0;
     if (nb >= 1 && nb <= 62 && (bbound >> 30) >> nb == 0u)
-        dec->b_shift[l] = (uint8_t)nb;
+        ds->b_shift[l] = (uint8_t)nb;
 }
 
 /* ---- cnerf_open ---- */
@@ -287,25 +289,26 @@ static void prove_layer(cnerf_decoder *dec, uint32_t l, uint32_t maxsum, uint32_
  * biases and row order; then the grid's bitmap. Returns where open's scratch starts. */
 static uint8_t *lay_out(cnerf_decoder *dec, uint8_t *w)
 {
+    cn_state *ds = cn_state_of(dec);
     const cnerf_info *info = &dec->info;
     for (uint32_t l = 0; l < info->n_layers; l++) {
         const cnerf_layer_info *L = &info->layer[l];
-        dec->latent[l] = (const int16_t *)(void *)w;
+        ds->latent[l] = (const int16_t *)(void *)w;
         w += align8((size_t)in_pad(L) * L->n_out * 2u);
         if (cn_has_shift(&info->shift[l])) {
-            dec->shift[l] = (const int16_t *)(void *)w;
+            ds->shift[l] = (const int16_t *)(void *)w;
             w += align8((size_t)in_pad(L) * L->n_out * 2u);
         }
-        dec->bias[l] = (const int32_t *)(void *)w;
+        ds->bias[l] = (const int32_t *)(void *)w;
         w += align8((size_t)L->n_out * 4u);
-        dec->bias_q16[l] = (const int32_t *)(void *)w;
+        ds->bias_q16[l] = (const int32_t *)(void *)w;
         w += align8((size_t)L->n_out * 4u);
-        dec->rows[l] = (const uint16_t *)(void *)w;
+        ds->rows[l] = (const uint16_t *)(void *)w;
         w += align8((size_t)L->n_out * 2u);
-        dec->n_pairs[l] = (uint16_t)(in_pad(L) / 2u);
+        ds->n_pairs[l] = (uint16_t)(in_pad(L) / 2u);
     }
     if (info->grid_g) {
-        dec->grid = w;
+        ds->grid = w;
         w += align8(grid_bitmap_bytes(info->grid_g));
     }
     return w;
@@ -317,11 +320,12 @@ static uint8_t *lay_out(cnerf_decoder *dec, uint8_t *w)
 static cnerf_status open_layer(cnerf_decoder *dec, const uint8_t *buf, uint32_t l,
                                uint8_t *scratch)
 {
+    cn_state *ds = cn_state_of(dec);
     const cnerf_layer_info *L = &dec->info.layer[l];
-    int32_t *bias = (int32_t *)(uintptr_t)dec->bias[l];
-    int16_t *lat = (int16_t *)(uintptr_t)dec->latent[l];
-    uint16_t *rows = (uint16_t *)(uintptr_t)dec->rows[l];
-    int16_t *sh = (int16_t *)(uintptr_t)dec->shift[l]; /* NULL: no shift */
+    int32_t *bias = (int32_t *)(uintptr_t)ds->bias[l];
+    int16_t *lat = (int16_t *)(uintptr_t)ds->latent[l];
+    uint16_t *rows = (uint16_t *)(uintptr_t)ds->rows[l];
+    int16_t *sh = (int16_t *)(uintptr_t)ds->shift[l]; /* NULL: no shift */
     int16_t *tmp = (int16_t *)(void *)scratch;
     const coded ck = coded_latents(L), cs = coded_shifts(L, &dec->info.shift[l]);
     cnerf_status st = read_biases(buf, L, bias);
@@ -336,11 +340,11 @@ static cnerf_status open_layer(cnerf_decoder *dec, const uint8_t *buf, uint32_t 
         order_columns(dec, l, sh, tmp);
     uint32_t maxsum, maxshift;
     const uint16_t live = order_rows(L, lat, sh, rows, &maxsum, &maxshift);
-    dec->n_live[l] = live;
+    ds->n_live[l] = live;
     pack_rows(L, lat, rows, live, tmp);
     if (sh)
         pack_rows(L, sh, rows, live, tmp);
-    int32_t *bq = (int32_t *)(uintptr_t)dec->bias_q16[l];
+    int32_t *bq = (int32_t *)(uintptr_t)ds->bias_q16[l];
     for (uint32_t j = 0; j < L->n_out; j++)
         bq[j] = L->bias_bits ? q16_bias(bias[rows[j]], L->bias_e) : 0;
     prove_layer(dec, l, maxsum, maxshift);
@@ -360,6 +364,7 @@ cnerf_status cnerf_open_scene(cnerf_decoder *dec, const uint8_t *buf, size_t len
     if (!buf)
         buf = (const uint8_t *)""; /* no bytes: an empty stream */
     const cnerf_info *info = &dec->info;
+    cn_state *ds = cn_state_of(dec);
     cnerf_status st = cn_parse(buf, len, scene, &dec->info);
     if (st == CNERF_OK && ws_size < cnerf_workspace_size(info))
         st = CNERF_E_WS_SMALL;
@@ -369,15 +374,15 @@ cnerf_status cnerf_open_scene(cnerf_decoder *dec, const uint8_t *buf, size_t len
         if (info->grid_g)
             st = cn_grid_decode(buf + info->grid_payload_offset, info->grid_payload_bytes,
                                 info->grid_g, info->grid_prec, info->grid_f1,
-                                (uint8_t *)(uintptr_t)dec->grid, &dec->grid_occupied);
+                                (uint8_t *)(uintptr_t)ds->grid, &ds->grid_occupied);
         for (uint32_t l = 0; st == CNERF_OK && l < info->n_layers; l++)
             st = open_layer(dec, buf, l, scratch);
     }
     if (st == CNERF_OK) {
         const cn_dot_variant v = cn_dot_select();
-        dec->dot = v.fn;
-        dec->requant = v.requant;
-        dec->finish = v.finish;
+        ds->dot = v.fn;
+        ds->requant = v.requant;
+        ds->finish = v.finish;
     }
     if (st != CNERF_OK)
         cn_memzero(dec, sizeof *dec);
@@ -396,32 +401,58 @@ cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void
 static int32_t packed_at(const cnerf_decoder *dec, uint32_t l, const int16_t *m, uint32_t o,
                          uint32_t i)
 {
+    const cn_state *ds = cn_cstate_of(dec);
     const cnerf_layer_info *L = &dec->info.layer[l];
     if (o >= L->n_out || i >= L->n_in || !m)
         return 0;
     /* Live rows are stored first, in increasing output order (order_rows): a search, since
      * this accessor is for tools and tests, not for rendering. */
     uint32_t j = 0;
-    while (j < dec->n_live[l] && dec->rows[l][j] != o)
+    while (j < ds->n_live[l] && ds->rows[l][j] != o)
         j++;
-    if (j == dec->n_live[l])
+    if (j == ds->n_live[l])
         return 0; /* an all-zero row */
     uint32_t off, c = i;
     const int p = producer(&dec->info, l, &off);
     if (p >= 0 && i >= off && i - off < dec->info.layer[p].n_out) {
         c = off; /* the column of input i: its producer's stored row */
-        while (dec->rows[p][c - off] != i - off)
+        while (ds->rows[p][c - off] != i - off)
             c++;
     }
-    return m[packed_index(j, c, dec->n_live[l], dec->n_pairs[l])];
+    return m[packed_index(j, c, ds->n_live[l], ds->n_pairs[l])];
 }
 
 int32_t cnerf_latent(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t i)
 {
-    return dec && l < dec->info.n_layers ? packed_at(dec, l, dec->latent[l], o, i) : 0;
+    return dec && l < dec->info.n_layers ? packed_at(dec, l, cn_cstate_of(dec)->latent[l], o, i)
+                                         : 0;
 }
 
 int32_t cnerf_shift(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t i)
 {
-    return dec && l < dec->info.n_layers ? packed_at(dec, l, dec->shift[l], o, i) : 0;
+    return dec && l < dec->info.n_layers ? packed_at(dec, l, cn_cstate_of(dec)->shift[l], o, i)
+                                         : 0;
 }
+
+int32_t cnerf_bias(const cnerf_decoder *dec, uint32_t l, uint32_t o)
+{
+    if (!dec || l >= dec->info.n_layers || o >= dec->info.layer[l].n_out)
+        return 0;
+    const int32_t *b = cn_cstate_of(dec)->bias[l];
+    return b ? b[o] : 0;
+}
+
+int cnerf_cell_occupied(const cnerf_decoder *dec, uint32_t c)
+{
+    if (!dec)
+        return 0;
+    const uint32_t g = dec->info.grid_g;
+    const cn_state *ds = cn_cstate_of(dec);
+    if (!g || !ds->grid)
+        return 1;
+    return c < g * g * g ? (int)cn_grid_bit(ds->grid, c) : 0;
+}
+
+/* The state fits cnerf_decoder's opaque part (C99 has no static assertion: an array of
+ * negative size does not compile). */
+typedef char cn_state_fits[sizeof(cn_state) <= CNERF_DECODER_OPAQUE_BYTES ? 1 : -1];

@@ -188,7 +188,7 @@ CN_NOINLINE static void finish_fast(const int32_t *acc, uint32_t live, int32_t a
 
 /* y = layer l of x (Q16, n_in values), through the layer's inputs at its scale and the
  * chosen kernel: the rows with a non-zero latent (stored first; stored row j is output
- * dec->rows[l][j]) take their sums from the kernel, the others have sum k x = 0 exactly.
+ * ds->rows[l][j]) take their sums from the kernel, the others have sum k x = 0 exactly.
  * Outputs go to y in stored row order (y[j]), the next layer's columns being stored in that
  * order too, except for the layers whose outputs leave the network (cn_layer_final), which
  * write y[rows[j]]. The order changes no value: each output is its own exact sum. Returns
@@ -196,25 +196,26 @@ CN_NOINLINE static void finish_fast(const int32_t *acc, uint32_t live, int32_t a
 static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, int32_t *y,
                        int relu, int16_t *xq, int32_t *acc)
 {
+    const cn_state *ds = cn_cstate_of(dec);
     const cnerf_layer_info *L = &dec->info.layer[l];
-    const uint32_t n_in = L->n_in, n_out = L->n_out, live = dec->n_live[l];
-    const uint32_t pairs = dec->n_pairs[l];
+    const uint32_t n_in = L->n_in, n_out = L->n_out, live = ds->n_live[l];
+    const uint32_t pairs = ds->n_pairs[l];
     const int e = 16 - L->f_in; /* 0..31 */
 #ifdef CN_DOT_DIRECT
     const int32_t sx = requant(x, xq, n_in, (unsigned)e);
 #else
-    const int32_t sx = dec->requant && e >= 1 && e <= 16 ? dec->requant(x, xq, n_in, (unsigned)e)
+    const int32_t sx = ds->requant && e >= 1 && e <= 16 ? ds->requant(x, xq, n_in, (unsigned)e)
                                                          : requant(x, xq, n_in, (unsigned)e);
 #endif
     if (n_in & 1u)
         xq[n_in] = 0; /* the pad input of an odd layer */
-    const unsigned nb = dec->b_shift[l];
+    const unsigned nb = ds->b_shift[l];
     const int32_t t = nb ? cn_rescale_fast(sx, L->b_m, nb, (uint64_t)1 << (nb - 1u))
                          : cn_sat32(cn_mul_exp_r(sx, L->b_m, L->b_e + e, 1));
     const int final = cn_layer_final(L);
-    const int32_t *bq = dec->bias_q16[l];
-    const int16_t *k = dec->latent[l];
-    if (dec->wide[l]) {
+    const int32_t *bq = ds->bias_q16[l];
+    const int16_t *k = ds->latent[l];
+    if (ds->wide[l]) {
         /* sums that may leave int32: four rows at a time in int64 (the same values) */
         for (uint32_t j = 0; j < live; j += 4u) {
             const uint32_t rb = live - j < 4u ? live - j : 4u;
@@ -227,26 +228,26 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
 #ifdef CN_DOT_DIRECT
         CN_DOT_DIRECT(k, xq, pairs, live, acc);
 #else
-        dec->dot(k, xq, pairs, live, acc);
+        ds->dot(k, xq, pairs, live, acc);
 #endif
-        if (dec->a_shift[l] && !final) {
+        if (ds->a_shift[l] && !final) {
 #ifndef CN_DOT_DIRECT
-            if (dec->finish && dec->a_shift[l] < 32u)
-                dec->finish(acc, live, L->a_m, dec->a_shift[l], t, bq, y, relu);
+            if (ds->finish && ds->a_shift[l] < 32u)
+                ds->finish(acc, live, L->a_m, ds->a_shift[l], t, bq, y, relu);
             else
 #endif
-                finish_fast(acc, live, L->a_m, dec->a_shift[l], t, bq, y, relu);
+                finish_fast(acc, live, L->a_m, ds->a_shift[l], t, bq, y, relu);
         } else {
             for (uint32_t j = 0; j < live; j++)
                 y[j] = cn_sat32(cn_mul_exp_r(acc[j], L->a_m, L->a_e + e, 1));
         }
     }
-    const int16_t *sh = dec->shift[l];
+    const int16_t *sh = ds->shift[l];
     if (sh && live) {
         /* The shared shift's term G_j = sat32(round(g (sum s x_q) 2^(16-f))), added to A_j
          * (a_shift is 0 for such layers, so y[j] holds A_j). */
         const cnerf_shift_info *S = &dec->info.shift[l];
-        if (dec->shift_wide[l]) {
+        if (ds->shift_wide[l]) {
             for (uint32_t j = 0; j < live; j += 4u) {
                 const uint32_t rb = live - j < 4u ? live - j : 4u;
                 int64_t a64[4];
@@ -259,13 +260,13 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
 #ifdef CN_DOT_DIRECT
             CN_DOT_DIRECT(sh, xq, pairs, live, acc);
 #else
-            dec->dot(sh, xq, pairs, live, acc);
+            ds->dot(sh, xq, pairs, live, acc);
 #endif
             for (uint32_t j = 0; j < live; j++)
                 y[j] = cn_qadd32(y[j], cn_sat32(cn_mul_exp_r(acc[j], S->g_m, S->g_e + e, 1)));
         }
     }
-    if (dec->wide[l] || !dec->a_shift[l] || final) /* y[j] holds A_j (+ G_j) */
+    if (ds->wide[l] || !ds->a_shift[l] || final) /* y[j] holds A_j (+ G_j) */
         for (uint32_t j = 0; j < live; j++)
             y[j] = finish(y[j], t, bq[j], relu);
     for (uint32_t j = live; j < n_out; j++)
@@ -273,7 +274,7 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
     if (final) {
         /* at most four outputs: from stored row order to output order */
         int32_t v[4];
-        const uint16_t *rows = dec->rows[l];
+        const uint16_t *rows = ds->rows[l];
         for (uint32_t j = 0; j < n_out; j++)
             v[j] = y[j];
         for (uint32_t j = 0; j < n_out; j++)
@@ -524,8 +525,9 @@ typedef struct gridmap {
 
 static void gridmap_init(const cnerf_decoder *dec, int skip, gridmap *gm)
 {
+    const cn_state *ds = cn_cstate_of(dec);
     const cnerf_info *I = &dec->info;
-    gm->bits = skip && I->grid_g ? dec->grid : (const uint8_t *)0;
+    gm->bits = skip && I->grid_g ? ds->grid : (const uint8_t *)0;
     gm->g = I->grid_g;
     for (unsigned a = 0; a < 3; a++) {
         gm->lo[a] = (int64_t)I->aabb_q16[a] * 65536;
@@ -698,7 +700,8 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
     if (!dec || !cam || !rgb || !scratch_mem)
         return CNERF_E_NULL;
     const cnerf_info *I = &dec->info;
-    if (I->n_layers == 0 || !dec->latent[0] || !dec->dot)
+    const cn_state *ds = cn_cstate_of(dec);
+    if (I->n_layers == 0 || !ds->latent[0] || !ds->dot)
         return CNERF_E_ARG; /* not opened */
     if (((uintptr_t)scratch_mem & (CNERF_WS_ALIGN - 1u)) != 0)
         return CNERF_E_WS_ALIGN;

@@ -4,7 +4,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "cn_grid_model.h"
 #include "cn_export.h"
 #include "cn_occ.h"
 #include "cn_prior.h"
@@ -210,7 +209,7 @@ int cn_model_from_stream(const cnerf_decoder *dec, cn_model *m, char *err, size_
         m->params[m->off_ab + 2 * l + 1] = (float)cn_from_m24e8(L->b_m, L->b_e);
         float *b = m->params + m->layer[l].b;
         for (uint32_t o = 0; o < L->n_out; o++)
-            b[o] = L->bias_bits ? (float)ldexp(dec->bias[l][o], L->bias_e) : 0.0f;
+            b[o] = L->bias_bits ? (float)ldexp(cnerf_bias(dec, l, o), L->bias_e) : 0.0f;
     }
     int shifted = 0;
     for (unsigned l = 0; l < I->n_layers; l++)
@@ -246,7 +245,7 @@ int cn_model_from_stream(const cnerf_decoder *dec, cn_model *m, char *err, size_
         m->grid = malloc(sizeof *m->grid);
         if (occ)
             for (size_t c = 0; c < cells; c++)
-                occ[c] = (uint8_t)cn_grid_bit(dec->grid, (uint32_t)c);
+                occ[c] = (uint8_t)cnerf_cell_occupied(dec, (uint32_t)c);
         if (!occ || !m->grid || cn_occ_init_stream(m->grid, I, (int)g, occ)) {
             free(occ);
             free(m->grid);

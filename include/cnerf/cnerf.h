@@ -143,44 +143,24 @@ typedef struct cnerf_info {
     cnerf_shift_info shift[CNERF_MAX_LAYERS];
 } cnerf_info;
 
+/* Bytes of cnerf_decoder's opaque part: per layer five pointers and eight bytes, four
+ * pointers and eight bytes besides, and room for eight pointers more (a compile-time check
+ * in decoder/open.c keeps the state within it). */
+#define CNERF_DECODER_OPAQUE_BYTES                                                         \
+    ((size_t)CNERF_MAX_LAYERS * (5u * sizeof(void *) + 8u) + 12u * sizeof(void *) + 8u)
+
+/* A decoder: cnerf_open fills it. `info` describes the stream and is for reading. The
+ * opaque part holds the decoded layers' addresses in the workspace, the kernels chosen for
+ * this CPU and the occupancy grid: it is the decoder's own, its layout is not an interface
+ * and changes between versions. Its size is public so that firmware can allocate a
+ * cnerf_decoder statically (sizeof(cnerf_decoder), a compile-time constant). */
 typedef struct cnerf_decoder {
     cnerf_info info;
-    /* Latents widened to int16 and packed for the dot-product kernels (docs/decoder.md):
-     * the n_live[l] rows with a non-zero latent, in increasing output order, in blocks of
-     * four rows, each block input pair by input pair: k[r][2p], k[r][2p+1] for each row r
-     * of the block; the remaining one to three rows row after row; inputs padded to
-     * n_pairs[l] pairs with zero; the columns fed by a hidden layer in that layer's stored
-     * row order. cnerf_latent reads one latent by output and input index. */
-    const int16_t *latent[CNERF_MAX_LAYERS];
-    const int32_t *bias[CNERF_MAX_LAYERS];     /* n_out bias mantissas, by output */
-    const int32_t *bias_q16[CNERF_MAX_LAYERS]; /* sat32(round(bias 2^16)), by stored row */
-    /* Per layer the output index of each stored row: the n_live[l] rows with a non-zero
-     * latent first, then the all-zero rows, whose sum k x is 0 and is not computed. */
-    const uint16_t *rows[CNERF_MAX_LAYERS];
-    uint16_t n_live[CNERF_MAX_LAYERS];
-    uint16_t n_pairs[CNERF_MAX_LAYERS]; /* (n_in + 1) / 2 */
-    /* How cnerf_open proved each layer's sums: wide = 1 when a sum of k x_q may leave the
-     * int32 range (then it is formed in int64); a_shift in 1..62 when the rescale of an
-     * int32 sum is one product and one shift with no saturation, else 0. Either way the
-     * values are the same; only the speed differs. */
-    uint8_t wide[CNERF_MAX_LAYERS];
-    uint8_t a_shift[CNERF_MAX_LAYERS];
-    uint8_t b_shift[CNERF_MAX_LAYERS]; /* the same for the term b sum x_q (|sum| < 2^26) */
-    /* The kernels cnerf_open chose for this CPU (docs/decoder.md, Kernels): the sums, and,
-     * where the CPU has its own (NULL: the portable C), the inputs' quantization and the
-     * outputs' rescale. */
-    /* Several-scene streams: the layer's shared shifts s, packed like its latents (same
-     * stored rows), or NULL for a layer without a shift; shift_wide as wide, for the sums
-     * of s x_q. */
-    const int16_t *shift[CNERF_MAX_LAYERS];
-    uint8_t shift_wide[CNERF_MAX_LAYERS];
-    void (*dot)(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
-                int32_t *acc);
-    int32_t (*requant)(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
-    void (*finish)(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
-                   const int32_t *bq, int32_t *y, int relu);
-    const uint8_t *grid;   /* occupancy bitmap, bit (z g + y) g + x, LSB first; NULL: none */
-    uint32_t grid_occupied; /* occupied cells */
+    union {
+        void *align_pointer;
+        uint64_t align_integer;
+        unsigned char bytes[CNERF_DECODER_OPAQUE_BYTES];
+    } opaque;
 } cnerf_decoder;
 
 /* Parses and validates the whole structure (signature, every chunk's CRC, header, layer
@@ -228,6 +208,11 @@ cnerf_status cnerf_expand_topology(cnerf_info *info);
 int32_t cnerf_latent(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t i);
 /* Shift s[o][i] of layer `l` (0 out of range or without a shift); as cnerf_latent. */
 int32_t cnerf_shift(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t i);
+/* Bias mantissa of output `o` of layer `l` (the bias is b 2^bias_e; 0 out of range). */
+int32_t cnerf_bias(const cnerf_decoder *dec, uint32_t l, uint32_t o);
+/* 1 when the occupancy grid's cell `c` (x fastest, then y, then z) is occupied, 0 when it is
+ * empty or out of range; 1 for every cell of a stream without a grid. */
+int cnerf_cell_occupied(const cnerf_decoder *dec, uint32_t c);
 
 /* ---- rendering (decoder/render.c; formats and error analysis in docs/fixed-point.md) ---- */
 

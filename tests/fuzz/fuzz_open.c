@@ -27,7 +27,7 @@ static void open_scene(const uint8_t *data, size_t size, uint32_t scene)
         for (uint32_t l = 0; l < dec.info.n_layers; l++) {
             const cnerf_layer_info *L = &dec.info.layer[l];
             for (uint32_t o = 0; o < L->n_out; o++) {
-                sum += dec.bias[l][o];
+                sum += cnerf_bias(&dec, l, o);
                 for (uint32_t i = 0; i < L->n_in; i++)
                     sum += cnerf_latent(&dec, l, o, i) + cnerf_shift(&dec, l, o, i);
             }

@@ -37,7 +37,7 @@ static void check_roundtrip(const cn_synth *s)
         int32_t kmin = S->k[0], kmax = S->k[0];
         for (uint32_t o = 0; o < L->n_out; o++) {
             int32_t want = S->bias_m && S->bias_bits ? S->bias_m[o] : 0;
-            assert_int_equal(dec->bias[l][o], want);
+            assert_int_equal(cnerf_bias(dec, l, o), want);
             for (uint32_t i = 0; i < L->n_in; i++) {
                 int32_t k = S->k[o * L->n_in + i];
                 kmin = k < kmin ? k : kmin;

@@ -699,7 +699,7 @@ static uint64_t layer_macs(const cnerf_decoder *dec, unsigned l0, unsigned l1)
 {
     uint64_t m = 0;
     for (unsigned l = l0; l < l1; l++)
-        m += (uint64_t)dec->n_live[l] * dec->info.layer[l].n_in;
+        m += (uint64_t)cn_cstate_of(dec)->n_live[l] * dec->info.layer[l].n_in;
     return m;
 }
 
@@ -785,7 +785,7 @@ static void test_grid(void **state)
     make_scene_edit(&full, &hdr, 3.0, 21, dense_grid);
     assert_int_equal(full.dec.info.version_minor, 0);
     assert_int_equal(full.dec.info.grid_g, GRID_G);
-    assert_int_equal(full.dec.grid_occupied, GRID_G * GRID_G * GRID_G);
+    assert_int_equal(cn_cstate_of(&full.dec)->grid_occupied, GRID_G * GRID_G * GRID_G);
     uint8_t *px = render_counted(&full, &cam, 0, &st);
     assert_memory_equal(px, px0, nv);
     assert_true(st.evals == st0.evals && st.in_bounds == st0.in_bounds);
@@ -795,7 +795,7 @@ static void test_grid(void **state)
     memset(grid_cells, 0, sizeof grid_cells);
     scene empty;
     make_scene_edit(&empty, &hdr, 3.0, 21, dense_grid);
-    assert_int_equal(empty.dec.grid_occupied, 0);
+    assert_int_equal(cn_cstate_of(&empty.dec)->grid_occupied, 0);
     px = render_counted(&empty, &cam, 0, &st);
     expect_background(&empty, px, nv / 3);
     assert_true(st.evals == 0 && st.in_bounds > 0);
@@ -898,17 +898,17 @@ static void test_zero_rows(void **state)
     for (unsigned l = 0; l < I->n_layers; l++) {
         const cnerf_layer_info *L = &I->layer[l];
         const uint32_t zero = (L->n_out + 2) / 3 - (l == 2 ? 1u : 0u);
-        assert_int_equal(s.dec.n_live[l], L->n_out - zero);
+        assert_int_equal(cn_cstate_of(&s.dec)->n_live[l], L->n_out - zero);
         /* rows[] is a permutation: live rows first, each with a non-zero latent */
         uint8_t seen[CNERF_MAX_WIDTH] = {0};
         for (uint32_t j = 0; j < L->n_out; j++) {
-            const uint16_t o = s.dec.rows[l][j];
+            const uint16_t o = cn_cstate_of(&s.dec)->rows[l][j];
             assert_true(o < L->n_out && !seen[o]);
             seen[o] = 1;
             int nz = 0;
             for (uint32_t i = 0; i < L->n_in; i++)
                 nz |= cnerf_latent(&s.dec, l, o, i) != 0;
-            assert_int_equal(nz, j < s.dec.n_live[l]);
+            assert_int_equal(nz, j < cn_cstate_of(&s.dec)->n_live[l]);
         }
     }
     cn_camera cam;
@@ -1029,7 +1029,7 @@ static void test_zero_shifts(void **state)
         open_in_set(&sz, &z, m);
         open_in_set(&st, &t, m);
         for (unsigned l = 0; l < sz.dec.info.n_layers; l++)
-            assert_null(sz.dec.shift[l]);
+            assert_null(cn_cstate_of(&sz.dec)->shift[l]);
         cn_stream_src src = z.syn[m].src;
         char err[256];
         assert_int_equal(cn_choose_scales(&src, 3, NULL, err, sizeof err), 0);

@@ -56,8 +56,9 @@ static int16_t packed[MAX_ROWS * 2 * MAX_PAIRS + 16];
 static int16_t xq[2 * MAX_PAIRS + 8] __attribute__((aligned(8)));
 static int16_t kbuf[MAX_ROWS * 2 * MAX_PAIRS + 16] __attribute__((aligned(8)));
 
-/* The packed layout of cnerf_decoder.latent (blocks of four rows, pair by pair; the last
- * one to three rows row after row), written here independently of the decoder's. */
+/* The packed layout of the decoded latents (cn_state.latent in decoder/cn_internal.h: blocks
+ * of four rows, pair by pair; the last one to three rows row after row), written here
+ * independently of the decoder's. */
 static void pack(uint32_t rows, uint32_t pairs)
 {
     for (uint32_t j = 0; j < rows; j++)
