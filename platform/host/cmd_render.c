@@ -154,6 +154,185 @@ static void orbit_camera(int k, int n, double radius, double elev, double fov, i
     c->cx = c->cy = 0.5 * size;
 }
 
+/* What every view of one render shares, and the totals over the views. */
+typedef struct render_job {
+    const cnerf_decoder *dec;
+    cn_model *ref; /* the float reference of the same file */
+    const render_cfg *cfg;
+    int use_float;
+    const char *outdir;
+    cnerf_render_stats stats;
+} render_job;
+
+typedef struct render_tally {
+    MD5_CTX all;
+    double sum_gt, sum_ref_gt, sum_ssim, sum_vs, sum_ms, sum_ms_ref;
+    int count, worst, inf_count;
+    long over2_all, px_all;
+} render_tally;
+
+/* Renders one camera with the decoder and the float reference; prints the view's line
+ * (against the ground truth gt when given); writes its PNG into j->outdir. */
+static int render_view(render_job *j, const cn_camera *cam, const cnerf_camera *fc,
+                       const char *name, const float *gt, render_tally *t)
+{
+    const cnerf_info *I = &j->dec->info;
+    const size_t npx = (size_t)cam->w * cam->h, nv = 3 * npx;
+    uint8_t *px = malloc(nv), *refpx = malloc(nv);
+    float *rgb = malloc(sizeof(float) * nv);
+    char err[1024];
+    int rc = 0;
+    if (!px || !refpx || !rgb)
+        rc = cli_fail("render", "out of memory");
+    double t0 = cli_now();
+    if (rc == 0 && !j->use_float &&
+        render_fixed(j->dec, fc, j->cfg, px, &j->stats, err, sizeof err))
+        rc = cli_fail("render", "%s: %s", name, err);
+    const double ms = (cli_now() - t0) * 1e3;
+    t0 = cli_now();
+    if (rc == 0 && cn_render_view(j->ref, cam, I->coord == CNERF_COORD_NDC, rgb, 4096))
+        rc = cli_fail("render", "out of memory");
+    const double ms_ref = (cli_now() - t0) * 1e3;
+    if (rc != 0) {
+        free(px), free(refpx), free(rgb);
+        return rc;
+    }
+    to_u8(rgb, refpx, nv);
+    if (j->use_float)
+        memcpy(px, refpx, nv);
+    char hex[33];
+    MD5_CTX one;
+    MD5Init(&one);
+    MD5Update(&one, px, nv);
+    MD5End(&one, hex);
+    MD5Update(&t->all, px, nv);
+    int md;
+    long over2;
+    const double vs = psnr_u8(px, refpx, nv, &md, &over2);
+    t->over2_all += over2;
+    t->px_all += (long)npx;
+    printf("  %-12s", name);
+    if (gt) {
+        to_float(px, rgb, nv);
+        const double g = cn_psnr_from_mse(cn_mse(rgb, gt, nv));
+        const double s = cn_ssim(rgb, gt, cam->w, cam->h);
+        to_float(refpx, rgb, nv);
+        const double rg = cn_psnr_from_mse(cn_mse(rgb, gt, nv));
+        printf(" psnr %6.2f dB  ssim %.4f (float reference %6.2f dB)", g, s, rg);
+        t->sum_gt += g, t->sum_ssim += s, t->sum_ref_gt += rg;
+    }
+    if (!j->use_float)
+        printf("  vs float %6.2f dB, max diff %d (%ld px > 2)  %8.1f ms", vs, md, over2, ms);
+    printf("  float %8.1f ms", ms_ref);
+    printf("  md5 %s\n", hex);
+    fflush(stdout);
+    if (isinf(vs))
+        t->inf_count++;
+    else
+        t->sum_vs += vs;
+    t->worst = md > t->worst ? md : t->worst;
+    t->sum_ms += ms;
+    t->sum_ms_ref += ms_ref;
+    t->count++;
+    if (j->outdir) {
+        char path[4096];
+        snprintf(path, sizeof path, "%s/%s.png", j->outdir, name);
+        if (cn_png_write_rgb8(path, px, cam->w, cam->h, (size_t)cam->w * 3, err, sizeof err))
+            rc = cli_fail("render", "%s", err);
+    }
+    free(px), free(refpx), free(rgb);
+    return rc;
+}
+
+/* The totals' lines; checks --verify against the frames' MD5. */
+static int render_totals(const render_job *j, render_tally *t, int with_gt, int no_skip,
+                         const char *verify)
+{
+    const cnerf_info *I = &j->dec->info;
+    const cnerf_render_opts *o = &j->cfg->opts;
+    const int n = t->count;
+    printf("mean over %d views (%s, %u+%u samples, t_stop %.3g):", n,
+           j->use_float ? "float reference" : "fixed point", o->n_coarse,
+           I->n_nets > 1 ? o->n_fine : 0, o->t_stop / 1073741824.0);
+    if (with_gt)
+        printf(" psnr %.2f dB  ssim %.4f (float reference %.2f dB)", t->sum_gt / n,
+               t->sum_ssim / n, t->sum_ref_gt / n);
+    if (!j->use_float) {
+        if (t->inf_count == n)
+            printf("  vs float: identical");
+        else
+            printf("  vs float %.2f dB (%d identical views)", t->sum_vs / (n - t->inf_count),
+                   t->inf_count);
+        printf(", max diff %d (%ld of %ld px > 2)  %.1f ms/frame", t->worst, t->over2_all,
+               t->px_all, t->sum_ms / n);
+    }
+    printf("  float reference %.1f ms/frame\n", t->sum_ms_ref / n);
+    char hex[33];
+    MD5End(&t->all, hex);
+    printf("md5 of all frames: %s\n", hex);
+    const cnerf_render_stats *s = &j->stats;
+    if (!j->use_float && s->rays) {
+        printf("network evaluations per ray: %.2f (%.2f without skipping%s)\n",
+               (double)s->evals / (double)s->rays, (double)s->in_bounds / (double)s->rays,
+               I->grid_g ? (no_skip ? "; --no-skip: the grid is ignored" : "")
+                         : "; the stream has no occupancy grid");
+        printf("network multiply-accumulates per ray: %.0f (%.0f per evaluation)\n",
+               (double)s->macs / (double)s->rays,
+               s->evals ? (double)s->macs / (double)s->evals : 0.0);
+    }
+    if (verify && strcmp(hex, verify))
+        return cli_fail("render", "verification failed: the frames' md5 is %s, expected %s",
+                        hex, verify);
+    if (verify)
+        printf("verified: %s\n", hex);
+    return 0;
+}
+
+/* Sets the samples and the stop threshold asked for; checks them against the stream. */
+static int render_options(const char *path, const cnerf_info *I, long coarse, long fine,
+                          double t_stop, int no_skip, render_cfg *cfg)
+{
+    cnerf_render_defaults(I, &cfg->opts);
+    if (coarse >= 0)
+        cfg->opts.n_coarse = (uint16_t)coarse;
+    if (fine >= 0)
+        cfg->opts.n_fine = (uint16_t)fine;
+    if (t_stop >= 0)
+        cfg->opts.t_stop = (uint32_t)llround(t_stop * 1073741824.0);
+    if (no_skip)
+        cfg->opts.flags |= CNERF_RENDER_NO_SKIP;
+    if (I->n_nets > 1 && cfg->opts.n_fine == 0 && !cnerf_net_has_color(I, 0))
+        return cli_fail("render", "%s does not carry the coarse network's colour (encoded with "
+                        "--coarse-color off, the default): --fine 0 has no image to show; give "
+                        "--fine 1 or more, or encode with --coarse-color on", path);
+    if (cfg->opts.n_coarse > I->n_coarse || cfg->opts.n_fine > I->n_fine)
+        return cli_fail("render", "%s has %u coarse and %u fine samples: --coarse %u --fine %u "
+                        "asks for more", path, I->n_coarse, I->n_fine, cfg->opts.n_coarse,
+                        cfg->opts.n_fine);
+    return 0;
+}
+
+/* Opens --save-cameras' temporary file (renamed into place by close_cameras). */
+static int open_cameras(const char *path, char *tmp, size_t tmplen, FILE **f)
+{
+    snprintf(tmp, tmplen, "%s.tmp.%ld", path, (long)getpid());
+    *f = fopen(tmp, "w");
+    return *f ? 0 : cli_fail("render", "%s: %s", tmp, strerror(errno));
+}
+
+static int close_cameras(FILE *f, const char *tmp, const char *path, int rc)
+{
+    const int bad = fflush(f) != 0 || ferror(f) != 0;
+    fclose(f);
+    if (rc == 0 && bad)
+        rc = cli_fail("render", "%s: write error", tmp);
+    if (rc == 0 && rename(tmp, path) != 0)
+        rc = cli_fail("render", "%s: %s", path, strerror(errno));
+    if (rc != 0)
+        remove(tmp);
+    return rc;
+}
+
 int cmd_render(int argc, char **argv)
 {
     const char *dataset = NULL, *split = "test", *outdir = NULL, *verify = NULL, *pos[1];
@@ -202,30 +381,12 @@ int cmd_render(int argc, char **argv)
         return 1;
     const cnerf_info *I = &st.dec->info;
     render_cfg cfg = {.tile = tile};
-    cnerf_render_defaults(I, &cfg.opts);
-    if (coarse >= 0)
-        cfg.opts.n_coarse = (uint16_t)coarse;
-    if (fine >= 0)
-        cfg.opts.n_fine = (uint16_t)fine;
-    if (t_stop >= 0)
-        cfg.opts.t_stop = (uint32_t)llround(t_stop * 1073741824.0);
-    /* --no-skip: both renderers ignore the stream's occupancy grid. */
+    int rc = render_options(pos[0], I, coarse, fine, t_stop, no_skip, &cfg);
+    /* The float reference with the same sample counts; --no-skip: both renderers ignore
+     * the stream's occupancy grid. */
     struct cn_occ *grid = ref.grid;
-    if (no_skip) {
-        cfg.opts.flags |= CNERF_RENDER_NO_SKIP;
+    if (no_skip)
         ref.grid = NULL;
-    }
-    cnerf_render_stats stats = {0, 0, 0, 0};
-    int rc = 0;
-    if (rc == 0 && I->n_nets > 1 && cfg.opts.n_fine == 0 && !cnerf_net_has_color(I, 0))
-        rc = cli_fail("render", "%s does not carry the coarse network's colour (encoded with "
-                      "--coarse-color off, the default): --fine 0 has no image to show; give "
-                      "--fine 1 or more, or encode with --coarse-color on", pos[0]);
-    else if (cfg.opts.n_coarse > I->n_coarse || cfg.opts.n_fine > I->n_fine)
-        rc = cli_fail("render", "%s has %u coarse and %u fine samples: --coarse %u --fine %u "
-                      "asks for more", pos[0], I->n_coarse, I->n_fine, cfg.opts.n_coarse,
-                      cfg.opts.n_fine);
-    /* The float reference with the same sample counts. */
     ref.topo.n_coarse = cfg.opts.n_coarse;
     ref.topo.n_fine = cfg.opts.n_fine;
     if (ref.topo.n_fine == 0)
@@ -254,22 +415,17 @@ int cmd_render(int argc, char **argv)
         rc = 1;
     FILE *cams = NULL;
     char cam_tmp[4096];
-    if (rc == 0 && cam_path) {
-        snprintf(cam_tmp, sizeof cam_tmp, "%s.tmp.%ld", cam_path, (long)getpid());
-        cams = fopen(cam_tmp, "w");
-        if (!cams)
-            rc = cli_fail("render", "%s: %s", cam_tmp, strerror(errno));
-    }
+    if (rc == 0 && cam_path)
+        rc = open_cameras(cam_path, cam_tmp, sizeof cam_tmp, &cams);
 
-    MD5_CTX all;
-    MD5Init(&all);
-    double sum_gt = 0, sum_ref_gt = 0, sum_ssim = 0, sum_vs = 0, sum_ms = 0, sum_ms_ref = 0;
-    int count = 0, worst = 0, inf_count = 0;
-    long over2_all = 0, px_all = 0;
-    char err[1024];
+    render_job job = {.dec = st.dec, .ref = &ref, .cfg = &cfg, .use_float = use_float,
+                      .outdir = outdir};
+    render_tally tally;
+    memset(&tally, 0, sizeof tally);
+    MD5Init(&tally.all);
     for (int i = 0; rc == 0 && i < n; i += dataset ? (int)every : 1) {
         cn_camera cam;
-        char name[80];
+        char name[80], err[1024];
         if (dataset) {
             cn_view_camera(&views[i], &cam);
             snprintf(name, sizeof name, "%s", views[i].name);
@@ -284,120 +440,12 @@ int cmd_render(int argc, char **argv)
         }
         if (cams)
             cli_write_camera(cams, &fc, name);
-        const size_t npx = (size_t)cam.w * cam.h, nv = 3 * npx;
-        uint8_t *px = malloc(nv), *refpx = malloc(nv);
-        float *rgb = malloc(sizeof(float) * nv);
-        if (!px || !refpx || !rgb) {
-            free(px), free(refpx), free(rgb);
-            rc = cli_fail("render", "out of memory");
-            break;
-        }
-        double t0 = cli_now();
-        if (!use_float && render_fixed(st.dec, &fc, &cfg, px, &stats, err, sizeof err)) {
-            free(px), free(refpx), free(rgb);
-            rc = cli_fail("render", "%s: %s", name, err);
-            break;
-        }
-        const double ms = (cli_now() - t0) * 1e3;
-        t0 = cli_now();
-        if (cn_render_view(&ref, &cam, I->coord == CNERF_COORD_NDC, rgb, 4096)) {
-            free(px), free(refpx), free(rgb);
-            rc = cli_fail("render", "out of memory");
-            break;
-        }
-        const double ms_ref = (cli_now() - t0) * 1e3;
-        to_u8(rgb, refpx, nv);
-        if (use_float)
-            memcpy(px, refpx, nv);
-        char hex[33];
-        MD5_CTX one;
-        MD5Init(&one);
-        MD5Update(&one, px, nv);
-        MD5End(&one, hex);
-        MD5Update(&all, px, nv);
-        int md;
-        long over2;
-        const double vs = psnr_u8(px, refpx, nv, &md, &over2);
-        over2_all += over2;
-        px_all += (long)npx;
-        printf("  %-12s", name);
-        if (dataset) {
-            to_float(px, rgb, nv);
-            const double g = cn_psnr_from_mse(cn_mse(rgb, views[i].rgb, nv));
-            const double s = cn_ssim(rgb, views[i].rgb, cam.w, cam.h);
-            to_float(refpx, rgb, nv);
-            const double rg = cn_psnr_from_mse(cn_mse(rgb, views[i].rgb, nv));
-            printf(" psnr %6.2f dB  ssim %.4f (float reference %6.2f dB)", g, s, rg);
-            sum_gt += g, sum_ssim += s, sum_ref_gt += rg;
-        }
-        if (!use_float)
-            printf("  vs float %6.2f dB, max diff %d (%ld px > 2)  %8.1f ms", vs, md, over2, ms);
-        printf("  float %8.1f ms", ms_ref);
-        printf("  md5 %s\n", hex);
-        fflush(stdout);
-        if (isinf(vs))
-            inf_count++;
-        else
-            sum_vs += vs;
-        worst = md > worst ? md : worst;
-        sum_ms += ms;
-        sum_ms_ref += ms_ref;
-        count++;
-        if (outdir) {
-            char path[4096];
-            snprintf(path, sizeof path, "%s/%s.png", outdir, name);
-            if (cn_png_write_rgb8(path, px, cam.w, cam.h, (size_t)cam.w * 3, err, sizeof err))
-                rc = cli_fail("render", "%s", err);
-        }
-        free(px), free(refpx), free(rgb);
+        rc = render_view(&job, &cam, &fc, name, dataset ? views[i].rgb : NULL, &tally);
     }
-    if (rc == 0 && count) {
-        printf("mean over %d views (%s, %u+%u samples, t_stop %.3g):", count,
-               use_float ? "float reference" : "fixed point", cfg.opts.n_coarse,
-               I->n_nets > 1 ? cfg.opts.n_fine : 0, cfg.opts.t_stop / 1073741824.0);
-        if (dataset)
-            printf(" psnr %.2f dB  ssim %.4f (float reference %.2f dB)", sum_gt / count,
-                   sum_ssim / count, sum_ref_gt / count);
-        if (!use_float) {
-            if (inf_count == count)
-                printf("  vs float: identical");
-            else
-                printf("  vs float %.2f dB (%d identical views)", sum_vs / (count - inf_count),
-                       inf_count);
-            printf(", max diff %d (%ld of %ld px > 2)  %.1f ms/frame", worst, over2_all, px_all,
-                   sum_ms / count);
-        }
-        printf("  float reference %.1f ms/frame\n", sum_ms_ref / count);
-        char hex[33];
-        MD5End(&all, hex);
-        printf("md5 of all frames: %s\n", hex);
-        if (!use_float && stats.rays)
-            printf("network evaluations per ray: %.2f (%.2f without skipping%s)\n",
-                   (double)stats.evals / (double)stats.rays,
-                   (double)stats.in_bounds / (double)stats.rays,
-                   I->grid_g ? (no_skip ? "; --no-skip: the grid is ignored" : "")
-                             : "; the stream has no occupancy grid");
-        if (!use_float && stats.rays)
-            printf("network multiply-accumulates per ray: %.0f (%.0f per evaluation)\n",
-                   (double)stats.macs / (double)stats.rays,
-                   stats.evals ? (double)stats.macs / (double)stats.evals : 0.0);
-        if (verify && strcmp(hex, verify)) {
-            rc = cli_fail("render", "verification failed: the frames' md5 is %s, expected %s",
-                          hex, verify);
-        } else if (verify) {
-            printf("verified: %s\n", hex);
-        }
-    }
-    if (cams) {
-        const int bad = fflush(cams) != 0 || ferror(cams) != 0;
-        fclose(cams);
-        if (rc == 0 && bad)
-            rc = cli_fail("render", "%s: write error", cam_tmp);
-        if (rc == 0 && rename(cam_tmp, cam_path) != 0)
-            rc = cli_fail("render", "%s: %s", cam_path, strerror(errno));
-        if (rc != 0)
-            remove(cam_tmp);
-    }
+    if (rc == 0 && tally.count)
+        rc = render_totals(&job, &tally, dataset != NULL, no_skip, verify);
+    if (cams)
+        rc = close_cameras(cams, cam_tmp, cam_path, rc);
     cn_dataset_free(&ds);
     ref.grid = grid;
     cn_model_free(&ref);
