@@ -18,9 +18,6 @@ int cmd_synth(int argc, char **argv);
 int cmd_train(int argc, char **argv);
 int cmd_eval(int argc, char **argv);
 int cmd_encode(int argc, char **argv);
-/* cnerf encode with several datasets: one stream of several scenes (encode_set.c, reached from
- * cmd_encode). */
-int cli_encode_set(int argc, char **argv);
 int cmd_quantize(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 int cmd_views(int argc, char **argv);

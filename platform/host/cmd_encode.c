@@ -9,6 +9,7 @@
 #include "cn_file.h"
 #include "cli.h"
 #include "cli_args.h"
+#include "cli_encode.h"
 #include "progress.h"
 #include "cn_export.h"
 #include "cn_pipeline.h"
@@ -115,32 +116,15 @@ static int init_topology(const char *path, const char **preset, long *depth, lon
     return 0;
 }
 
-/* The encode command's options, and what follows from them. */
-typedef struct encode_args {
-    cn_train_opts o;
-    const char *out, *resume, *init, *pos[CNERF_MAX_SCENES], *latent_lr, *random_bg, *background;
-    const char *prune, *coarse_color, *scheme, *preset;
-    double coarse_weight, ckpt_secs, lambda, levels, size, bpp, quality, lr_shift;
-    long iters, downscale, max_size, threads, batch, every, depth, width, coarse, fine;
-    long ckpt_every, log_every, view_width, eval_every, grid_g, precrop, val_views;
-    uint64_t seed;
-    int black, n_pos, grid_verbose;
-    int controlled; /* --size or --bits-per-param: lambda follows rate control */
-    int autop;      /* --preset auto */
-    char ckpt[4096];
-} encode_args;
 
-/* Parses and checks the command line into A (its defaults first). Returns -1 to go on, or
- * the command's exit status. */
-static int parse_args(int argc, char **argv, encode_args *A)
+/* The options' defaults (what cmd_encode does with an option that is not given). */
+static void encode_defaults(encode_args *A)
 {
     memset(A, 0, sizeof *A);
     cn_train_defaults(&A->o);
     A->o.compress = 1;
-    A->latent_lr = "weight";
     A->random_bg = "auto";
     A->background = "constant";
-    A->prune = "on";
     A->coarse_color = "off";
     A->coarse_weight = -1;
     A->iters = A->o.iters;
@@ -154,61 +138,13 @@ static int parse_args(int argc, char **argv, encode_args *A)
     A->lambda = -1;
     A->levels = A->o.levels;
     A->quality = A->lr_shift = -1;
-    A->scheme = "dual";
     A->seed = A->o.seed;
-    const cli_opt opts[] = {
-        {"-o", CLI_STR, &A->out, 0, 0},
-        {"--lambda", CLI_DOUBLE, &A->lambda, 0, 1e3},
-        {"--quality", CLI_DOUBLE, &A->quality, 0, 100},
-        {"--size", CLI_DOUBLE, &A->size, 1, 1e9},
-        {"--bits-per-param", CLI_DOUBLE, &A->bpp, 1e-3, 32},
-        {"--rate-control", CLI_STR, &A->scheme, 0, 0},
-        {"--preset", CLI_STR, &A->preset, 0, 0},
-        {"--iters", CLI_LONG, &A->iters, 0, 1e9},
-        {"--downscale", CLI_LONG, &A->downscale, 1, 64},
-        {"--max-size", CLI_LONG, &A->max_size, 1, 1 << 20},
-        {"--threads", CLI_LONG, &A->threads, 1, 256},
-        {"--seed", CLI_U64, &A->seed, 0, 0},
-        {"--resume", CLI_STR, &A->resume, 0, 0},
-        {"--init", CLI_STR, &A->init, 0, 0},
-        {"--levels", CLI_DOUBLE, &A->levels, 0.5, 10000},
-        {"--batch", CLI_LONG, &A->batch, 1, 65536},
-        {"--every", CLI_LONG, &A->every, 1, 1e6},
-        {"--black", CLI_FLAG, &A->black, 0, 0},
-        {"--ckpt-every", CLI_LONG, &A->ckpt_every, 1, 1e9},
-        {"--ckpt-secs", CLI_DOUBLE, &A->ckpt_secs, 1, 1e6},
-        {"--log-every", CLI_LONG, &A->log_every, 1, 1e9},
-        {"--eval-every", CLI_LONG, &A->eval_every, 0, 1e9},
-        {"--val-views", CLI_LONG, &A->val_views, 0, 1e6},
-        {"--depth", CLI_LONG, &A->depth, 1, CNERF_MAX_DEPTH},
-        {"--width", CLI_LONG, &A->width, 1, CNERF_MAX_WIDTH},
-        {"--view-width", CLI_LONG, &A->view_width, 0, CNERF_MAX_VIEW_WIDTH},
-        {"--coarse", CLI_LONG, &A->coarse, 1, CNERF_MAX_SAMPLES},
-        {"--fine", CLI_LONG, &A->fine, 0, CNERF_MAX_SAMPLES},
-        {"--latent-lr", CLI_STR, &A->latent_lr, 0, 0},
-        {"--lr", CLI_DOUBLE, &A->o.lr, 1e-8, 1},
-        {"--lr-decay", CLI_DOUBLE, &A->o.lr_decay_steps, 1, 1e12},
-        {"--precrop-iters", CLI_LONG, &A->precrop, 0, 1e9},
-        {"--average", CLI_LONG, &A->o.average, 1, 1e9},
-        {"--prior-lr", CLI_DOUBLE, &A->o.lr_prior, 0, 1},
-        {"--skip-saturated", CLI_DOUBLE, &A->o.sat_eps, 0, 1},
-        {"--group-penalty", CLI_DOUBLE, &A->o.group, 0, 1000},
-        {"--affine-lr", CLI_DOUBLE, &A->o.lr_affine, 0, 1},
-        {"--scale-lr", CLI_DOUBLE, &A->o.lr_scale, 0, 1},
-        {"--grid", CLI_LONG, &A->grid_g, -1, CNERF_MAX_GRID},
-        {"--grid-verbose", CLI_FLAG, &A->grid_verbose, 0, 0},
-        {"--random-bg", CLI_STR, &A->random_bg, 0, 0},
-        {"--background", CLI_STR, &A->background, 0, 0},
-        {"--prune", CLI_STR, &A->prune, 0, 0},
-        {"--coarse-color", CLI_STR, &A->coarse_color, 0, 0},
-        {"--coarse-weight", CLI_DOUBLE, &A->coarse_weight, 1e-3, 10},
-        {"--shift-lr", CLI_DOUBLE, &A->lr_shift, 0, 1},
-    };
-    if (cli_parse("encode", ENCODE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], A->pos,
-                  CNERF_MAX_SCENES, &A->n_pos))
-        return 2;
-    if (A->n_pos > 1) /* several scenes: their own command line */
-        return cli_encode_set(argc, argv);
+}
+
+/* The one-scene encode's checks of its options, and what follows from them. Returns -1 to go
+ * on, or the command's exit status. */
+static int check_args(encode_args *A)
+{
     if (A->lr_shift >= 0)
         return cli_usage("encode", "--shift-lr sets the shared shifts' rate of a stream of "
                          "several scenes; this encode has one");
@@ -294,6 +230,74 @@ static int parse_args(int argc, char **argv, encode_args *A)
         strncat(A->ckpt, ".ckpt", sizeof A->ckpt - strlen(A->ckpt) - 1);
     return -1;
 }
+
+/* Parses and checks the command line into A (its defaults first). Returns -1 to go on, or
+ * the command's exit status. */
+static int parse_args(int argc, char **argv, encode_args *A)
+{
+    encode_defaults(A);
+    const cli_opt opts[] = {
+        {"-o", CLI_STR, &A->out, 0, 0},
+        {"--lambda", CLI_DOUBLE, &A->lambda, 0, 1e3},
+        {"--quality", CLI_DOUBLE, &A->quality, 0, 100},
+        {"--size", CLI_DOUBLE, &A->size, 1, 1e9},
+        {"--bits-per-param", CLI_DOUBLE, &A->bpp, 1e-3, 32},
+        {"--rate-control", CLI_STR, &A->scheme, 0, 0},
+        {"--preset", CLI_STR, &A->preset, 0, 0},
+        {"--iters", CLI_LONG, &A->iters, 0, 1e9},
+        {"--downscale", CLI_LONG, &A->downscale, 1, 64},
+        {"--max-size", CLI_LONG, &A->max_size, 1, 1 << 20},
+        {"--threads", CLI_LONG, &A->threads, 1, 256},
+        {"--seed", CLI_U64, &A->seed, 0, 0},
+        {"--resume", CLI_STR, &A->resume, 0, 0},
+        {"--init", CLI_STR, &A->init, 0, 0},
+        {"--levels", CLI_DOUBLE, &A->levels, 0.5, 10000},
+        {"--batch", CLI_LONG, &A->batch, 1, 65536},
+        {"--every", CLI_LONG, &A->every, 1, 1e6},
+        {"--black", CLI_FLAG, &A->black, 0, 0},
+        {"--ckpt-every", CLI_LONG, &A->ckpt_every, 1, 1e9},
+        {"--ckpt-secs", CLI_DOUBLE, &A->ckpt_secs, 1, 1e6},
+        {"--log-every", CLI_LONG, &A->log_every, 1, 1e9},
+        {"--eval-every", CLI_LONG, &A->eval_every, 0, 1e9},
+        {"--val-views", CLI_LONG, &A->val_views, 0, 1e6},
+        {"--depth", CLI_LONG, &A->depth, 1, CNERF_MAX_DEPTH},
+        {"--width", CLI_LONG, &A->width, 1, CNERF_MAX_WIDTH},
+        {"--view-width", CLI_LONG, &A->view_width, 0, CNERF_MAX_VIEW_WIDTH},
+        {"--coarse", CLI_LONG, &A->coarse, 1, CNERF_MAX_SAMPLES},
+        {"--fine", CLI_LONG, &A->fine, 0, CNERF_MAX_SAMPLES},
+        {"--latent-lr", CLI_STR, &A->latent_lr, 0, 0},
+        {"--lr", CLI_DOUBLE, &A->o.lr, 1e-8, 1},
+        {"--lr-decay", CLI_DOUBLE, &A->o.lr_decay_steps, 1, 1e12},
+        {"--precrop-iters", CLI_LONG, &A->precrop, 0, 1e9},
+        {"--average", CLI_LONG, &A->o.average, 1, 1e9},
+        {"--prior-lr", CLI_DOUBLE, &A->o.lr_prior, 0, 1},
+        {"--skip-saturated", CLI_DOUBLE, &A->o.sat_eps, 0, 1},
+        {"--group-penalty", CLI_DOUBLE, &A->o.group, 0, 1000},
+        {"--affine-lr", CLI_DOUBLE, &A->o.lr_affine, 0, 1},
+        {"--scale-lr", CLI_DOUBLE, &A->o.lr_scale, 0, 1},
+        {"--grid", CLI_LONG, &A->grid_g, -1, CNERF_MAX_GRID},
+        {"--grid-verbose", CLI_FLAG, &A->grid_verbose, 0, 0},
+        {"--random-bg", CLI_STR, &A->random_bg, 0, 0},
+        {"--background", CLI_STR, &A->background, 0, 0},
+        {"--prune", CLI_STR, &A->prune, 0, 0},
+        {"--coarse-color", CLI_STR, &A->coarse_color, 0, 0},
+        {"--coarse-weight", CLI_DOUBLE, &A->coarse_weight, 1e-3, 10},
+        {"--shift-lr", CLI_DOUBLE, &A->lr_shift, 0, 1},
+    };
+    if (cli_parse("encode", ENCODE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], A->pos,
+                  CNERF_MAX_SCENES, &A->n_pos))
+        return 2;
+    if (A->n_pos > 1) /* several scenes */
+        return cli_encode_set(A);
+    if (!A->scheme)
+        A->scheme = "dual";
+    if (!A->prune)
+        A->prune = "on";
+    if (!A->latent_lr)
+        A->latent_lr = "weight";
+    return check_args(A);
+}
+
 
 /* Under --size (or --bits-per-param): refuses a target out of the preset's reach on this
  * scene, else puts the trainer under rate control. Returns 0, or -1 with a message. */

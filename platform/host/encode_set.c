@@ -11,21 +11,11 @@
 #include "cn_file.h"
 #include "cli.h"
 #include "cli_args.h"
+#include "cli_encode.h"
 #include "cn_joint.h"
 #include "cn_metrics.h"
 #include "cn_pipeline.h"
 #include "cn_train.h"
-
-#define SET_USAGE                                                                            \
-    "usage: cnerf encode DATASET1 DATASET2 [...] -o set.cnrf (--lambda L | --quality Q)\n"  \
-    "       [--preset tiny|small|paper] [--iters N] [--downscale F|--max-size N]\n"          \
-    "       [--threads T] [--seed S] [--resume CKPT] [--levels X] [--batch R] [--every N]\n" \
-    "       [--lr X] [--lr-decay N] [--shift-lr X] [--prior-lr X] [--affine-lr X] [--scale-lr R]\n"        \
-    "       [--ckpt-every N | --ckpt-secs S] [--log-every N] [--eval-every N]\n"            \
-    "       [--depth D] [--width W] [--coarse N] [--fine N] [--grid G|0] [--random-bg auto|on|off]\n" \
-    "       [--background constant|contract] [--coarse-color off|on] [--coarse-weight W]\n"          \
-    "  Several scenes in one stream: one network topology, each scene's own latents,\n"    \
-    "  affine decoders, biases, render parameters and grid, and shifts shared by all."
 
 /* The job cli_run_job runs: one joint step, per-scene PSNR on the progress line. */
 static long set_done(void *ctx) { return ((cn_joint *)ctx)->step; }
@@ -61,194 +51,102 @@ static int set_save(void *ctx, const char *path, char *err, size_t errlen)
     return cn_joint_save(ctx, path, err, errlen);
 }
 
-int cli_encode_set(int argc, char **argv)
+/* The options a stream of several scenes does not take, and the ones it needs. Returns 0, or
+ * the command's exit status. */
+static int check_set(const encode_args *A)
 {
-    cn_train_opts o;
-    cn_train_defaults(&o);
-    o.compress = 1;
-    const char *out = NULL, *resume = NULL, *pos[CNERF_MAX_SCENES], *random_bg = "auto", *background = "constant";
-    long iters = o.iters, downscale = 1, max_size = 0, threads = 0, batch = o.batch, every = 1;
-    long depth = -1, width = -1, coarse = -1, fine = -1, ckpt_every = 0, log_every = 100;
-    long eval_every = 0, grid_g = -1;
-    double ckpt_secs = CLI_CKPT_SECS, lambda = -1, quality = -1, levels = o.levels;
-    double lr_shift = o.lr_affine, size = 0, bpp = 0;
-    long average = 0;
-    const char *prune = NULL, *scheme = NULL, *coarse_color = "off";
-    double coarse_weight = -1;
-    uint64_t seed = o.seed;
-    int n_pos;
-    const cli_opt opts[] = {
-        {"-o", CLI_STR, &out, 0, 0},
-        {"--lambda", CLI_DOUBLE, &lambda, 0, 1e3},
-        {"--quality", CLI_DOUBLE, &quality, 0, 100},
-        {"--size", CLI_DOUBLE, &size, 1, 1e9},
-        {"--average", CLI_LONG, &average, 1, 1e9},
-        {"--bits-per-param", CLI_DOUBLE, &bpp, 1e-3, 32},
-        {"--rate-control", CLI_STR, &scheme, 0, 0},
-        {"--prune", CLI_STR, &prune, 0, 0},
-        {"--preset", CLI_STR, &o.preset, 0, 0},
-        {"--iters", CLI_LONG, &iters, 0, 1e9},
-        {"--downscale", CLI_LONG, &downscale, 1, 64},
-        {"--max-size", CLI_LONG, &max_size, 1, 1 << 20},
-        {"--threads", CLI_LONG, &threads, 1, 256},
-        {"--seed", CLI_U64, &seed, 0, 0},
-        {"--resume", CLI_STR, &resume, 0, 0},
-        {"--levels", CLI_DOUBLE, &levels, 0.5, 10000},
-        {"--batch", CLI_LONG, &batch, 1, 65536},
-        {"--every", CLI_LONG, &every, 1, 1e6},
-        {"--ckpt-every", CLI_LONG, &ckpt_every, 1, 1e9},
-        {"--ckpt-secs", CLI_DOUBLE, &ckpt_secs, 1, 1e6},
-        {"--log-every", CLI_LONG, &log_every, 1, 1e9},
-        {"--eval-every", CLI_LONG, &eval_every, 0, 1e9},
-        {"--depth", CLI_LONG, &depth, 1, CNERF_MAX_DEPTH},
-        {"--width", CLI_LONG, &width, 1, CNERF_MAX_WIDTH},
-        {"--coarse", CLI_LONG, &coarse, 1, CNERF_MAX_SAMPLES},
-        {"--fine", CLI_LONG, &fine, 0, CNERF_MAX_SAMPLES},
-        {"--lr", CLI_DOUBLE, &o.lr, 1e-8, 1},
-        {"--lr-decay", CLI_DOUBLE, &o.lr_decay_steps, 1, 1e12},
-        {"--shift-lr", CLI_DOUBLE, &lr_shift, 0, 1},
-        {"--prior-lr", CLI_DOUBLE, &o.lr_prior, 0, 1},
-        {"--affine-lr", CLI_DOUBLE, &o.lr_affine, 0, 1},
-        {"--scale-lr", CLI_DOUBLE, &o.lr_scale, 0, 1},
-        {"--grid", CLI_LONG, &grid_g, -1, CNERF_MAX_GRID},
-        {"--random-bg", CLI_STR, &random_bg, 0, 0},
-        {"--background", CLI_STR, &background, 0, 0},
-        {"--coarse-color", CLI_STR, &coarse_color, 0, 0},
-        {"--coarse-weight", CLI_DOUBLE, &coarse_weight, 1e-3, 10},
-    };
-    if (cli_parse("encode", SET_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], pos,
-                  CNERF_MAX_SCENES, &n_pos))
-        return 2;
-    const unsigned M = (unsigned)n_pos;
-    if (average > 0)
+    static const char one[] = "encodes one scene; a stream of several scenes does not take it";
+    const unsigned M = (unsigned)A->n_pos;
+    if (A->o.average > 0)
         return cli_usage("encode", "--average encodes one scene: a stream of several scenes "
                          "ends with its last iteration's model");
-    if (size > 0 || bpp > 0 || scheme)
+    if (A->size > 0 || A->bpp > 0 || A->scheme)
         return cli_usage("encode", "--size, --bits-per-param and --rate-control encode one "
                          "scene; a stream of several scenes takes --lambda L or --quality Q");
-    if (M < 2 || !out || (lambda < 0 && quality < 0))
+    if (!A->out || (A->lambda < 0 && A->quality < 0))
         return cli_usage("encode", "several scenes need their dataset directories, -o FILE and "
-                         "--lambda L or --quality Q\n%s", SET_USAGE);
-    if (prune && strcmp(prune, "off"))
+                         "--lambda L or --quality Q");
+    if (A->prune && strcmp(A->prune, "off"))
         return cli_usage("encode", "--prune: a stream of several scenes keeps every unit (its "
                          "proof of a dead unit would have to hold in every scene); give "
                          "--prune off or leave it out");
-    if (lambda >= 0 && quality >= 0)
+    const struct { int given; const char *name; } single[] = {
+        {A->init != NULL, "--init"},           {A->black, "--black"},
+        {A->val_views >= 0, "--val-views"},    {A->view_width >= 0, "--view-width"},
+        {A->latent_lr != NULL, "--latent-lr"}, {A->precrop >= 0, "--precrop-iters"},
+        {A->o.sat_eps != 0, "--skip-saturated"}, {A->o.group != 0, "--group-penalty"},
+        {A->grid_verbose, "--grid-verbose"},
+    };
+    for (size_t k = 0; k < sizeof single / sizeof single[0]; k++)
+        if (single[k].given)
+            return cli_usage("encode", "%s %s", single[k].name, one);
+    if (A->lambda >= 0 && A->quality >= 0)
         return cli_usage("encode", "--lambda and --quality each set the rate: give one of them");
-    if (grid_g > 0 && (grid_g < 16 || (grid_g & (grid_g - 1))))
+    if (A->grid_g > 0 && (A->grid_g < 16 || (A->grid_g & (A->grid_g - 1))))
         return cli_usage("encode", "--grid takes 16, 32, 64 or 128 cells per axis, or 0 for no "
-                        "grid, not %ld", grid_g);
-    if (cli_background("encode", background, &o.contract))
-        return 2;
-    if (cli_random_bg("encode", random_bg, &o.random_bg))
-        return 2;
-    if (cli_coarse_color("encode", coarse_color, coarse_weight, &o))
-        return 2;
-    if (iters == 0 && !resume)
+                        "grid, not %ld", A->grid_g);
+    if (A->iters == 0 && !A->resume)
         return cli_usage("encode", "--iters 0 trains nothing: give at least 1, or --resume a "
                          "checkpoint");
     for (unsigned a = 0; a < M; a++)
         for (unsigned b = a + 1; b < M; b++)
-            if (!strcmp(pos[a], pos[b]))
+            if (!strcmp(A->pos[a], A->pos[b]))
                 return cli_usage("encode", "%s is given twice: a set's scenes are different "
-                                 "datasets", pos[a]);
-    cli_set_threads(threads);
-    o.iters = iters;
-    o.seed = seed;
-    o.batch = (int)batch;
-    o.depth = (int)depth;
-    o.width = (int)width;
-    o.n_coarse = (int)coarse;
-    o.n_fine = (int)fine;
-    o.lambda = quality >= 0 ? 0 : lambda;
-    o.levels = levels;
-    o.latent_lr_weight_units = 1;
-    if (quality >= 0)
-        o.quality_slope = cn_quality_slope(quality);
-    char ckpt[4096];
-    snprintf(ckpt, sizeof ckpt, "%s", resume ? resume : out);
-    if (!resume)
-        strncat(ckpt, ".ckpt", sizeof ckpt - strlen(ckpt) - 1);
-    const char *inputs[1] = {resume};
-    for (unsigned m = 0; m < M; m++)
-        if (cli_check_output("encode", out, inputs, 1, pos[m]) ||
-            cli_check_output("encode", ckpt, NULL, 0, pos[m]))
-            return 1;
-    char lock[4200];
-    const int lk = cli_lock_output("encode", out, lock, sizeof lock);
-    if (lk < 0)
-        return 1;
-    cn_dataset *ds = calloc(M, sizeof *ds);
-    unsigned loaded = 0;
-    int rc = ds ? 0 : cli_fail("encode", "out of memory");
-    for (; rc == 0 && loaded < M; loaded++)
-        if (cli_load_dataset("encode", pos[loaded], downscale, max_size, 0, 0, 0, -1, &ds[loaded]))
-            rc = 1;
-    if (rc) {
-        for (unsigned m = 0; m + 1 < loaded; m++)
-            cn_dataset_free(&ds[m]);
-        free(ds);
-        cli_unlock_output(lk, lock);
-        return rc;
-    }
-    char err[1024];
-    cn_joint j;
-    if (cn_joint_init(&j, ds, M, &o, lr_shift, err, sizeof err)) {
-        rc = cli_fail("encode", "%s", err);
-        goto out_data;
-    }
-    if (resume) {
-        if (access(resume, F_OK) != 0)
-            rc = cli_fail("encode", "%s: no such checkpoint", resume);
-        else if (cn_joint_resume(&j, resume, err, sizeof err))
-            rc = cli_fail("encode", "%s", err);
-        else
-            printf("resumed %s at iteration %ld\n", resume, j.step);
-    }
-    int stopped = 0;
-    if (rc == 0) {
-        printf("encoding %u scenes jointly, shifts shared: lambda %s, %zu latents per scene, "
-               "checkpoint %s\n", M, quality >= 0 ? "from --quality" : "fixed",
-               cn_model_sent_latents(&j.t[0].model), ckpt);
-        for (unsigned m = 0; m < M; m++)
-            printf("  scene %u: %s, %d train views %dx%d, %s\n", m, pos[m], ds[m].n_train,
-                   ds[m].train[0].w, ds[m].train[0].h, ds[m].ndc ? "NDC" : "world");
-        const cli_job job = {&j, iters, set_done, set_step, set_save, NULL};
-        rc = cli_run_job("encode", &job, ckpt, ckpt_every, ckpt_secs, log_every, eval_every,
-                         every, &stopped);
-    }
-    if (rc == 0 && stopped) {
-        printf("interrupted: resume with --resume %s\n", ckpt);
-        rc = 128 + stopped;
-    }
-    for (unsigned m = 0; rc == 0 && m < M; m++) { /* each scene on its own held-out views */
-        printf("scene %u: ", m);
-        rc = cli_report_validation("encode", &j.t[m]);
-    }
-    /* Every scene and the shifts snapped to the stream's numbers, the scales from each
-     * scene's float model with the shifts, a grid per scene, one stream (cn_pipeline.h). */
-    cn_encoded enc;
-    memset(&enc, 0, sizeof enc);
-    char meta[1024];
+                                 "datasets", A->pos[a]);
+    return 0;
+}
+
+/* The training options of a set from the command line. Returns 0, or an exit status. */
+static int set_options(const encode_args *A, cn_train_opts *o)
+{
+    *o = A->o;
+    if (A->preset)
+        o->preset = A->preset;
+    if (cli_background("encode", A->background, &o->contract) ||
+        cli_random_bg("encode", A->random_bg, &o->random_bg) ||
+        cli_coarse_color("encode", A->coarse_color, A->coarse_weight, o))
+        return 2;
+    o->iters = A->iters;
+    o->seed = A->seed;
+    o->batch = (int)A->batch;
+    o->depth = (int)A->depth;
+    o->width = (int)A->width;
+    o->n_coarse = (int)A->coarse;
+    o->n_fine = (int)A->fine;
+    o->lambda = A->quality >= 0 ? 0 : A->lambda;
+    o->levels = A->levels;
+    o->latent_lr_weight_units = 1;
+    if (A->quality >= 0)
+        o->quality_slope = cn_quality_slope(A->quality);
+    return 0;
+}
+
+/* Every scene and the shifts snapped to the stream's numbers, the scales from each scene's
+ * float model with the shifts, a grid per scene, one stream (cn_pipeline.h), written to
+ * A->out. */
+static int write_set(const encode_args *A, cn_joint *j, const cn_train_opts *o,
+                     const cn_dataset *ds, cn_encoded *enc)
+{
+    const unsigned M = (unsigned)A->n_pos;
+    char meta[1024], err[1024];
     snprintf(meta, sizeof meta,
              "encoder=cnerf %s; command=encode; scenes=%u; dataset=%s; preset=%s; iters=%ld; "
              "lambda=%g; downscale=%ld; seed=%llu; levels=%g; coarse-color=%s; coarse-weight=%g",
-             CNERF_VERSION_STRING, M, pos[0], o.preset, j.step, cn_joint_lambda(&j), downscale,
-             (unsigned long long)seed, levels, coarse_color, o.coarse_weight);
-    if (rc == 0) {
-        cn_model *models[CNERF_MAX_SCENES];
-        const cn_dataset *views[CNERF_MAX_SCENES];
-        for (unsigned m = 0; m < M; m++) {
-            models[m] = &j.t[m].model;
-            views[m] = &ds[m];
-        }
-        const cn_encode_job job = {.models = models, .shift = &j.shift, .n = M, .meta = meta,
-                                   .seed = seed, .grid_g = (int)grid_g, .views = views};
-        if (cn_encode_finish(&job, &enc, err, sizeof err))
-            rc = cli_fail("encode", "%s", err);
+             CNERF_VERSION_STRING, M, A->pos[0], o->preset, j->step, cn_joint_lambda(j),
+             A->downscale, (unsigned long long)A->seed, A->levels, A->coarse_color,
+             o->coarse_weight);
+    cn_model *models[CNERF_MAX_SCENES];
+    const cn_dataset *views[CNERF_MAX_SCENES];
+    for (unsigned m = 0; m < M; m++) {
+        models[m] = &j->t[m].model;
+        views[m] = &ds[m];
     }
-    for (unsigned m = 0; rc == 0 && grid_g != 0 && m < M; m++) {
-        const cn_grid_choice *g = &enc.grid[m];
+    const cn_encode_job job = {.models = models, .shift = &j->shift, .n = M, .meta = meta,
+                               .seed = A->seed, .grid_g = (int)A->grid_g, .views = views};
+    if (cn_encode_finish(&job, enc, err, sizeof err))
+        return cli_fail("encode", "%s", err);
+    for (unsigned m = 0; A->grid_g != 0 && m < M; m++) {
+        const cn_grid_choice *g = &enc->grid[m];
         if (g->g)
             printf("occupancy grid of scene %u: %d^3, %.1f%% of the cells occupied, %zu bytes; "
                    "%.1f%% of the evaluations left on the training rays\n", m, g->g,
@@ -256,26 +154,29 @@ int cli_encode_set(int argc, char **argv)
         else
             printf("occupancy grid of scene %u: none\n", m);
     }
-    const cn_buf b = enc.stream;
-    if (rc == 0 && cn_write_file_atomic(out, b.p, b.n, err, sizeof err))
-        rc = cli_fail("encode", "%s", err);
-    /* The closed loop: each scene read back through the decoder, its float reference
-     * rendered on its test views. */
+    if (cn_write_file_atomic(A->out, enc->stream.p, enc->stream.n, err, sizeof err))
+        return cli_fail("encode", "%s", err);
+    return 0;
+}
+
+/* The closed loop: each scene read back through the decoder, its float reference rendered
+ * on its test views. */
+static int score_set(const encode_args *A, const cn_dataset *ds, size_t bytes)
+{
+    const unsigned M = (unsigned)A->n_pos;
     double psum = 0;
-    int scored = 0;
+    int scored = 0, rc = 0;
     for (unsigned m = 0; rc == 0 && m < M; m++) {
         cli_stream st;
         cn_model ref;
-        if (cli_stream_open_scene("encode", out, m, &st, &ref)) {
-            rc = 1;
-            break;
-        }
+        if (cli_stream_open_scene("encode", A->out, m, &st, &ref))
+            return 1;
         if (m == 0)
-            printf("wrote %s: %zu bytes, %u scenes, shared shifts %u bytes\n", out, st.len, M,
+            printf("wrote %s: %zu bytes, %u scenes, shared shifts %u bytes\n", A->out, st.len, M,
                    st.dec->info.shared_bytes);
         double psnr = 0, ssim = 0, secs = 0;
-        const int n = cli_eval_views(&ref, ds[m].test, ds[m].n_test, ds[m].ndc, every, NULL, 1,
-                                     &psnr, &ssim, &secs);
+        const int n = cli_eval_views(&ref, ds[m].test, ds[m].n_test, ds[m].ndc, A->every, NULL,
+                                     1, &psnr, &ssim, &secs);
         if (n < 0)
             rc = 1;
         else {
@@ -288,7 +189,88 @@ int cli_encode_set(int argc, char **argv)
         cli_stream_free(&st);
     }
     if (rc == 0 && scored)
-        printf("test: %u scenes, mean psnr %.2f dB, file %zu bytes\n", M, psum / scored, b.n);
+        printf("test: %u scenes, mean psnr %.2f dB, file %zu bytes\n", M, psum / scored, bytes);
+    return rc;
+}
+
+int cli_encode_set(const encode_args *A)
+{
+    const unsigned M = (unsigned)A->n_pos;
+    cn_train_opts o;
+    int rc = check_set(A);
+    if (rc == 0)
+        rc = set_options(A, &o);
+    if (rc)
+        return rc;
+    cli_set_threads(A->threads);
+    char ckpt[4096];
+    snprintf(ckpt, sizeof ckpt, "%s", A->resume ? A->resume : A->out);
+    if (!A->resume)
+        strncat(ckpt, ".ckpt", sizeof ckpt - strlen(ckpt) - 1);
+    const char *inputs[1] = {A->resume};
+    for (unsigned m = 0; m < M; m++)
+        if (cli_check_output("encode", A->out, inputs, 1, A->pos[m]) ||
+            cli_check_output("encode", ckpt, NULL, 0, A->pos[m]))
+            return 1;
+    char lock[4200];
+    const int lk = cli_lock_output("encode", A->out, lock, sizeof lock);
+    if (lk < 0)
+        return 1;
+    cn_dataset *ds = calloc(M, sizeof *ds);
+    unsigned loaded = 0;
+    rc = ds ? 0 : cli_fail("encode", "out of memory");
+    for (; rc == 0 && loaded < M; loaded++)
+        if (cli_load_dataset("encode", A->pos[loaded], A->downscale, A->max_size, 0, 0, 0, -1,
+                             &ds[loaded]))
+            rc = 1;
+    if (rc) {
+        for (unsigned m = 0; m + 1 < loaded; m++)
+            cn_dataset_free(&ds[m]);
+        free(ds);
+        cli_unlock_output(lk, lock);
+        return rc;
+    }
+    char err[1024];
+    cn_joint j;
+    if (cn_joint_init(&j, ds, M, &o, A->lr_shift >= 0 ? A->lr_shift : A->o.lr_affine, err,
+                      sizeof err)) {
+        rc = cli_fail("encode", "%s", err);
+        goto out_data;
+    }
+    if (A->resume) {
+        if (access(A->resume, F_OK) != 0)
+            rc = cli_fail("encode", "%s: no such checkpoint", A->resume);
+        else if (cn_joint_resume(&j, A->resume, err, sizeof err))
+            rc = cli_fail("encode", "%s", err);
+        else
+            printf("resumed %s at iteration %ld\n", A->resume, j.step);
+    }
+    int stopped = 0;
+    if (rc == 0) {
+        printf("encoding %u scenes jointly, shifts shared: lambda %s, %zu latents per scene, "
+               "checkpoint %s\n", M, A->quality >= 0 ? "from --quality" : "fixed",
+               cn_model_sent_latents(&j.t[0].model), ckpt);
+        for (unsigned m = 0; m < M; m++)
+            printf("  scene %u: %s, %d train views %dx%d, %s\n", m, A->pos[m], ds[m].n_train,
+                   ds[m].train[0].w, ds[m].train[0].h, ds[m].ndc ? "NDC" : "world");
+        const cli_job job = {&j, A->iters, set_done, set_step, set_save, NULL};
+        rc = cli_run_job("encode", &job, ckpt, A->ckpt_every, A->ckpt_secs, A->log_every,
+                         A->eval_every, A->every, &stopped);
+    }
+    if (rc == 0 && stopped) {
+        printf("interrupted: resume with --resume %s\n", ckpt);
+        rc = 128 + stopped;
+    }
+    for (unsigned m = 0; rc == 0 && m < M; m++) { /* each scene on its own held-out views */
+        printf("scene %u: ", m);
+        rc = cli_report_validation("encode", &j.t[m]);
+    }
+    cn_encoded enc;
+    memset(&enc, 0, sizeof enc);
+    if (rc == 0)
+        rc = write_set(A, &j, &o, ds, &enc);
+    if (rc == 0)
+        rc = score_set(A, ds, enc.stream.n);
     cn_encoded_free(&enc);
     cn_joint_free(&j);
 out_data:
