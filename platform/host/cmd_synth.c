@@ -62,6 +62,51 @@ static int parse_units(const char *list, cnerf_info *hdr)
     return 0;
 }
 
+/* The preset's topology with the options given (-1: not given). */
+static void set_topology(cnerf_info *hdr, long depth, long width, long view, long coarse,
+                         long fine, long lpos, long ldir)
+{
+    for (unsigned n = 0; n < CNERF_MAX_NETS; n++) {
+        cnerf_net_info *N = &hdr->net[n];
+        if (depth > 0) {
+            N->depth = (uint8_t)depth;
+            N->skip = depth >= 3 ? (uint8_t)(depth / 2) : CNERF_NO_SKIP;
+            if (N->skip != CNERF_NO_SKIP && N->skip + 1 >= depth)
+                N->skip = (uint8_t)(depth - 2);
+        }
+        if (width > 0)
+            N->width = (uint16_t)width;
+        if (view >= 0)
+            N->view_width = (uint16_t)view;
+    }
+    if (coarse > 0)
+        hdr->n_coarse = (uint16_t)coarse;
+    if (fine >= 0)
+        hdr->n_fine = (uint16_t)fine;
+    hdr->n_nets = hdr->n_fine ? 2 : 1;
+    if (lpos >= 0)
+        hdr->l_pos = (uint8_t)lpos;
+    if (ldir >= 0)
+        hdr->l_dir = (uint8_t)ldir;
+}
+
+/* An occupancy grid of g^3 cells: the cells whose centre lies within 0.7 of the half-width
+ * from the box's centre (in cell units on each axis) for "ball", all for "full", none for
+ * "empty". NULL when out of memory. */
+static uint8_t *synth_grid(size_t g, const char *shape)
+{
+    const size_t cells = g * g * g;
+    uint8_t *occ = malloc(cells);
+    for (size_t i = 0; occ && i < cells; i++) {
+        const double x = (double)(i % g) + 0.5 - 0.5 * (double)g,
+                     y = (double)(i / g % g) + 0.5 - 0.5 * (double)g,
+                     z = (double)(i / g / g) + 0.5 - 0.5 * (double)g, r = 0.35 * (double)g;
+        occ[i] = !strcmp(shape, "full") ||
+                 (!strcmp(shape, "ball") && x * x + y * y + z * z <= r * r);
+    }
+    return occ;
+}
+
 int cmd_synth(int argc, char **argv)
 {
     const char *out = NULL, *preset = "tiny";
@@ -105,28 +150,7 @@ int cmd_synth(int argc, char **argv)
     cnerf_info hdr;
     if (cn_preset_header(preset, &hdr))
         return cli_usage("synth", "unknown preset '%s' (tiny, small, paper)", preset);
-    for (unsigned n = 0; n < CNERF_MAX_NETS; n++) {
-        cnerf_net_info *N = &hdr.net[n];
-        if (depth > 0) {
-            N->depth = (uint8_t)depth;
-            N->skip = depth >= 3 ? (uint8_t)(depth / 2) : CNERF_NO_SKIP;
-            if (N->skip != CNERF_NO_SKIP && N->skip + 1 >= depth)
-                N->skip = (uint8_t)(depth - 2);
-        }
-        if (width > 0)
-            N->width = (uint16_t)width;
-        if (view >= 0)
-            N->view_width = (uint16_t)view;
-    }
-    if (coarse > 0)
-        hdr.n_coarse = (uint16_t)coarse;
-    if (fine >= 0)
-        hdr.n_fine = (uint16_t)fine;
-    hdr.n_nets = hdr.n_fine ? 2 : 1;
-    if (lpos >= 0)
-        hdr.l_pos = (uint8_t)lpos;
-    if (ldir >= 0)
-        hdr.l_dir = (uint8_t)ldir;
+    set_topology(&hdr, depth, width, view, coarse, fine, lpos, ldir);
     if (ndc && contract)
         return cli_usage("synth", "--ndc and --contract exclude each other");
     if (ndc) {
@@ -146,22 +170,9 @@ int cmd_synth(int argc, char **argv)
     char err[512], meta[512];
     snprintf(meta, sizeof meta, "encoder=cnerf %s; command=synth; preset=%s; seed=%llu; spread=%g",
              CNERF_VERSION_STRING, preset, (unsigned long long)seed, spread);
-    /* An occupancy grid: the cells whose centre lies within 0.7 of the half-width from the
-     * box's centre (in cell units on each axis), or all, or none. */
     uint8_t *occ = NULL;
-    if (grid > 0) {
-        const size_t g = (size_t)grid, cells = g * g * g;
-        occ = malloc(cells);
-        if (!occ)
-            return cli_fail("synth", "out of memory");
-        for (size_t i = 0; i < cells; i++) {
-            const double x = (double)(i % g) + 0.5 - 0.5 * (double)g,
-                         y = (double)(i / g % g) + 0.5 - 0.5 * (double)g,
-                         z = (double)(i / g / g) + 0.5 - 0.5 * (double)g, r = 0.35 * (double)g;
-            occ[i] = !strcmp(shape, "full") ||
-                     (!strcmp(shape, "ball") && x * x + y * y + z * z <= r * r);
-        }
-    }
+    if (grid > 0 && !(occ = synth_grid((size_t)grid, shape)))
+        return cli_fail("synth", "out of memory");
     /* Scene m of a set: seed + m, its bounds 1 + (m mod 4) / 4 times as wide and its
      * background's channels changed with m, so that the scenes differ where a decoder could
      * mix them up. */
