@@ -24,6 +24,18 @@ static inline void cn_rd_init(cn_reader *r, const uint8_t *p, size_t n)
 
 static inline size_t cn_rd_left(const cn_reader *r) { return (size_t)(r->end - r->p); }
 
+/* Loads of little-endian numbers from p, whose bytes the caller has checked are there. */
+static inline uint32_t cn_le16(const uint8_t *p) { return (uint32_t)p[0] | ((uint32_t)p[1] << 8); }
+static inline uint32_t cn_le32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) |
+           ((uint32_t)p[3] << 24);
+}
+static inline uint64_t cn_le64(const uint8_t *p)
+{
+    return (uint64_t)cn_le32(p) | ((uint64_t)cn_le32(p + 4) << 32);
+}
+
 static inline uint32_t cn_rd_u8(cn_reader *r)
 {
     if (r->end - r->p < 1) {
@@ -40,7 +52,7 @@ static inline uint32_t cn_rd_u16(cn_reader *r)
         r->p = r->end;
         return 0;
     }
-    uint32_t v = (uint32_t)r->p[0] | ((uint32_t)r->p[1] << 8);
+    uint32_t v = cn_le16(r->p);
     r->p += 2;
     return v;
 }
@@ -52,10 +64,15 @@ static inline uint32_t cn_rd_u32(cn_reader *r)
         r->p = r->end;
         return 0;
     }
-    uint32_t v = (uint32_t)r->p[0] | ((uint32_t)r->p[1] << 8) | ((uint32_t)r->p[2] << 16) |
-                 ((uint32_t)r->p[3] << 24);
+    uint32_t v = cn_le32(r->p);
     r->p += 4;
     return v;
+}
+
+static inline uint64_t cn_rd_u64(cn_reader *r)
+{
+    const uint64_t lo = cn_rd_u32(r);
+    return lo | ((uint64_t)cn_rd_u32(r) << 32);
 }
 
 /* Two's-complement sign extension of the low `bits` bits of v (1 <= bits <= 32),

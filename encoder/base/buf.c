@@ -1,8 +1,20 @@
 /* Growable byte buffer and MSB-first bit writer. */
+#include <stdarg.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "cn_buf.h"
+#include "cn_reader.h"
+
+int cn_fail(char *err, size_t errlen, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(err, errlen, fmt, ap);
+    va_end(ap);
+    return -1;
+}
 
 void cn_buf_free(cn_buf *b)
 {
@@ -137,21 +149,32 @@ void cn_buf_f64s(cn_buf *b, const double *x, size_t n)
         cn_buf_f64(b, x[i]);
 }
 
+double cn_rd_f64(cn_reader *r)
+{
+    const uint64_t u = cn_rd_u64(r);
+    double x;
+    memcpy(&x, &u, 8);
+    return x;
+}
+
+double cn_get_f64(const uint8_t *p)
+{
+    const uint64_t u = cn_le64(p);
+    double x;
+    memcpy(&x, &u, 8);
+    return x;
+}
+
 void cn_get_f64s(double *x, const uint8_t *p, size_t n)
 {
-    for (size_t i = 0; i < n; i++) {
-        uint64_t u = 0;
-        for (int k = 0; k < 8; k++)
-            u |= (uint64_t)p[8 * i + (size_t)k] << (8 * k);
-        memcpy(&x[i], &u, 8);
-    }
+    for (size_t i = 0; i < n; i++)
+        x[i] = cn_get_f64(p + 8 * i);
 }
 
 void cn_get_f32s(float *x, const uint8_t *p, size_t n)
 {
     for (size_t i = 0; i < n; i++) {
-        const uint32_t u = (uint32_t)p[4 * i] | (uint32_t)p[4 * i + 1] << 8 |
-                           (uint32_t)p[4 * i + 2] << 16 | (uint32_t)p[4 * i + 3] << 24;
+        const uint32_t u = cn_le32(p + 4 * i);
         memcpy(&x[i], &u, 4);
     }
 }

@@ -8,6 +8,10 @@
 #include <stddef.h>
 #include <stdint.h>
 
+/* Formats a message into err (errlen bytes) and returns -1: the encoder's way to fail. */
+__attribute__((format(printf, 3, 4))) int cn_fail(char *err, size_t errlen, const char *fmt,
+                                                  ...);
+
 /* ---- growable byte buffer ---- */
 typedef struct cn_buf {
     uint8_t *p;
@@ -29,6 +33,11 @@ void cn_get_f32s(float *x, const uint8_t *p, size_t n);
 void cn_buf_f64s(cn_buf *b, const double *x, size_t n); /* n doubles, as cn_buf_f64 */
 /* Reads n doubles written by cn_buf_f64s from p (8 n bytes). */
 void cn_get_f64s(double *x, const uint8_t *p, size_t n);
+/* A double from its IEEE 754 bits, little-endian (cn_buf_f64's): *x = the 8 bytes at p. */
+double cn_get_f64(const uint8_t *p);
+/* The same from a reader (common/cn_reader.h): 0 once it has run out. */
+struct cn_reader;
+double cn_rd_f64(struct cn_reader *r);
 
 /* ---- bit writer: MSB-first into a cn_buf, zero-padded to a byte on flush ---- */
 typedef struct cn_bitw {

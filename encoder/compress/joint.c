@@ -7,6 +7,7 @@
 #include "cn_joint.h"
 #include "cn_buf.h"
 #include "cn_file.h"
+#include "cn_reader.h"
 
 /* The topology's fields (what HEAD holds besides render parameters, and the units). */
 static int same_topology(const cnerf_info *a, const cnerf_info *b)
@@ -139,19 +140,6 @@ double cn_joint_step(cn_joint *j, double *mse, double *bits)
 
 /* ---- checkpoints ---- */
 
-static uint32_t get_u32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-
-static uint64_t get_u64(const uint8_t *p)
-{
-    uint64_t v = 0;
-    for (int i = 7; i >= 0; i--)
-        v = v << 8 | p[i];
-    return v;
-}
-
 int cn_joint_save(const cn_joint *j, const char *path, char *err, size_t errlen)
 {
     cn_buf b = {0}, one = {0};
@@ -194,11 +182,11 @@ int cn_joint_resume(cn_joint *j, const char *path, char *err, size_t errlen)
                  "checkpoint resumes a one-scene encode)", path);
         goto done;
     }
-    if (len < fixed + 4 || cnerf_crc32(0, data, len - 4) != get_u32(data + len - 4)) {
+    if (len < fixed + 4 || cnerf_crc32(0, data, len - 4) != cn_le32(data + len - 4)) {
         snprintf(err, errlen, "%s: damaged (its CRC does not match)", path);
         goto done;
     }
-    const uint32_t version = get_u32(data + 4), n = get_u32(data + 8);
+    const uint32_t version = cn_le32(data + 4), n = cn_le32(data + 8);
     if (version != CN_JOINT_VERSION) {
         snprintf(err, errlen, "%s: joint checkpoint version %u, this build reads %u", path,
                  version, CN_JOINT_VERSION);
@@ -209,7 +197,7 @@ int cn_joint_resume(cn_joint *j, const char *path, char *err, size_t errlen)
                  "datasets, in the same order", path, n, j->n);
         goto done;
     }
-    const uint64_t step = get_u64(data + 12), np = get_u64(data + 20);
+    const uint64_t step = cn_le64(data + 12), np = cn_le64(data + 20);
     if (np != s->n_params || len - 4 - fixed < blocks) {
         snprintf(err, errlen, "%s: checkpoint model differs from the requested one (preset, "
                  "depth, width or samples)", path);
@@ -217,11 +205,11 @@ int cn_joint_resume(cn_joint *j, const char *path, char *err, size_t errlen)
     }
     size_t off = fixed + blocks;
     for (unsigned m = 0; m < n; m++) {
-        if (len - 4 - off < 8 || get_u64(data + off) > len - 4 - off - 8) {
+        if (len - 4 - off < 8 || cn_le64(data + off) > len - 4 - off - 8) {
             snprintf(err, errlen, "%s: truncated in scene %u", path, m);
             goto done;
         }
-        const size_t one = (size_t)get_u64(data + off);
+        const size_t one = (size_t)cn_le64(data + off);
         char name[4200], e[1024];
         snprintf(name, sizeof name, "%s (scene %u)", path, m);
         if (cn_checkpoint_resume_data(&j->t[m], name, data + off + 8, one, e, sizeof e)) {

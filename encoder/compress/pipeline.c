@@ -1,21 +1,12 @@
 /* The encode pipeline (cn_pipeline.h): export, scales, pruning, writing and the grid, once. */
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "cn_buf.h"
 #include "cn_export.h"
 #include "cn_pipeline.h"
 #include "cn_scales.h"
-
-static int fail(char *err, size_t errlen, const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(err, errlen, fmt, ap);
-    va_end(ap);
-    return -1;
-}
 
 /* Prefixes err with "scene M: " (m < n of a set) or "shifts: " (m == n). */
 static int in_set(char *err, size_t errlen, unsigned m, unsigned n)
@@ -47,7 +38,7 @@ static int export_models(const cn_encode_job *j, cn_export *e, unsigned *made,
     const unsigned n = j->n;
     if (n > 1) {
         if (!j->shift)
-            return fail(err, errlen, "a set of %u scenes needs its shifts' model", n);
+            return cn_fail(err, errlen, "a set of %u scenes needs its shifts' model", n);
         if (cn_model_snap(j->shift, err, errlen) ||
             cn_export_compressed(j->shift, NULL, &e[n], err, errlen))
             return in_set(err, errlen, n, n);
@@ -73,14 +64,14 @@ int cn_encode_finish(const cn_encode_job *j, cn_encoded *out, char *err, size_t 
     memset(out, 0, sizeof *out);
     const unsigned n = j->n;
     if (n < 1 || n > CNERF_MAX_SCENES)
-        return fail(err, errlen, "%u scenes: a stream holds 1 to %u", n, CNERF_MAX_SCENES);
+        return cn_fail(err, errlen, "%u scenes: a stream holds 1 to %u", n, CNERF_MAX_SCENES);
     cn_export *e = calloc(n + 1, sizeof *e); /* the scenes', and the shifts' at [n] */
     cn_stream_src *copies = calloc(n, sizeof *copies);
     cn_shift_src sh[CNERF_MAX_LAYERS];
     const cn_shift_src *shift = NULL;
     cn_stream_src *S = NULL; /* the sources the steps work on */
     unsigned made = 0;
-    int rc = e && copies ? 0 : fail(err, errlen, "out of memory");
+    int rc = e && copies ? 0 : cn_fail(err, errlen, "out of memory");
     /* 1. Export. */
     if (rc == 0 && j->models) {
         rc = export_models(j, e, &made, sh, err, errlen);
@@ -94,7 +85,7 @@ int cn_encode_finish(const cn_encode_job *j, cn_encoded *out, char *err, size_t 
         }
     } else if (rc == 0 && (j->measured || j->float_model)) {
         if (n != 1)
-            rc = fail(err, errlen, "one model, one scene");
+            rc = cn_fail(err, errlen, "one model, one scene");
         else if (j->measured)
             rc = cn_export_compressed(j->measured, j->meta, &e[0], err, errlen);
         else
@@ -105,7 +96,7 @@ int cn_encode_finish(const cn_encode_job *j, cn_encoded *out, char *err, size_t 
         S = &e[0].src;
     } else if (rc == 0) {
         if (!j->src)
-            rc = fail(err, errlen, "nothing to encode");
+            rc = cn_fail(err, errlen, "nothing to encode");
         S = j->src;
         shift = j->shift_src;
     }

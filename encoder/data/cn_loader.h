@@ -8,9 +8,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-/* Formats a message into err (errlen bytes) and returns -1. */
-__attribute__((format(printf, 3, 4))) int cn_fail(char *err, size_t errlen, const char *fmt,
-                                                  ...);
+#include "cn_buf.h" /* cn_fail */
 
 /* ---- NumPy .npy arrays of floats, from bytes ---- */
 

@@ -1,13 +1,15 @@
 /* COLMAP sparse models in text and binary form (cn_colmap.h). */
 #include <errno.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "cn_colmap.h"
+#include "cn_buf.h"
 #include "cn_file.h"
+#include "cn_loader.h"
+#include "cn_reader.h"
 
 static const struct {
     const char *name;
@@ -26,16 +28,6 @@ const char *cn_colmap_model_name(int model)
 int cn_colmap_model_params(int model)
 {
     return model >= 0 && model < CN_COLMAP_N_MODELS ? cn_models[model].n : 0;
-}
-
-__attribute__((format(printf, 3, 4))) static int fail(char *err, size_t errlen, const char *fmt,
-                                                      ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(err, errlen, fmt, ap);
-    va_end(ap);
-    return -1;
 }
 
 void cn_colmap_free(cn_colmap *m)
@@ -65,9 +57,9 @@ static int add_camera(cn_colmap *m, int *cap, const cn_colmap_camera *c, const c
 {
     for (int i = 0; i < m->n_cams; i++)
         if (m->cams[i].id == c->id)
-            return fail(err, errlen, "%s: camera %u is listed twice", file, c->id);
+            return cn_fail(err, errlen, "%s: camera %u is listed twice", file, c->id);
     if (grow((void **)&m->cams, cap, m->n_cams, sizeof *c))
-        return fail(err, errlen, "%s: out of memory", file);
+        return cn_fail(err, errlen, "%s: out of memory", file);
     m->cams[m->n_cams++] = *c;
     return 0;
 }
@@ -93,9 +85,7 @@ static int rd_u64(cn_cur *c, uint64_t *v)
     const uint8_t *b;
     if (take(c, 8, &b))
         return -1;
-    *v = 0;
-    for (int i = 7; i >= 0; i--)
-        *v = *v << 8 | b[i];
+    *v = cn_le64(b);
     return 0;
 }
 
@@ -104,20 +94,19 @@ static int rd_u32(cn_cur *c, uint32_t *v)
     const uint8_t *b;
     if (take(c, 4, &b))
         return -1;
-    *v = (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 | (uint32_t)b[3] << 24;
+    *v = cn_le32(b);
     return 0;
 }
 
 static int rd_f64(cn_cur *c, double *v)
 {
-    uint64_t u;
-    if (rd_u64(c, &u))
+    const uint8_t *b;
+    if (take(c, 8, &b))
         return -1;
-    memcpy(v, &u, 8);
+    *v = cn_get_f64(b);
     return isfinite(*v) ? 0 : -2;
 }
 
-/* A count of entries of at least `least` bytes each that the rest of the file can hold. */
 static int rd_count(cn_cur *c, size_t least, uint64_t max, uint64_t *n)
 {
     if (rd_u64(c, n))
@@ -129,22 +118,22 @@ static int bin_cameras(const char *file, cn_cur *c, cn_colmap *m, char *err, siz
 {
     uint64_t n;
     if (rd_count(c, 24, 1u << 20, &n))
-        return fail(err, errlen, "%s: truncated or implausible camera count", file);
+        return cn_fail(err, errlen, "%s: truncated or implausible camera count", file);
     int cap = 0;
     for (uint64_t i = 0; i < n; i++) {
         cn_colmap_camera cam;
         memset(&cam, 0, sizeof cam);
         uint32_t model;
         if (rd_u32(c, &cam.id) || rd_u32(c, &model) || rd_u64(c, &cam.w) || rd_u64(c, &cam.h))
-            return fail(err, errlen, "%s: camera %llu: truncated", file, (unsigned long long)i);
+            return cn_fail(err, errlen, "%s: camera %llu: truncated", file, (unsigned long long)i);
         if (model >= CN_COLMAP_N_MODELS)
-            return fail(err, errlen, "%s: camera %u: unknown camera model id %u", file, cam.id,
+            return cn_fail(err, errlen, "%s: camera %u: unknown camera model id %u", file, cam.id,
                         model);
         cam.model = (int)model;
         for (int k = 0; k < cn_models[model].n; k++) {
             const int r = rd_f64(c, &cam.params[k]);
             if (r)
-                return fail(err, errlen, "%s: camera %u: %s", file, cam.id,
+                return cn_fail(err, errlen, "%s: camera %u: %s", file, cam.id,
                             r == -2 ? "a parameter is not a finite number" : "truncated");
         }
         if (add_camera(m, &cap, &cam, file, err, errlen))
@@ -157,7 +146,7 @@ static int bin_images(const char *file, cn_cur *c, cn_colmap *m, char *err, size
 {
     uint64_t n;
     if (rd_count(c, 73, 1u << 20, &n))
-        return fail(err, errlen, "%s: truncated or implausible image count", file);
+        return cn_fail(err, errlen, "%s: truncated or implausible image count", file);
     int cap = 0;
     for (uint64_t i = 0; i < n; i++) {
         cn_colmap_image im;
@@ -170,27 +159,27 @@ static int bin_images(const char *file, cn_cur *c, cn_colmap *m, char *err, size
         if (!r)
             r = rd_u32(c, &im.camera_id);
         if (r)
-            return fail(err, errlen, "%s: image %llu: %s", file, (unsigned long long)i,
+            return cn_fail(err, errlen, "%s: image %llu: %s", file, (unsigned long long)i,
                         r == -2 ? "a pose value is not a finite number" : "truncated");
         size_t k = 0;
         const uint8_t *ch;
         for (;;) {
             if (take(c, 1, &ch))
-                return fail(err, errlen, "%s: image %u: truncated name", file, im.id);
+                return cn_fail(err, errlen, "%s: image %u: truncated name", file, im.id);
             if (!*ch)
                 break;
             if (k + 1 >= sizeof im.name)
-                return fail(err, errlen, "%s: image %u: name longer than %d bytes", file, im.id,
+                return cn_fail(err, errlen, "%s: image %u: name longer than %d bytes", file, im.id,
                             CN_COLMAP_NAME - 1);
             im.name[k++] = (char)*ch;
         }
         uint64_t n2d;
         const uint8_t *skip;
         if (rd_u64(c, &n2d) || n2d > (c->n - c->pos) / 24 || take(c, (size_t)n2d * 24, &skip))
-            return fail(err, errlen, "%s: image %u (%s): truncated 2D points", file, im.id,
+            return cn_fail(err, errlen, "%s: image %u (%s): truncated 2D points", file, im.id,
                         im.name);
         if (grow((void **)&m->imgs, &cap, m->n_imgs, sizeof im))
-            return fail(err, errlen, "%s: out of memory", file);
+            return cn_fail(err, errlen, "%s: out of memory", file);
         m->imgs[m->n_imgs++] = im;
     }
     return 0;
@@ -200,10 +189,10 @@ static int bin_points(const char *file, cn_cur *c, cn_colmap *m, char *err, size
 {
     uint64_t n;
     if (rd_count(c, 43, (uint64_t)1 << 28, &n))
-        return fail(err, errlen, "%s: truncated or implausible point count", file);
+        return cn_fail(err, errlen, "%s: truncated or implausible point count", file);
     m->xyz = malloc(sizeof(double) * 3 * (n ? (size_t)n : 1));
     if (!m->xyz)
-        return fail(err, errlen, "%s: out of memory", file);
+        return cn_fail(err, errlen, "%s: out of memory", file);
     for (uint64_t i = 0; i < n; i++) {
         uint64_t id, track;
         const uint8_t *skip;
@@ -218,7 +207,7 @@ static int bin_points(const char *file, cn_cur *c, cn_colmap *m, char *err, size
             r = rd_u64(c, &track) || track > (c->n - c->pos) / 8 ||
                 take(c, (size_t)track * 8, &skip);
         if (r)
-            return fail(err, errlen, "%s: point %llu: %s", file, (unsigned long long)i,
+            return cn_fail(err, errlen, "%s: point %llu: %s", file, (unsigned long long)i,
                         r == -2 ? "not a finite number" : "truncated");
         m->n_points++;
     }
@@ -302,7 +291,7 @@ static int txt_parse(const char *file, int kind, const uint8_t *data, size_t len
     while (next_line(data, len, &pos, line, sizeof line, &too_long)) {
         lineno++;
         if (too_long && kind != TXT_IMAGES)
-            return fail(err, errlen, "%s:%d: line longer than %zu bytes", file, lineno,
+            return cn_fail(err, errlen, "%s:%d: line longer than %zu bytes", file, lineno,
                         sizeof line - 1);
         if (line[0] == '#')
             continue;
@@ -311,7 +300,7 @@ static int txt_parse(const char *file, int kind, const uint8_t *data, size_t len
             continue;
         }
         if (too_long)
-            return fail(err, errlen, "%s:%d: line longer than %zu bytes", file, lineno,
+            return cn_fail(err, errlen, "%s:%d: line longer than %zu bytes", file, lineno,
                         sizeof line - 1);
         char *s = line;
         char *probe = s;
@@ -321,7 +310,7 @@ static int txt_parse(const char *file, int kind, const uint8_t *data, size_t len
             continue; /* blank line */
         uint64_t id;
         if (uint_word(&s, kind == TXT_POINTS ? UINT64_MAX : UINT32_MAX, &id))
-            return fail(err, errlen, "%s:%d: expected an id", file, lineno);
+            return cn_fail(err, errlen, "%s:%d: expected an id", file, lineno);
         if (kind == TXT_CAMERAS) {
             cn_colmap_camera cam;
             memset(&cam, 0, sizeof cam);
@@ -332,17 +321,17 @@ static int txt_parse(const char *file, int kind, const uint8_t *data, size_t len
                 if (!strcmp(model, cn_models[i].name))
                     cam.model = i;
             if (cam.model < 0)
-                return fail(err, errlen, "%s:%d: camera %u: unknown camera model '%s'", file,
+                return cn_fail(err, errlen, "%s:%d: camera %u: unknown camera model '%s'", file,
                             lineno, cam.id, model ? model : "");
             if (uint_word(&s, UINT32_MAX, &cam.w) || uint_word(&s, UINT32_MAX, &cam.h))
-                return fail(err, errlen, "%s:%d: camera %u: expected its width and height",
+                return cn_fail(err, errlen, "%s:%d: camera %u: expected its width and height",
                             file, lineno, cam.id);
             for (int k = 0; k < cn_models[cam.model].n; k++)
                 if (num(&s, &cam.params[k]))
-                    return fail(err, errlen, "%s:%d: camera %u: %s takes %d parameters", file,
+                    return cn_fail(err, errlen, "%s:%d: camera %u: %s takes %d parameters", file,
                                 lineno, cam.id, model, cn_models[cam.model].n);
             if (word(&s))
-                return fail(err, errlen, "%s:%d: camera %u: %s takes %d parameters", file,
+                return cn_fail(err, errlen, "%s:%d: camera %u: %s takes %d parameters", file,
                             lineno, cam.id, model, cn_models[cam.model].n);
             if (add_camera(m, &cap, &cam, file, err, errlen))
                 return -1;
@@ -357,7 +346,7 @@ static int txt_parse(const char *file, int kind, const uint8_t *data, size_t len
             for (int k = 0; k < 3 && !r; k++)
                 r = num(&s, &im.t[k]);
             if (r || uint_word(&s, UINT32_MAX, &cam))
-                return fail(err, errlen, "%s:%d: image %u: expected QW QX QY QZ TX TY TZ "
+                return cn_fail(err, errlen, "%s:%d: image %u: expected QW QX QY QZ TX TY TZ "
                             "CAMERA_ID NAME", file, lineno, im.id);
             im.camera_id = (uint32_t)cam;
             while (*s == ' ' || *s == '\t')
@@ -366,11 +355,11 @@ static int txt_parse(const char *file, int kind, const uint8_t *data, size_t len
             while (n && (s[n - 1] == ' ' || s[n - 1] == '\t'))
                 s[--n] = '\0';
             if (!n || n >= sizeof im.name)
-                return fail(err, errlen, "%s:%d: image %u: %s", file, lineno, im.id,
+                return cn_fail(err, errlen, "%s:%d: image %u: %s", file, lineno, im.id,
                             n ? "name too long" : "no name");
             memcpy(im.name, s, n + 1);
             if (grow((void **)&m->imgs, &cap, m->n_imgs, sizeof im))
-                return fail(err, errlen, "%s: out of memory", file);
+                return cn_fail(err, errlen, "%s: out of memory", file);
             m->imgs[m->n_imgs++] = im;
             expect_points2d = 1;
         } else {
@@ -378,12 +367,12 @@ static int txt_parse(const char *file, int kind, const uint8_t *data, size_t len
                 pcap = pcap ? 2 * pcap : 1024;
                 double *p = realloc(m->xyz, sizeof(double) * 3 * pcap);
                 if (!p)
-                    return fail(err, errlen, "%s: out of memory", file);
+                    return cn_fail(err, errlen, "%s: out of memory", file);
                 m->xyz = p;
             }
             for (int k = 0; k < 3; k++)
                 if (num(&s, &m->xyz[3 * m->n_points + (size_t)k]))
-                    return fail(err, errlen, "%s:%d: point %llu: expected X Y Z", file, lineno,
+                    return cn_fail(err, errlen, "%s:%d: point %llu: expected X Y Z", file, lineno,
                                 (unsigned long long)id);
             m->n_points++;
         }
@@ -407,7 +396,7 @@ int cn_colmap_parse(const char *file, const uint8_t *data, size_t len, cn_colmap
                      : !strncmp(base, "points3D", 8) ? TXT_POINTS
                                                      : -1;
     if (kind < 0)
-        return fail(err, errlen, "%s: not a COLMAP cameras, images or points3D file", file);
+        return cn_fail(err, errlen, "%s: not a COLMAP cameras, images or points3D file", file);
     if (ends_with(base, ".txt"))
         return txt_parse(file, kind, data, len, m, err, errlen);
     cn_cur c = {data, len, 0};
@@ -415,7 +404,7 @@ int cn_colmap_parse(const char *file, const uint8_t *data, size_t len, cn_colmap
                    : kind == TXT_IMAGES ? bin_images(file, &c, m, err, errlen)
                                         : bin_points(file, &c, m, err, errlen);
     if (rc == 0 && c.pos != c.n)
-        return fail(err, errlen, "%s: %zu bytes after the last entry", file, c.n - c.pos);
+        return cn_fail(err, errlen, "%s: %zu bytes after the last entry", file, c.n - c.pos);
     return rc;
 }
 
@@ -440,7 +429,7 @@ static int read_one(const char *dir, const char *stem, int optional, cn_colmap *
     }
     if (optional)
         return 0;
-    return fail(err, errlen, "%s: no %s.bin or %s.txt", dir, stem, stem);
+    return cn_fail(err, errlen, "%s: no %s.bin or %s.txt", dir, stem, stem);
 }
 
 int cn_colmap_read(const char *dir, cn_colmap *m, char *err, size_t errlen)
@@ -456,7 +445,7 @@ int cn_colmap_read(const char *dir, cn_colmap *m, char *err, size_t errlen)
         for (int k = 0; k < m->n_cams && !found; k++)
             found = m->cams[k].id == m->imgs[i].camera_id;
         if (!found)
-            rc = fail(err, errlen, "%s/images: image %u (%s) names camera %u, which is not in "
+            rc = cn_fail(err, errlen, "%s/images: image %u (%s) names camera %u, which is not in "
                       "cameras", dir, m->imgs[i].id, m->imgs[i].name, m->imgs[i].camera_id);
     }
     if (rc)

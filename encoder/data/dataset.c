@@ -28,15 +28,6 @@ enum { CN_TRAIN = 0, CN_VAL = 1, CN_TEST = 2 };
 
 /* ---- errors and paths ---- */
 
-int cn_fail(char *err, size_t errlen, const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(err, errlen, fmt, ap);
-    va_end(ap);
-    return -1;
-}
-
 /* out = dir/name (name used as is when absolute, "./" prefixes dropped) + ext. */
 static int cn_join(char out[CN_PATH_MAX], const char *dir, const char *name, const char *ext,
                    char *err, size_t errlen)

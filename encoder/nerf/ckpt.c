@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "cn_buf.h"
 #include "cn_reader.h"
 #include "cnerf/tools.h"
 
@@ -32,29 +33,14 @@ static const char *ckpt_read_grids(cn_reader *r, cn_ckpt *c)
     return NULL;
 }
 
-static uint64_t rd_u64(cn_reader *r)
-{
-    uint64_t u = cn_rd_u32(r);
-    return u | (uint64_t)cn_rd_u32(r) << 32;
-}
-
-static double rd_f64(cn_reader *r)
-{
-    const uint64_t u = rd_u64(r);
-    double v;
-    memcpy(&v, &u, 8);
-    return v;
-}
-
 /* What the run was trained on (version 3). */
 static const char *ckpt_read_run(cn_reader *r, cn_ckpt *c)
 {
-    c->lambda = rd_f64(r);
+    c->lambda = cn_rd_f64(r);
     c->n_train = cn_rd_u32(r);
     c->w = cn_rd_u32(r);
     c->h = cn_rd_u32(r);
-    c->poses = cn_rd_u32(r);
-    c->poses |= (uint64_t)cn_rd_u32(r) << 32;
+    c->poses = cn_rd_u64(r);
     if (r->err)
         return "truncated after the occupancy grids";
     c->has_run = 1;
@@ -71,10 +57,9 @@ static const char *ckpt_read_rc(cn_reader *r, cn_ckpt *c)
         return NULL;
     c->rc_scheme = cn_rd_u32(r);
     c->rc_grid_done = cn_rd_u32(r);
-    c->rc_start = cn_rd_u32(r);
-    c->rc_start |= (uint64_t)cn_rd_u32(r) << 32;
+    c->rc_start = cn_rd_u64(r);
     for (int i = 0; i < 10; i++)
-        c->rc[i] = rd_f64(r);
+        c->rc[i] = cn_rd_f64(r);
     if (r->err)
         return "rate-control state truncated";
     if (c->rc_scheme > 1 || c->rc_grid_done > 2 || c->rc_start > c->step)
@@ -91,8 +76,8 @@ static const char *ckpt_read_rc(cn_reader *r, cn_ckpt *c)
 /* The mean of the parameters (version 6). */
 static const char *ckpt_read_average(cn_reader *r, cn_ckpt *c)
 {
-    c->average = rd_u64(r);
-    c->avg_n = rd_u64(r);
+    c->average = cn_rd_u64(r);
+    c->avg_n = cn_rd_u64(r);
     if (r->err)
         return "truncated before the mean of the parameters";
     if (c->avg_n > c->average || c->avg_n > c->step)
@@ -123,10 +108,8 @@ int cn_ckpt_parse(const char *path, const uint8_t *data, size_t len, cn_ckpt *c,
     if (!why) {
         cn_rd_init(&r, data + 4, len - 8);
         uint32_t version = cn_rd_u32(&r);
-        c->step = cn_rd_u32(&r);
-        c->step |= (uint64_t)cn_rd_u32(&r) << 32;
-        c->seed = cn_rd_u32(&r);
-        c->seed |= (uint64_t)cn_rd_u32(&r) << 32;
+        c->step = cn_rd_u64(&r);
+        c->seed = cn_rd_u64(&r);
         c->compressed = cn_rd_u32(&r);
         uint32_t hl = cn_rd_u32(&r);
         c->hdr.version_minor = CNERF_VERSION_MINOR; /* a model may use any HEAD value */
@@ -141,8 +124,7 @@ int cn_ckpt_parse(const char *path, const uint8_t *data, size_t len, cn_ckpt *c,
             why = "invalid model header";
         else {
             r.p += hl;
-            c->n_params = cn_rd_u32(&r);
-            c->n_params |= (uint64_t)cn_rd_u32(&r) << 32;
+            c->n_params = cn_rd_u64(&r);
             if (r.err || c->n_params > cn_rd_left(&r) / 12 ||
                 (version == CN_CKPT_VERSION_NO_GRIDS && cn_rd_left(&r) != c->n_params * 12))
                 why = "parameter blocks have the wrong size";
@@ -156,7 +138,7 @@ int cn_ckpt_parse(const char *path, const uint8_t *data, size_t len, cn_ckpt *c,
                 if (!why && version >= CN_CKPT_VERSION_NO_QUALITY)
                     why = ckpt_read_rc(&r, c);
                 if (!why && version >= CN_CKPT_VERSION_NO_AVERAGE) {
-                    c->quality = rd_f64(&r);
+                    c->quality = cn_rd_f64(&r);
                     if (r.err)
                         why = "truncated before the quality setting";
                     else if (!isfinite(c->quality) || c->quality < 0 ||

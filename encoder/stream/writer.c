@@ -1,21 +1,11 @@
 /* The bitstream writer: everything docs/bitstream.md specifies, then a read-back. */
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "cnerf/cnerf.h"
+#include "cn_buf.h"
 #include "cn_stream.h"
-
-static int fail(char *err, size_t errlen, const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    if (err && errlen)
-        vsnprintf(err, errlen, fmt, ap);
-    va_end(ap);
-    return -1;
-}
 
 static void put_chunk(cn_buf *out, uint32_t tag, const cn_buf *payload)
 {
@@ -134,7 +124,7 @@ static int put_coded(cn_buf *c, const int32_t *k, size_t count, const double *pm
     int32_t kmin = k[0], kmax = k[0];
     for (size_t i = 0; i < count; i++) {
         if (k[i] < -CNERF_MAX_ABS_K || k[i] > CNERF_MAX_ABS_K)
-            return fail(err, errlen, "layer %u: %s %d outside +-%d", l, what, k[i],
+            return cn_fail(err, errlen, "layer %u: %s %d outside +-%d", l, what, k[i],
                         CNERF_MAX_ABS_K);
         if (k[i] < kmin)
             kmin = k[i];
@@ -154,7 +144,7 @@ static int put_coded(cn_buf *c, const int32_t *k, size_t count, const double *pm
     table_choice best = {malloc(sizeof(uint32_t) * n), 0, 0, 0, 0};
     int rc = -1;
     if (!cnt || (pmf && !prior) || !syms || !best.freq) {
-        fail(err, errlen, "layer %u: out of memory", l);
+        cn_fail(err, errlen, "layer %u: out of memory", l);
         goto done;
     }
     for (size_t i = 0; i < count; i++) {
@@ -167,7 +157,7 @@ static int put_coded(cn_buf *c, const int32_t *k, size_t count, const double *pm
             prior[i] = j >= 0 && j < (int64_t)pmf_n ? pmf[j] : 0.0;
         }
     if (choose_table(cnt, prior, n, &best)) {
-        fail(err, errlen, "layer %u: out of memory", l);
+        cn_fail(err, errlen, "layer %u: out of memory", l);
         goto done;
     }
     cn_buf_u8(c, best.prec);
@@ -178,7 +168,7 @@ static int put_coded(cn_buf *c, const int32_t *k, size_t count, const double *pm
         cn_bitw_eg(&w, best.freq[i] - 1, best.order);
     cn_bitw_flush(&w);
     if (cn_rans_encode(syms, count, best.freq, n, best.prec, c)) {
-        fail(err, errlen, "layer %u: entropy coding failed", l);
+        cn_fail(err, errlen, "layer %u: entropy coding failed", l);
         goto done;
     }
     *source = (uint8_t)best.source;
@@ -196,14 +186,14 @@ static int put_layer(cn_buf *c, const cnerf_layer_info *L, const cn_layer_src *S
                      cn_write_report *rep, char *err, size_t errlen)
 {
     if (!S->k)
-        return fail(err, errlen, "layer %u: no latents", l);
+        return cn_fail(err, errlen, "layer %u: no latents", l);
     if (llabs(S->a_m) > CNERF_M24_ABS_MAX || llabs(S->b_m) > CNERF_M24_ABS_MAX ||
         S->a_e < CNERF_EXP_MIN || S->a_e > CNERF_EXP_MAX || S->b_e < CNERF_EXP_MIN ||
         S->b_e > CNERF_EXP_MAX || S->bias_e < CNERF_EXP_MIN || S->bias_e > CNERF_EXP_MAX ||
         S->bias_bits > CNERF_MAX_BIAS_BITS)
-        return fail(err, errlen, "layer %u: affine decoder or bias format out of range", l);
+        return cn_fail(err, errlen, "layer %u: affine decoder or bias format out of range", l);
     if (S->f_in < CNERF_F_MIN || S->f_in > CNERF_F_MAX)
-        return fail(err, errlen, "layer %u: input scale %d outside %d..%d", l, S->f_in,
+        return cn_fail(err, errlen, "layer %u: input scale %d outside %d..%d", l, S->f_in,
                     CNERF_F_MIN, CNERF_F_MAX);
     cn_buf_u8(c, L->net);
     cn_buf_u8(c, L->index);
@@ -223,7 +213,7 @@ static int put_layer(cn_buf *c, const cnerf_layer_info *L, const cn_layer_src *S
         cn_bitw_init(&w, c);
         for (unsigned j = 0; j < L->n_out; j++) {
             if (S->bias_m[j] < -lim || S->bias_m[j] >= lim)
-                return fail(err, errlen, "layer %u: bias %u does not fit %u bits", l, j, bb);
+                return cn_fail(err, errlen, "layer %u: bias %u does not fit %u bits", l, j, bb);
             cn_bitw_put(&w, (uint32_t)S->bias_m[j] & ((1u << bb) - 1u), bb);
         }
         cn_bitw_flush(&w);
@@ -245,7 +235,7 @@ static int put_shift(cn_buf *c, const cnerf_layer_info *L, const cn_shift_src *S
                      cn_write_report *rep, char *err, size_t errlen)
 {
     if (llabs(S->g_m) > CNERF_M24_ABS_MAX || S->g_e < CNERF_EXP_MIN || S->g_e > CNERF_EXP_MAX)
-        return fail(err, errlen, "layer %u: shift scale out of range", l);
+        return cn_fail(err, errlen, "layer %u: shift scale out of range", l);
     cn_buf_u8(c, L->net);
     cn_buf_u8(c, L->index);
     cn_buf_u16(c, L->n_in);
@@ -299,25 +289,25 @@ int cn_write_set(const cn_stream_src *scenes, unsigned n_scenes, const cn_shift_
                  size_t errlen)
 {
     if (n_scenes < 1 || n_scenes > CNERF_MAX_SCENES || (n_scenes > 1 && !shift))
-        return fail(err, errlen, "%u scenes %s shifts: a set has 1 to %u scenes and shifts",
+        return cn_fail(err, errlen, "%u scenes %s shifts: a set has 1 to %u scenes and shifts",
                     n_scenes, shift ? "with" : "without", CNERF_MAX_SCENES);
     cnerf_info *info = malloc(sizeof *info), *other = malloc(sizeof *other);
     if (!info || !other) {
         free(info);
         free(other);
-        return fail(err, errlen, "out of memory");
+        return cn_fail(err, errlen, "out of memory");
     }
     *info = scenes[0].hdr;
     cnerf_status st = cnerf_expand_topology(info);
     int rc = 0;
     if (st != CNERF_OK)
-        rc = fail(err, errlen, "invalid topology: %s", cnerf_status_str(st));
+        rc = cn_fail(err, errlen, "invalid topology: %s", cnerf_status_str(st));
     for (unsigned m = 1; m < n_scenes && rc == 0; m++) {
         *other = scenes[m].hdr;
         if ((st = cnerf_expand_topology(other)) != CNERF_OK)
-            rc = fail(err, errlen, "scene %u: invalid topology: %s", m, cnerf_status_str(st));
+            rc = cn_fail(err, errlen, "scene %u: invalid topology: %s", m, cnerf_status_str(st));
         else if (!same_topology(info, other))
-            rc = fail(err, errlen, "scene %u: its topology differs from scene 0's", m);
+            rc = cn_fail(err, errlen, "scene %u: its topology differs from scene 0's", m);
     }
     if (rc) {
         free(info);
@@ -374,7 +364,7 @@ int cn_write_set(const cn_stream_src *scenes, unsigned n_scenes, const cn_shift_
         if (src->grid_g) {
             c.n = 0;
             if (!src->grid || cn_grid_encode(src->grid, src->grid_g, CN_GRID_PREC, &c))
-                rc = fail(err, errlen,
+                rc = cn_fail(err, errlen,
                           "scene %u: occupancy grid of %u cells per axis: invalid or out of memory",
                           m, src->grid_g);
             else
@@ -394,10 +384,10 @@ int cn_write_set(const cn_stream_src *scenes, unsigned n_scenes, const cn_shift_
     const int oom = out->oom || c.oom;
     cn_buf_free(&c);
     if (rc == 0 && oom)
-        rc = fail(err, errlen, "out of memory");
+        rc = cn_fail(err, errlen, "out of memory");
     for (unsigned m = 0; m < n_scenes && rc == 0; m++)
         if ((st = cnerf_peek_scene(out->p, out->n, m, info)) != CNERF_OK)
-            rc = fail(err, errlen,
+            rc = cn_fail(err, errlen,
                       "the written stream does not parse (%s): invalid header fields?",
                       cnerf_status_str(st));
     free(info);

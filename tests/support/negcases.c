@@ -1,5 +1,6 @@
 /* The broken-stream table (negcases.h). */
 #include "negcases.h"
+#include "cn_reader.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -19,11 +20,6 @@ typedef struct chunks {
     int n;
 } chunks;
 
-static uint32_t rd32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-
 static void split(const uint8_t *buf, size_t len, chunks *cs)
 {
     memcpy(cs->sig, buf, 8);
@@ -31,7 +27,7 @@ static void split(const uint8_t *buf, size_t len, chunks *cs)
     for (size_t off = 8; off + 12 <= len;) {
         chunk *c = &cs->c[cs->n++];
         memcpy(c->tag, buf + off, 4);
-        c->len = rd32(buf + off + 4);
+        c->len = cn_le32(buf + off + 4);
         if (c->len > sizeof c->data || cs->n == MAX_CHUNKS)
             break;
         memcpy(c->data, buf + off + 8, c->len);

@@ -1,4 +1,5 @@
 #include "testutil.h"
+#include "cn_reader.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -66,14 +67,9 @@ cnerf_status tu_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void **
     return tu_open_scene(dec, buf, len, 0, ws);
 }
 
-static uint32_t rd32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-
 void tu_fix_crc(uint8_t *chunk)
 {
-    uint32_t len = rd32(chunk + 4);
+    uint32_t len = cn_le32(chunk + 4);
     uint32_t crc = cnerf_crc32(0, chunk, 4);
     crc = cnerf_crc32(crc, chunk + 8, len);
     for (int i = 0; i < 4; i++)
@@ -86,7 +82,7 @@ size_t tu_chunk_offset(const uint8_t *buf, size_t len, unsigned n)
     for (unsigned i = 0; off + 8 <= len; i++) {
         if (i == n)
             return off;
-        off += CNERF_CHUNK_OVERHEAD + rd32(buf + off + 4);
+        off += CNERF_CHUNK_OVERHEAD + cn_le32(buf + off + 4);
     }
     return 0;
 }

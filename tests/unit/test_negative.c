@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "cn_internal.h"
+#include "cn_reader.h"
 #include "negcases.h"
 #include "testutil.h"
 
@@ -23,11 +24,6 @@ static int teardown(void **state)
     cn_buf_free(&base);
     neg_base_free();
     return 0;
-}
-
-static uint32_t rd32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
 }
 
 static cnerf_status open_status(const uint8_t *p, size_t n, unsigned scene)
@@ -98,7 +94,7 @@ static void test_every_bit_flip(void **state)
             /* Inside a chunk's tag or payload: the CRC catches it. */
             size_t c = 8;
             while (c + 12 <= base.n) {
-                size_t len = rd32(base.p + c + 4);
+                size_t len = cn_le32(base.p + c + 4);
                 int in_tag = off >= c && off < c + 4;
                 int in_payload = off >= c + 8 && off < c + 8 + len;
                 if (in_tag || in_payload) {
