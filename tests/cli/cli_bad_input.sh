@@ -94,6 +94,15 @@ PY
 ln -s "$work/s.cnrf" "$work/link.cnrf"
 ln -s "$work/loop" "$work/loop"
 mkfifo "$work/fifo"
+# Hostile files inside output folders: a link to an input, a FIFO, and (as root, as CI runs)
+# a device node made here (c 1 3, the null device: nothing is lost if it were written).
+mkdir "$work/evd" "$work/vwd" "$work/rdir"
+ln -s "$work/s.cnrf" "$work/evd/r_0.png"
+mkfifo "$work/vwd/0000.png"
+have_dev=0
+if mknod "$work/dev" c 1 3 2> /dev/null && mknod "$work/rdir/orbit_000.png" c 1 3; then
+  have_dev=1
+fi
 sums() { md5sum "$work/t.ckpt" "$work/s.cnrf" "$work/e.cnrf.ckpt" "$work/ds/transforms_train.json" \
          "$work/ds/test/r_0.png"; }
 before=$(sums)
@@ -191,7 +200,22 @@ rows=(
   "1|unknown split 'x' (test, val, train)|views $D -o $work/vv --split x --downscale 16"
   "2|unknown command 'nope'|help nope"
   "2|unknown command 'nope'|nope"
+  # Every file a command writes is checked, -o and the files inside an output folder alike.
+  "1|$work/link.cnrf is a symbolic link; cnerf writes regular files only|synth -o $work/link.cnrf"
+  "1|$work/fifo is a FIFO; cnerf writes regular files only|synth -o $work/fifo"
+  "1|cannot write $work/nodir/x.cnrf: No such file or directory|synth -o $work/nodir/x.cnrf"
+  "1|$work/evd/r_0.png is a symbolic link; cnerf writes regular files only|eval $work/t.ckpt $D -o $work/evd --downscale 16 --every 200"
+  "1|$work/vwd/0000.png is a FIFO; cnerf writes regular files only|views $D -o $work/vwd --downscale 16"
+  "1|$work/v/0000.png lies inside the input $work/v|train $D --train-images $work/v -o $work/v/0000.png ${T[*]}"
+  "2|$D and $work/ds/../ds are one dataset|encode $D $work/ds/../ds -o $work/x.cnrf --lambda 1"
+  "2|--init encodes one scene; a stream of several scenes does not take it|encode $D $data/mic -o $work/x.cnrf --lambda 1 --init $work/t.ckpt"
 )
+if [ $have_dev = 1 ]; then
+  rows+=(
+    "1|$work/dev is a device; cnerf writes regular files only|synth -o $work/dev"
+    "1|$work/rdir/orbit_000.png is a device; cnerf writes regular files only|render $work/s.cnrf --orbit 1 --size 8 -o $work/rdir"
+  )
+fi
 n=0
 for row in "${rows[@]}"; do
   IFS='|' read -r want frag args <<< "$row"
@@ -278,7 +302,10 @@ for args in "help encode" "encode --help" "info -h" "help"; do
 done
 
 [ "$(sums)" = "$before" ] || fail "an input changed"
-[ -L "$work/link.cnrf" ] && [ -p "$work/fifo" ] || fail "a special file was replaced"
+[ -L "$work/link.cnrf" ] && [ -p "$work/fifo" ] && [ -L "$work/evd/r_0.png" ] &&
+  [ -p "$work/vwd/0000.png" ] || fail "a special file was replaced"
+[ $have_dev = 0 ] || { [ -c "$work/dev" ] && [ -c "$work/rdir/orbit_000.png" ]; } ||
+  fail "a device node was replaced"
 leftover=$(find "$work" -name '*.tmp.*' | head -1)
 [ -z "$leftover" ] || fail "a temporary file was left: $leftover"
 echo "cli_bad_input: $n refusals, every input unchanged"
