@@ -57,3 +57,25 @@ grep -q "^model: " "$out.log" || fail "kill -9: the log lost its lines: '$(cat "
 grep -q "^resumed $out.ckpt at iteration [1-9]" "$out.resume" ||
   fail "kill -9: $(cat "$out.resume")"
 echo "kill -9: $(grep -o 'at iteration [0-9]*' "$out.resume" | head -1) resumed, log kept"
+
+# nohup's contract: a stop signal the caller ignores (SIG_IGN, inherited across exec) stays
+# ignored. SIGHUP then does not stop the run, and SIGTERM still does.
+out="$work/nohup"
+( trap '' HUP; exec "$cnerf" train "$data/lego" -o "$out.ckpt" "${common[@]}" > "$out.log" \
+  2> "$out.err" ) &
+pid=$!
+for _ in $(seq 600); do
+  grep -q "^iter " "$out.log" && break
+  kill -0 $pid 2> /dev/null || fail "nohup: train exited early: $(tail -3 "$out.err")"
+  sleep 0.2
+done
+kill -HUP $pid
+sleep 2
+kill -0 $pid 2> /dev/null || fail "nohup: SIGHUP stopped a run that ignores it: $(tail -2 "$out.log")"
+kill -TERM $pid
+set +e
+wait $pid
+rc=$?
+set -e
+[ $rc -eq 143 ] || fail "nohup: SIGTERM exited $rc, want 143"
+echo "nohup: SIGHUP ignored, SIGTERM stopped the run"
