@@ -267,6 +267,32 @@ set -e
 [ ! -e "$work/busy.ckpt.lock" ] || fail "lock: the lock file was left behind"
 n=$((n + 1))
 
+# The lock covers every file a run writes: while an encode runs, its checkpoint is refused to
+# a train, and to another encode that would --resume from it.
+"$cnerf" encode "$D" -o "$work/busy2.cnrf" --lambda 1 "${T[@]}" --log-every 1 > "$work/busy2.log" 2>&1 &
+pid=$!
+for _ in $(seq 600); do
+  grep -q "^iter " "$work/busy2.log" && break
+  kill -0 $pid 2> /dev/null || fail "lock: the encode exited: $(tail -3 "$work/busy2.log")"
+  sleep 0.1
+done
+set +e
+"$cnerf" train "$D" -o "$work/busy2.cnrf.ckpt" "${T[@]}" > /dev/null 2> "$work/err.txt"
+rc=$?
+"$cnerf" encode "$D" -o "$work/busy3.cnrf" --resume "$work/busy2.cnrf.ckpt" --lambda 1 "${T[@]}" \
+  > /dev/null 2> "$work/err3.txt"
+rc3=$?
+kill -TERM $pid
+wait $pid
+set -e
+[ $rc -eq 1 ] && grep -q "busy2.cnrf.ckpt is being written by another cnerf" "$work/err.txt" ||
+  fail "lock: train over an encode's checkpoint exited $rc: $(cat "$work/err.txt")"
+[ $rc3 -eq 1 ] && grep -q "busy2.cnrf.ckpt is being written by another cnerf" "$work/err3.txt" ||
+  fail "lock: an encode resuming a running encode's checkpoint exited $rc3: $(cat "$work/err3.txt")"
+[ ! -e "$work/busy2.cnrf.lock" ] && [ ! -e "$work/busy2.cnrf.ckpt.lock" ] ||
+  fail "lock: the lock files were left behind"
+n=$((n + 1))
+
 # A FIFO as the stream is read to its end (what a writer sends), not forever.
 ( printf 'not a stream' > "$work/fifo" ) &
 set +e
