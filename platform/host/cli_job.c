@@ -43,9 +43,14 @@ typedef struct sigint_guard {
 
 static void sigint_guard_begin(sigint_guard *g)
 {
+    /* A signal the caller ignores stays ignored (nohup sets SIGHUP to SIG_IGN on purpose,
+     * and an exec keeps it): it is neither taken nor handled. */
     sigemptyset(&g->set);
-    for (size_t i = 0; i < N_STOP_SIGNALS; i++)
-        sigaddset(&g->set, stop_signals[i]);
+    for (size_t i = 0; i < N_STOP_SIGNALS; i++) {
+        sigaction(stop_signals[i], NULL, &g->old_action[i]);
+        if (g->old_action[i].sa_handler != SIG_IGN)
+            sigaddset(&g->set, stop_signals[i]);
+    }
     interrupted = 0;
     pthread_sigmask(SIG_BLOCK, &g->set, &g->old_mask);
 #pragma omp parallel
@@ -54,7 +59,8 @@ static void sigint_guard_begin(sigint_guard *g)
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = on_stop_signal;
     for (size_t i = 0; i < N_STOP_SIGNALS; i++)
-        sigaction(stop_signals[i], &sa, &g->old_action[i]);
+        if (sigismember(&g->set, stop_signals[i]))
+            sigaction(stop_signals[i], &sa, NULL);
 }
 
 /* The stop signal taken so far (SIGINT, SIGTERM or SIGHUP), 0 if none. */
