@@ -6,7 +6,7 @@ directories, so a grep for "../" would miss most crossings.
   tools/check_layers.py BUILD_DIR          the build's depfiles (CMakeFiles/*.dir/**/*.o.d)
                                            and the host program's objects (nm)
   tools/check_layers.py --depfiles F...    depfiles only (the test's bad fixtures)
-  tools/check_layers.py --nm F...          `nm -A` listings of objects only (rules 5 and 6)
+  tools/check_layers.py --nm F...          `nm -A` listings of objects only (rules 5 to 7)
 
 Rules:
   1. decoder/ includes nothing of the project outside decoder/, common/ and include/
@@ -19,10 +19,14 @@ Rules:
      what commands share lives in the host program's other files;
   6. one encode pipeline: the export, the scale choice, the pruning and the stream writer are
      called only from encoder/compress/pipeline.c (and the scale choice writes the stream it
-     measures: encoder/compress/scales.c).
+     measures: encoder/compress/scales.c);
+  7. one way to write: only encoder/base/fileio.c creates, renames, removes or locks a file
+     (open, creat, rename, unlink, remove, mkdir, flock, png_init_io, ...; fopen elsewhere
+     only with a read mode), so that every write gets its checks (encoder/base/cn_file.h).
 Exit status 1 and one line per crossing when a rule is broken.
 """
 import glob
+import re
 import os
 import subprocess
 import sys
@@ -138,6 +142,51 @@ def pipeline_violations(listing):
     return bad
 
 
+WRITE_CALLS = {'open', 'open64', 'openat', 'openat64', 'creat', 'creat64', 'rename',
+               'renameat', 'renameat2', 'unlink', 'unlinkat', 'remove', 'mkdir', 'mkdirat',
+               'rmdir', 'link', 'linkat', 'symlink', 'symlinkat', 'truncate', 'truncate64',
+               'mkstemp', 'mkstemp64', 'mkostemp', 'tmpfile', 'fdopen', 'freopen', 'flock',
+               'png_init_io', 'mknod', 'mkfifo'}
+WRITER = 'fileio'  # encoder/base/fileio.c
+
+
+def source_of(obj):
+    """The source file of an object (CMakeFiles/T.dir/encoder/base/fileio.c.o), or None."""
+    rel = obj.split('.dir' + os.sep, 1)[-1] if '.dir' + os.sep in obj else obj
+    rel = rel[:-2] if rel.endswith('.o') else rel
+    path = os.path.join(ROOT, rel)
+    return path if os.path.exists(path) else None
+
+
+def write_violations(listing):
+    """Rule 7 from `nm -A` lines: the calls that write files outside the write module, and
+    fopen with a mode other than "r"/"rb" (read from the object's source)."""
+    bad = []
+    for line in listing.splitlines():
+        obj, _, rest = line.rpartition(':')
+        fields = rest.split()
+        if len(fields) < 2 or fields[-2] != 'U':
+            continue
+        name, base = fields[-1], os.path.basename(obj).split('.')[0]
+        if base == WRITER:
+            continue
+        shown = os.path.basename(obj).rsplit('.', 1)[0]
+        if name in WRITE_CALLS:
+            bad.append('%s: calls %s outside the write module (encoder/base/fileio.c)' %
+                       (shown, name))
+        elif name in ('fopen', 'fopen64'):
+            src = source_of(obj)
+            text = open(src).read() if src else ''
+            modes = re.findall(r'fopen(?:64)?\s*\([^;]*?,\s*"([^"]*)"', text)
+            for m in modes:
+                if m not in ('r', 'rb'):
+                    bad.append('%s: fopen with mode "%s" outside the write module '
+                               '(encoder/base/fileio.c)' % (shown, m))
+            if src and not modes:
+                bad.append('%s: fopen with a mode that is not a literal "r" or "rb"' % shown)
+    return bad
+
+
 def live_objects(build, target):
     """The objects of a target whose source still exists (a build directory keeps others)."""
     top = os.path.join(build, 'CMakeFiles', target + '.dir')
@@ -154,7 +203,7 @@ def main(argv):
         bad = depfile_violations(argv[1:])
     elif len(argv) >= 2 and argv[0] == '--nm':
         listing = ''.join(open(f).read() for f in argv[1:])
-        bad = nm_violations(listing) + pipeline_violations(listing)
+        bad = nm_violations(listing) + pipeline_violations(listing) + write_violations(listing)
     elif len(argv) == 1:
         build = argv[0]
         deps = [f for f in glob.glob(os.path.join(build, 'CMakeFiles', '*.dir', '**', '*.o.d'),
@@ -177,7 +226,7 @@ def main(argv):
         bad += nm_violations(out.stdout)
         every = live_objects(build, 'cnerf_enc') + host
         out = subprocess.run(['nm', '-A'] + every, check=True, capture_output=True, text=True)
-        bad += pipeline_violations(out.stdout)
+        bad += pipeline_violations(out.stdout) + write_violations(out.stdout)
         print('check_layers: %d depfiles, %d objects' % (len(lib_deps), len(every)))
     else:
         print(__doc__, file=sys.stderr)

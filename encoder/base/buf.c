@@ -55,6 +55,33 @@ void cn_buf_put(cn_buf *b, const void *src, size_t n)
     b->n += n;
 }
 
+void cn_buf_printf(cn_buf *b, const char *fmt, ...)
+{
+    char line[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    const int n = vsnprintf(line, sizeof line, fmt, ap);
+    va_end(ap);
+    if (n < 0) {
+        b->oom = 1;
+        return;
+    }
+    if ((size_t)n < sizeof line) {
+        cn_buf_put(b, line, (size_t)n);
+        return;
+    }
+    char *big = malloc((size_t)n + 1);
+    if (!big) {
+        b->oom = 1;
+        return;
+    }
+    va_start(ap, fmt);
+    vsnprintf(big, (size_t)n + 1, fmt, ap);
+    va_end(ap);
+    cn_buf_put(b, big, (size_t)n);
+    free(big);
+}
+
 void cn_buf_u8(cn_buf *b, uint32_t v)
 {
     uint8_t x = (uint8_t)v;

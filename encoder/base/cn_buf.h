@@ -21,6 +21,8 @@ typedef struct cn_buf {
 
 void cn_buf_free(cn_buf *b);
 void cn_buf_put(cn_buf *b, const void *src, size_t n);
+/* Appends formatted text (no terminating NUL). */
+__attribute__((format(printf, 2, 3))) void cn_buf_printf(cn_buf *b, const char *fmt, ...);
 void cn_buf_u8(cn_buf *b, uint32_t v);
 void cn_buf_u16(cn_buf *b, uint32_t v);
 void cn_buf_u24(cn_buf *b, uint32_t v);

@@ -14,8 +14,33 @@
  * directory, a device and anything larger than CN_READ_MAX (a pipe is read up to it), and
  * stops at the first failed allocation. */
 int cn_read_file(const char *path, uint8_t **data, size_t *len, char *err, size_t errlen);
-/* Writes a whole file atomically (temporary file, fsync, rename). */
+
+/* ---- every file cnerf writes goes through these (tools/check_layers.py) ---- */
+
+/* The inputs of this run (files and folders), recorded before its work starts: no output may
+ * be one of them or lie inside one of the folders. `role` names it in messages ("the
+ * dataset"; NULL: "the input"). A path that does not exist is skipped. Returns -1 when more
+ * than CN_MAX_INPUTS are recorded. Process-wide, for one command's run. */
+#define CN_MAX_INPUTS 64
+int cn_input_add(const char *path, const char *role);
+void cn_inputs_clear(void);
+/* `path` can be written: it is absent or a regular file (not a link, device, FIFO or
+ * directory), not an input nor inside an input folder, and its directory takes a new file.
+ * Returns 0, or -1 with a message naming `path`. */
+int cn_output_check(const char *path, char *err, size_t errlen);
+/* The same for an output directory, existing or to be made: a directory if it exists, not an
+ * input, not inside one. */
+int cn_output_dir_check(const char *dir, char *err, size_t errlen);
+/* Makes an output directory after cn_output_dir_check (an existing one is fine). */
+int cn_make_dir(const char *dir, char *err, size_t errlen);
+/* Writes a whole file atomically (temporary file, fsync, rename) after cn_output_check. */
 int cn_write_file_atomic(const char *path, const void *data, size_t len, char *err,
                          size_t errlen);
+/* An exclusive lock on PATH.lock (written into lock[]) for a run that writes PATH, so that two
+ * runs never write one output; the kernel drops it when the process dies. Returns the
+ * descriptor for cn_unlock, or -1 with a message (*busy = 1: another process holds it). */
+int cn_lock(const char *path, char lock[], size_t locklen, int *busy, char *err, size_t errlen);
+/* Removes PATH.lock while still holding it, then releases it. */
+void cn_unlock(int fd, const char *lock);
 
 #endif /* CNERF_ENC_FILE_H */

@@ -1,10 +1,15 @@
-/* Whole-file reads and atomic writes (temporary file, fsync, rename). */
+/* Whole-file reads, and every file cnerf writes: the checks of an output, atomic writes
+ * (temporary file, fsync, rename), directories, and the locks of long runs. No other file of
+ * the encoder or the host program creates, renames or removes a file (tools/check_layers.py
+ * keeps it so). */
 #define _POSIX_C_SOURCE 200809L
 #include <errno.h>
 #include <fcntl.h>
+#include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -57,19 +62,151 @@ int cn_read_file(const char *path, uint8_t **data, size_t *len, char *err, size_
     return 0;
 }
 
+/* ---- the files and folders a run reads ---- */
+
+/* Process-wide: the command records its inputs before its work starts, and its writes (on
+ * its main thread) check against them. */
+typedef struct cn_input {
+    dev_t dev;
+    ino_t ino;
+    int dir;
+    char real[PATH_MAX]; /* its real path (a folder: to tell what lies inside it) */
+    char name[PATH_MAX]; /* as the user gave it */
+    const char *role;
+} cn_input;
+
+static cn_input cn_inputs[CN_MAX_INPUTS];
+static int cn_n_inputs;
+
+int cn_input_add(const char *path, const char *role)
+{
+    struct stat st;
+    if (!path || stat(path, &st) != 0)
+        return 0; /* not there: its reader says so */
+    for (int i = 0; i < cn_n_inputs; i++)
+        if (cn_inputs[i].dev == st.st_dev && cn_inputs[i].ino == st.st_ino)
+            return 0;
+    if (cn_n_inputs == CN_MAX_INPUTS)
+        return -1;
+    cn_input *in = &cn_inputs[cn_n_inputs];
+    in->dev = st.st_dev;
+    in->ino = st.st_ino;
+    in->dir = S_ISDIR(st.st_mode);
+    if (!realpath(path, in->real))
+        return 0;
+    snprintf(in->name, sizeof in->name, "%s", path);
+    in->role = role ? role : "the input";
+    cn_n_inputs++;
+    return 0;
+}
+
+void cn_inputs_clear(void) { cn_n_inputs = 0; }
+
+static const char *kind_of(mode_t m)
+{
+    return S_ISREG(m) ? "a regular file" : S_ISLNK(m) ? "a symbolic link"
+         : S_ISDIR(m) ? "a directory" : S_ISCHR(m) || S_ISBLK(m) ? "a device"
+         : S_ISFIFO(m) ? "a FIFO" : S_ISSOCK(m) ? "a socket" : "not a regular file";
+}
+
+/* The real path of `path`, or of the directory it would be created in; 0 when neither is
+ * there. */
+static int real_target(const char *path, char out[PATH_MAX])
+{
+    if (realpath(path, out))
+        return 1;
+    char parent[PATH_MAX];
+    snprintf(parent, sizeof parent, "%s", path);
+    char *slash = strrchr(parent, '/');
+    if (!slash)
+        snprintf(parent, sizeof parent, ".");
+    else if (slash == parent)
+        parent[1] = 0;
+    else
+        *slash = 0;
+    return realpath(parent, out) != NULL;
+}
+
+static int inside(const char *real, const char *dir)
+{
+    const size_t n = strlen(dir);
+    return !strncmp(real, dir, n) && (real[n] == 0 || real[n] == '/' || (n == 1 && dir[0] == '/'));
+}
+
+/* What `path` may not be: an input, or inside an input folder. */
+static int not_an_input(const char *path, const struct stat *out, int exists, char *err,
+                        size_t errlen)
+{
+    for (int i = 0; exists && i < cn_n_inputs; i++)
+        if (cn_inputs[i].dev == out->st_dev && cn_inputs[i].ino == out->st_ino)
+            return cn_fail(err, errlen, "%s is also %s %s: choose another output", path,
+                           cn_inputs[i].role, cn_inputs[i].name);
+    char real[PATH_MAX];
+    if (!real_target(path, real))
+        return 0;
+    for (int i = 0; i < cn_n_inputs; i++)
+        if (cn_inputs[i].dir && inside(real, cn_inputs[i].real))
+            return cn_fail(err, errlen, "%s lies inside %s %s: write it elsewhere", path,
+                           cn_inputs[i].role, cn_inputs[i].name);
+    return 0;
+}
+
+int cn_output_check(const char *path, char *err, size_t errlen)
+{
+    struct stat out;
+    const int exists = lstat(path, &out) == 0;
+    if (exists && !S_ISREG(out.st_mode))
+        return cn_fail(err, errlen, "%s is %s; cnerf writes regular files only (it would "
+                       "replace it): choose another output", path, kind_of(out.st_mode));
+    if (not_an_input(path, &out, exists, err, errlen))
+        return -1;
+    /* The writer's own temporary name, created and removed: the directory exists and takes
+     * a new file. */
+    char tmp[PATH_MAX + 32];
+    snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid());
+    const int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+    if (fd < 0)
+        return cn_fail(err, errlen, "cannot write %s: %s", path, strerror(errno));
+    close(fd);
+    unlink(tmp);
+    return 0;
+}
+
+int cn_output_dir_check(const char *dir, char *err, size_t errlen)
+{
+    struct stat st;
+    const int exists = lstat(dir, &st) == 0;
+    if (exists && S_ISLNK(st.st_mode) && stat(dir, &st) != 0)
+        return cn_fail(err, errlen, "%s is a broken symbolic link, not a directory", dir);
+    if (exists && !S_ISDIR(st.st_mode))
+        return cn_fail(err, errlen, "%s is %s, not a directory", dir, kind_of(st.st_mode));
+    return not_an_input(dir, &st, 0, err, errlen); /* itself an input folder: "inside" */
+}
+
+int cn_make_dir(const char *dir, char *err, size_t errlen)
+{
+    if (cn_output_dir_check(dir, err, errlen))
+        return -1;
+    if (mkdir(dir, 0755) != 0 && errno != EEXIST)
+        return cn_fail(err, errlen, "%s: cannot create directory: %s", dir, strerror(errno));
+    return 0;
+}
+
+/* ---- atomic writes ---- */
+
 int cn_write_file_atomic(const char *path, const void *data, size_t len, char *err,
                          size_t errlen)
 {
-    size_t pl = strlen(path);
-    char *tmp = malloc(pl + 16);
-    if (!tmp) {
-        snprintf(err, errlen, "%s: out of memory", path);
+    if (cn_output_check(path, err, errlen))
         return -1;
-    }
-    snprintf(tmp, pl + 16, "%s.tmp.%ld", path, (long)getpid());
-    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    size_t pl = strlen(path);
+    char *tmp = malloc(pl + 32);
+    if (!tmp)
+        return cn_fail(err, errlen, "%s: out of memory", path);
+    snprintf(tmp, pl + 32, "%s.tmp.%ld", path, (long)getpid());
+    int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
     if (fd < 0) {
-        snprintf(err, errlen, "%s: cannot create: %s", tmp, strerror(errno));
+        cn_fail(err, errlen, "cannot write %s: %s", path, strerror(errno));
         free(tmp);
         return -1;
     }
@@ -93,11 +230,46 @@ int cn_write_file_atomic(const char *path, const void *data, size_t len, char *e
     if (!e && rename(tmp, path) != 0)
         e = errno;
     if (e) {
-        snprintf(err, errlen, "%s: cannot write: %s", path, strerror(e));
+        cn_fail(err, errlen, "%s: cannot write: %s", path, strerror(e));
         unlink(tmp);
         free(tmp);
         return -1;
     }
     free(tmp);
     return 0;
+}
+
+/* ---- locks ---- */
+
+int cn_lock(const char *path, char lock[], size_t locklen, int *busy, char *err, size_t errlen)
+{
+    snprintf(lock, locklen, "%s.lock", path);
+    *busy = 0;
+    /* A run that ends removes the file while it holds it; a lock taken on that removed file
+     * would guard nothing, so the lock must be on the file the name still points to. */
+    for (int tries = 0; tries < 8; tries++) {
+        const int fd = open(lock, O_WRONLY | O_CREAT | O_NOFOLLOW | O_CLOEXEC, 0644);
+        if (fd < 0)
+            return cn_fail(err, errlen, "cannot create %s: %s", lock, strerror(errno));
+        if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+            const int e = errno;
+            close(fd);
+            *busy = e == EWOULDBLOCK;
+            return cn_fail(err, errlen, "cannot lock %s: %s", lock, strerror(e));
+        }
+        struct stat held, named;
+        if (fstat(fd, &held) == 0 && stat(lock, &named) == 0 && held.st_dev == named.st_dev &&
+            held.st_ino == named.st_ino)
+            return fd;
+        close(fd); /* removed in between: take the new one */
+    }
+    return cn_fail(err, errlen, "cannot lock %s: it keeps being replaced", lock);
+}
+
+void cn_unlock(int fd, const char *lock)
+{
+    if (fd < 0)
+        return;
+    unlink(lock); /* while still held: no other run can have taken this file */
+    close(fd);
 }

@@ -35,6 +35,10 @@ void cli_view_path(char *path, size_t len, const char *dir, int i);
  * dataset). Returns 0, or 1 with the message printed. */
 int cli_check_output(const char *cmd, const char *path, const char *const *inputs,
                      size_t n_inputs, const char *dataset);
+/* 1 with the message printed when the output `path` and the input `input` (NULL: none) are
+ * one file: for an input that a run reads and may write again (a --resume checkpoint), which
+ * cli_check_output would protect. */
+int cli_check_not(const char *cmd, const char *path, const char *input);
 /* The same for an output directory (existing or to be made): not inside `dataset`. */
 int cli_check_output_dir(const char *cmd, const char *dir, const char *dataset);
 
@@ -43,6 +47,16 @@ int cli_check_output_dir(const char *cmd, const char *dir, const char *dataset);
  * Returns the descriptor to give cli_unlock_output, or -1 with the message printed. */
 int cli_lock_output(const char *cmd, const char *path, char lock[], size_t locklen);
 void cli_unlock_output(int fd, const char *lock);
+/* The locks of every file a run writes: paths[0..n) (NULL skipped, n <= CLI_MAX_LOCKS), each
+ * PATH.lock. Returns 0, or 1 with the message printed and none held. */
+#define CLI_MAX_LOCKS 2
+typedef struct cli_locks {
+    int n;
+    int fd[CLI_MAX_LOCKS];
+    char path[CLI_MAX_LOCKS][4200];
+} cli_locks;
+int cli_lock_outputs(const char *cmd, const char *const *paths, int n, cli_locks *L);
+void cli_unlock_outputs(cli_locks *L);
 
 /* Seconds of training between two checkpoints by default: what kill -9 can lose. */
 #define CLI_CKPT_SECS 60.0

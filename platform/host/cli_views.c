@@ -1,10 +1,8 @@
 /* Views on disk: PNGs written and read back, a split's views listed, rendered and scored. */
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 #include "cli.h"
 #include "cn_dataset.h"
@@ -28,13 +26,6 @@ int cli_write_png(const char *path, const float *rgb, int w, int h, char *err, s
     int rc = cn_png_write_rgb8(path, px, w, h, (size_t)w * 3, err, errlen);
     free(px);
     return rc;
-}
-
-int cli_make_dir(const char *cmd, const char *dir)
-{
-    if (mkdir(dir, 0755) != 0 && errno != EEXIST)
-        return cli_fail(cmd, "%s: cannot create directory: %s", dir, strerror(errno));
-    return 0;
 }
 
 int cli_eval_views(const cn_model *m, const cn_view *views, int n, int ndc, long every,

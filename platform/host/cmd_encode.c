@@ -493,18 +493,23 @@ int cmd_encode(int argc, char **argv)
     const int parsed = parse_args(argc, argv, A);
     if (parsed >= 0)
         return parsed;
-    const char *inputs[2] = {A->resume, A->init};
-    if (cli_check_output("encode", A->out, inputs, 2, A->pos[0]) ||
-        cli_check_output("encode", A->ckpt, inputs + 1, 1, A->pos[0])) /* resume writes its own */
+    /* --resume's checkpoint is read and written again: an input that is not protected, but
+     * that may not be the stream. */
+    const char *inputs[1] = {A->init};
+    if (cli_check_output("encode", A->out, inputs, 1, A->pos[0]) ||
+        cli_check_output("encode", A->ckpt, inputs, 1, A->pos[0]) ||
+        cli_check_not("encode", A->out, A->resume))
         return 1;
-    char lock[4200];
-    const int lk = cli_lock_output("encode", A->out, lock, sizeof lock);
-    if (lk < 0)
+    /* The stream and the checkpoint (--resume's when it is given) are both locked: another
+     * run may write neither. */
+    cli_locks locks;
+    const char *written[2] = {A->out, A->ckpt};
+    if (cli_lock_outputs("encode", written, 2, &locks))
         return 1;
     cn_dataset ds;
     if (cli_load_dataset("encode", A->pos[0], A->downscale, A->max_size, A->black, 0, 0,
                          A->val_views, &ds)) {
-        cli_unlock_output(lk, lock);
+        cli_unlock_outputs(&locks);
         return 1;
     }
     char err[1024];
@@ -513,7 +518,7 @@ int cmd_encode(int argc, char **argv)
         double bits;
         if (cn_preset_auto(&ds, &A->o, A->size, &A->o.preset, &bits, err, sizeof err)) {
             cn_dataset_free(&ds);
-            cli_unlock_output(lk, lock);
+            cli_unlock_outputs(&locks);
             return cli_fail("encode", "%s", err);
         }
         printf("preset auto: %s (%.2f bits per latent beyond the topology's floor; small from "
@@ -525,7 +530,7 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
     cn_trainer t;
     if (cn_trainer_init(&t, &ds, &A->o, err, sizeof err)) {
         cn_dataset_free(&ds);
-        cli_unlock_output(lk, lock);
+        cli_unlock_outputs(&locks);
         return cli_fail("encode", "%s", err);
     }
     cli_say_random_bg(&t);
@@ -535,7 +540,7 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
     if (bad < 0) {
         cn_trainer_free(&t);
         cn_dataset_free(&ds);
-        cli_unlock_output(lk, lock);
+        cli_unlock_outputs(&locks);
         return cli_fail("encode", "%s", err);
     }
     if (bad == 1) {
@@ -590,6 +595,6 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
     rc = write_and_report(A, &t, &ds, stepped_down, rc);
     cn_trainer_free(&t);
     cn_dataset_free(&ds);
-    cli_unlock_output(lk, lock);
+    cli_unlock_outputs(&locks);
     return rc;
 }

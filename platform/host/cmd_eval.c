@@ -7,6 +7,7 @@
 #include <sys/stat.h>
 
 #include "cli.h"
+#include "cn_file.h"
 #include "cli_args.h"
 #include "cn_image.h"
 #include "cn_metrics.h"
@@ -74,6 +75,8 @@ int cmd_eval(int argc, char **argv)
     const cn_view *views = NULL;
     int n = 0;
     int rc = cli_split_views("eval", &ds, pos[1], split, &views, &n);
+    if (rc == 0 && outdir && cn_input_add(pos[0], NULL))
+        rc = cli_fail("eval", "more than %d inputs", CN_MAX_INPUTS);
     if (rc == 0 && outdir && cli_check_output_dir("eval", outdir, pos[1]))
         rc = 1;
     if (rc == 0 && outdir)

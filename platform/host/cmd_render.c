@@ -1,17 +1,17 @@
 /* cnerf render scene.cnrf: renders views with the fixed-point decoder (tile by tile), compares
  * them with the float reference renderer of the same file and, with a dataset, with the
  * ground truth. Without a dataset it renders an orbit around the scene's centre. */
-#include <errno.h>
 #include <math.h>
 #include <md5.h>
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "cli.h"
 #include "cli_args.h"
+#include "cn_buf.h"
+#include "cn_file.h"
 #include "cn_dataset.h"
 #include "cn_fixcam.h"
 #include "cn_image.h"
@@ -113,14 +113,14 @@ static void to_float(const uint8_t *px, float *rgb, size_t n)
 
 /* One camera per line: rot[9] (Q30), pos[3] (Q32), fx fy cx cy (Q16), width, height, then
  * the view's name (the format tests/xarch/render_tile.c and the vectors read). */
-static void cli_write_camera(FILE *f, const cnerf_camera *c, const char *name)
+static void cli_write_camera(cn_buf *f, const cnerf_camera *c, const char *name)
 {
     for (int i = 0; i < 9; i++)
-        fprintf(f, "%ld ", (long)c->rot[i]);
+        cn_buf_printf(f, "%ld ", (long)c->rot[i]);
     for (int i = 0; i < 3; i++)
-        fprintf(f, "%lld ", (long long)c->pos[i]);
-    fprintf(f, "%ld %ld %ld %ld %u %u %s\n", (long)c->fx, (long)c->fy, (long)c->cx, (long)c->cy,
-            c->width, c->height, name);
+        cn_buf_printf(f, "%lld ", (long long)c->pos[i]);
+    cn_buf_printf(f, "%ld %ld %ld %ld %u %u %s\n", (long)c->fx, (long)c->fy, (long)c->cx,
+                  (long)c->cy, c->width, c->height, name);
 }
 
 /* An orbit camera: view k of n on a circle of `radius` at `elev` degrees, looking at the
@@ -312,27 +312,6 @@ static int render_options(const char *path, const cnerf_info *I, long coarse, lo
     return 0;
 }
 
-/* Opens --save-cameras' temporary file (renamed into place by close_cameras). */
-static int open_cameras(const char *path, char *tmp, size_t tmplen, FILE **f)
-{
-    snprintf(tmp, tmplen, "%s.tmp.%ld", path, (long)getpid());
-    *f = fopen(tmp, "w");
-    return *f ? 0 : cli_fail("render", "%s: %s", tmp, strerror(errno));
-}
-
-static int close_cameras(FILE *f, const char *tmp, const char *path, int rc)
-{
-    const int bad = fflush(f) != 0 || ferror(f) != 0;
-    fclose(f);
-    if (rc == 0 && bad)
-        rc = cli_fail("render", "%s: write error", tmp);
-    if (rc == 0 && rename(tmp, path) != 0)
-        rc = cli_fail("render", "%s: %s", path, strerror(errno));
-    if (rc != 0)
-        remove(tmp);
-    return rc;
-}
-
 int cmd_render(int argc, char **argv)
 {
     const char *dataset = NULL, *split = "test", *outdir = NULL, *verify = NULL, *pos[1];
@@ -407,16 +386,15 @@ int cmd_render(int argc, char **argv)
                           ds.ndc ? "forward-facing (NDC)" : "a 360-degree scene", pos[0],
                           I->coord == CNERF_COORD_NDC ? "in NDC" : "in world coordinates");
     }
+    if (rc == 0 && outdir && cn_input_add(pos[0], NULL))
+        rc = cli_fail("render", "more than %d inputs", CN_MAX_INPUTS);
     if (rc == 0 && outdir && cli_check_output_dir("render", outdir, dataset))
         rc = 1;
     if (rc == 0 && outdir)
         rc = cli_make_dir("render", outdir);
     if (rc == 0 && cam_path && cli_check_output("render", cam_path, pos, 1, dataset))
         rc = 1;
-    FILE *cams = NULL;
-    char cam_tmp[4096];
-    if (rc == 0 && cam_path)
-        rc = open_cameras(cam_path, cam_tmp, sizeof cam_tmp, &cams);
+    cn_buf cams = {0}; /* --save-cameras' lines, written at the end */
 
     render_job job = {.dec = st.dec, .ref = &ref, .cfg = &cfg, .use_float = use_float,
                       .outdir = outdir};
@@ -438,14 +416,20 @@ int cmd_render(int argc, char **argv)
             rc = cli_fail("render", "%s: %s", name, err);
             break;
         }
-        if (cams)
-            cli_write_camera(cams, &fc, name);
+        if (cam_path)
+            cli_write_camera(&cams, &fc, name);
         rc = render_view(&job, &cam, &fc, name, dataset ? views[i].rgb : NULL, &tally);
     }
     if (rc == 0 && tally.count)
         rc = render_totals(&job, &tally, dataset != NULL, no_skip, verify);
-    if (cams)
-        rc = close_cameras(cams, cam_tmp, cam_path, rc);
+    if (rc == 0 && cam_path && cams.oom)
+        rc = cli_fail("render", "out of memory");
+    else if (rc == 0 && cam_path) {
+        char err[8400];
+        if (cn_write_file_atomic(cam_path, cams.p, cams.n, err, sizeof err))
+            rc = cli_fail("render", "%s", err);
+    }
+    cn_buf_free(&cams);
     cn_dataset_free(&ds);
     ref.grid = grid;
     cn_model_free(&ref);

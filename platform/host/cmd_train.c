@@ -99,20 +99,21 @@ int cmd_train(int argc, char **argv)
         o.precrop_iters = precrop;
     o.occ_grid = (int)occ;
     o.occ_start = occ_start;
-    if (cli_check_output("train", out, NULL, 0, pos[0]))
+    const char *inputs[1] = {train_images};
+    if (cli_check_output("train", out, inputs, 1, pos[0]))
         return 1;
-    char lock[4200];
-    const int lk = cli_lock_output("train", out, lock, sizeof lock);
-    if (lk < 0)
+    cli_locks locks;
+    const char *written[2] = {out, NULL};
+    if (cli_lock_outputs("train", written, 2, &locks))
         return 1;
     cn_dataset ds;
     if (cli_load_dataset("train", pos[0], downscale, max_size, black, near, far, val_views, &ds)) {
-        cli_unlock_output(lk, lock);
+        cli_unlock_outputs(&locks);
         return 1;
     }
     if (train_images && cli_replace_views("train", ds.train, ds.n_train, train_images)) {
         cn_dataset_free(&ds);
-        cli_unlock_output(lk, lock);
+        cli_unlock_outputs(&locks);
         return 1;
     }
     printf("dataset %s: %d train, %d val, %d test views, %dx%d, %s\n", pos[0], ds.n_train,
@@ -125,7 +126,7 @@ int cmd_train(int argc, char **argv)
     cn_trainer t;
     if (cn_trainer_init(&t, &ds, &o, err, sizeof err)) {
         cn_dataset_free(&ds);
-        cli_unlock_output(lk, lock);
+        cli_unlock_outputs(&locks);
         return cli_fail("train", "%s", err);
     }
     cli_say_random_bg(&t);
@@ -143,6 +144,6 @@ int cmd_train(int argc, char **argv)
                               every, &stopped);
     cn_trainer_free(&t);
     cn_dataset_free(&ds);
-    cli_unlock_output(lk, lock);
+    cli_unlock_outputs(&locks);
     return rc ? rc : stopped ? 128 + stopped : 0;
 }

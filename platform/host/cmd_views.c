@@ -8,6 +8,8 @@
 #include <string.h>
 
 #include "cli.h"
+#include "cn_buf.h"
+#include "cn_file.h"
 #include "cli_args.h"
 #include "cn_dataset.h"
 #include "cn_image.h"
@@ -103,11 +105,14 @@ int cmd_views(int argc, char **argv)
     if (rc == 0) {
         snake_order(views, n, order);
         snprintf(path, sizeof path, "%s/order.txt", outdir);
-        FILE *f = fopen(path, "w");
-        for (int i = 0; f && i < n; i++)
-            fprintf(f, "%04d.png\n", order[i]);
-        if (!f || fclose(f) != 0)
-            rc = cli_fail("views", "%s: cannot write", path);
+        cn_buf list = {0};
+        for (int i = 0; i < n; i++)
+            cn_buf_printf(&list, "%04d.png\n", order[i]);
+        if (list.oom)
+            rc = cli_fail("views", "out of memory");
+        else if (cn_write_file_atomic(path, list.p, list.n, err, sizeof err))
+            rc = cli_fail("views", "%s", err);
+        cn_buf_free(&list);
     }
     if (rc == 0)
         printf("views: %d %s views of %s, %dx%d, in %s/0000.png ...; a path through them for "

@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "cn_file.h"
@@ -89,10 +90,16 @@ static int check_set(const encode_args *A)
         return cli_usage("encode", "--iters 0 trains nothing: give at least 1, or --resume a "
                          "checkpoint");
     for (unsigned a = 0; a < M; a++)
-        for (unsigned b = a + 1; b < M; b++)
+        for (unsigned b = a + 1; b < M; b++) {
             if (!strcmp(A->pos[a], A->pos[b]))
                 return cli_usage("encode", "%s is given twice: a set's scenes are different "
                                  "datasets", A->pos[a]);
+            struct stat sa, sb; /* one folder by two names */
+            if (stat(A->pos[a], &sa) == 0 && stat(A->pos[b], &sb) == 0 &&
+                sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino)
+                return cli_usage("encode", "%s and %s are one dataset: a set's scenes are "
+                                 "different datasets", A->pos[a], A->pos[b]);
+        }
     return 0;
 }
 
@@ -207,14 +214,16 @@ int cli_encode_set(const encode_args *A)
     snprintf(ckpt, sizeof ckpt, "%s", A->resume ? A->resume : A->out);
     if (!A->resume)
         strncat(ckpt, ".ckpt", sizeof ckpt - strlen(ckpt) - 1);
-    const char *inputs[1] = {A->resume};
     for (unsigned m = 0; m < M; m++)
-        if (cli_check_output("encode", A->out, inputs, 1, A->pos[m]) ||
-            cli_check_output("encode", ckpt, NULL, 0, A->pos[m]))
+        if (cli_check_output("encode", A->out, NULL, 0, A->pos[m]) ||
+            cli_check_output("encode", ckpt, NULL, 0, A->pos[m]) ||
+            cli_check_not("encode", A->out, A->resume))
             return 1;
-    char lock[4200];
-    const int lk = cli_lock_output("encode", A->out, lock, sizeof lock);
-    if (lk < 0)
+    /* The stream and the checkpoint (--resume's when it is given) are both locked: another
+     * run may write neither. */
+    cli_locks locks;
+    const char *written[2] = {A->out, ckpt};
+    if (cli_lock_outputs("encode", written, 2, &locks))
         return 1;
     cn_dataset *ds = calloc(M, sizeof *ds);
     unsigned loaded = 0;
@@ -227,7 +236,7 @@ int cli_encode_set(const encode_args *A)
         for (unsigned m = 0; m + 1 < loaded; m++)
             cn_dataset_free(&ds[m]);
         free(ds);
-        cli_unlock_output(lk, lock);
+        cli_unlock_outputs(&locks);
         return rc;
     }
     char err[1024];
@@ -277,6 +286,6 @@ out_data:
     for (unsigned m = 0; m < M; m++)
         cn_dataset_free(&ds[m]);
     free(ds);
-    cli_unlock_output(lk, lock);
+    cli_unlock_outputs(&locks);
     return rc;
 }

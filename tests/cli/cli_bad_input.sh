@@ -277,9 +277,9 @@ for _ in $(seq 600); do
   sleep 0.1
 done
 set +e
-"$cnerf" train "$D" -o "$work/busy2.cnrf.ckpt" "${T[@]}" > /dev/null 2> "$work/err.txt"
+timeout 60 "$cnerf" train "$D" -o "$work/busy2.cnrf.ckpt" "${T[@]}" > /dev/null 2> "$work/err.txt"
 rc=$?
-"$cnerf" encode "$D" -o "$work/busy3.cnrf" --resume "$work/busy2.cnrf.ckpt" --lambda 1 "${T[@]}" \
+timeout 60 "$cnerf" encode "$D" -o "$work/busy3.cnrf" --resume "$work/busy2.cnrf.ckpt" --lambda 1 "${T[@]}" \
   > /dev/null 2> "$work/err3.txt"
 rc3=$?
 kill -TERM $pid

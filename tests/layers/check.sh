@@ -19,4 +19,5 @@ expect "the decoder includes encoder/base/cn_buf.h" --depfiles tests/layers/deco
 expect "common/ includes decoder/cn_internal.h" --depfiles tests/layers/common_includes_decoder.d
 expect "cmd_eval.c: uses cli_load_dataset of platform/host/cmd_train.c" --nm tests/layers/commands.nm
 expect "cmd_quantize.c: calls cn_write_stream outside the encode pipeline" --nm tests/layers/pipeline.nm
-echo "layers: the rules hold, and the six bad fixtures are flagged"
+expect "cmd_render.c: calls rename outside the write module" --nm tests/layers/writes.nm
+echo "layers: the rules hold, and the seven bad fixtures are flagged"
