@@ -16,6 +16,8 @@ fail() { echo "FAIL: $*" >&2; exit 1; }
 "$cnerf" synth -o "$work/s.cnrf" --preset tiny > /dev/null || fail "fixture: synth"
 "$cnerf" encode "$data/lego" -o "$work/e.cnrf" --lambda 1 --preset tiny --downscale 16 --iters 2 \
   --every 200 > "$work/fixture-e.log" || fail "fixture: encode"
+"$cnerf" encode "$data/lego" "$data/mic" -o "$work/set.cnrf" --lambda 1 --downscale 16 --iters 2 \
+  --every 200 > "$work/fixture-set.log" || fail "fixture: encode of two scenes"
 cp -al "$data/lego" "$work/ds"
 cp -al "$data/lego" "$work/ds_dir" # an image that is a directory
 rm "$work/ds_dir/train/r_0.png" && mkdir "$work/ds_dir/train/r_0.png"
@@ -209,6 +211,7 @@ rows=(
   "1|$work/v/0000.png lies inside the input $work/v|train $D --train-images $work/v -o $work/v/0000.png ${T[*]}"
   "2|$D and $work/ds/../ds are one dataset|encode $D $work/ds/../ds -o $work/x.cnrf --lambda 1"
   "2|--init encodes one scene; a stream of several scenes does not take it|encode $D $data/mic -o $work/x.cnrf --lambda 1 --init $work/t.ckpt"
+  "1|set.cnrf.ckpt is a checkpoint of an encode of several scenes: resume it with the same datasets|encode $D -o $work/x.cnrf --lambda 1 --resume $work/set.cnrf.ckpt ${T[*]}"
 )
 if [ $have_dev = 1 ]; then
   rows+=(
