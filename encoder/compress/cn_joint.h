@@ -14,9 +14,10 @@
 #ifndef CNERF_ENC_JOINT_H
 #define CNERF_ENC_JOINT_H
 
+#include "cn_ckpt.h"
 #include "cn_train.h"
 
-#define CN_JOINT_MAGIC "CNJT"
+#define CN_JOINT_MAGIC CN_CKPT_JOINT_MAGIC
 #define CN_JOINT_VERSION 1u
 
 typedef struct cn_joint {

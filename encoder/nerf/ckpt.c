@@ -97,7 +97,10 @@ int cn_ckpt_parse(const char *path, const uint8_t *data, size_t len, cn_ckpt *c,
     memset(c, 0, sizeof *c);
     cn_reader r; /* over everything before the CRC */
     const char *why = NULL;
-    if (len < 12 || memcmp(data, CN_CKPT_MAGIC, 4) != 0)
+    if (len >= 4 && memcmp(data, CN_CKPT_JOINT_MAGIC, 4) == 0)
+        why = "a checkpoint of an encode of several scenes: resume it with the same datasets "
+              "(cnerf encode DATASET1 DATASET2 ... --resume)";
+    else if (len < 12 || memcmp(data, CN_CKPT_MAGIC, 4) != 0)
         why = "not a cnerf checkpoint";
 #ifndef FUZZING_BUILD_MODE_UNSAFE_FOR_PRODUCTION /* fuzzing: let mutations past the CRC */
     else if (cnerf_crc32(0, data, len - 4) !=

@@ -32,6 +32,9 @@
 #include "cnerf/cnerf.h"
 
 #define CN_CKPT_MAGIC "CNCK"
+/* The checkpoint of an encode of several scenes (compress/joint.c): named here so that a
+ * one-scene run can tell it apart. */
+#define CN_CKPT_JOINT_MAGIC "CNJT"
 #define CN_CKPT_VERSION 6u
 #define CN_CKPT_VERSION_NO_AVERAGE 5u
 #define CN_CKPT_VERSION_NO_QUALITY 4u

@@ -211,7 +211,7 @@ rows=(
   "1|$work/v/0000.png lies inside the input $work/v|train $D --train-images $work/v -o $work/v/0000.png ${T[*]}"
   "2|$D and $work/ds/../ds are one dataset|encode $D $work/ds/../ds -o $work/x.cnrf --lambda 1"
   "2|--init encodes one scene; a stream of several scenes does not take it|encode $D $data/mic -o $work/x.cnrf --lambda 1 --init $work/t.ckpt"
-  "1|set.cnrf.ckpt is a checkpoint of an encode of several scenes: resume it with the same datasets|encode $D -o $work/x.cnrf --lambda 1 --resume $work/set.cnrf.ckpt ${T[*]}"
+  "1|set.cnrf.ckpt: a checkpoint of an encode of several scenes: resume it with the same datasets|encode $D -o $work/x.cnrf --lambda 1 --resume $work/set.cnrf.ckpt ${T[*]}"
 )
 if [ $have_dev = 1 ]; then
   rows+=(
