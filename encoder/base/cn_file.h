@@ -33,7 +33,8 @@ int cn_output_check(const char *path, char *err, size_t errlen);
 int cn_output_dir_check(const char *dir, char *err, size_t errlen);
 /* Makes an output directory after cn_output_dir_check (an existing one is fine). */
 int cn_make_dir(const char *dir, char *err, size_t errlen);
-/* Writes a whole file atomically (temporary file, fsync, rename) after cn_output_check. */
+/* Writes a whole file atomically (temporary file, fsync, rename), with cn_output_check's
+ * checks. */
 int cn_write_file_atomic(const char *path, const void *data, size_t len, char *err,
                          size_t errlen);
 /* An exclusive lock on PATH.lock (written into lock[]) for a run that writes PATH, so that two

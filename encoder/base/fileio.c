@@ -151,14 +151,20 @@ static int not_an_input(const char *path, const struct stat *out, int exists, ch
     return 0;
 }
 
-int cn_output_check(const char *path, char *err, size_t errlen)
+/* What the file at `path` may be: absent or a regular file, not an input. */
+static int may_replace(const char *path, char *err, size_t errlen)
 {
     struct stat out;
     const int exists = lstat(path, &out) == 0;
     if (exists && !S_ISREG(out.st_mode))
         return cn_fail(err, errlen, "%s is %s; cnerf writes regular files only (it would "
                        "replace it): choose another output", path, kind_of(out.st_mode));
-    if (not_an_input(path, &out, exists, err, errlen))
+    return not_an_input(path, &out, exists, err, errlen);
+}
+
+int cn_output_check(const char *path, char *err, size_t errlen)
+{
+    if (may_replace(path, err, errlen))
         return -1;
     /* The writer's own temporary name, created and removed: the directory exists and takes
      * a new file. */
@@ -197,7 +203,7 @@ int cn_make_dir(const char *dir, char *err, size_t errlen)
 int cn_write_file_atomic(const char *path, const void *data, size_t len, char *err,
                          size_t errlen)
 {
-    if (cn_output_check(path, err, errlen))
+    if (may_replace(path, err, errlen)) /* the temporary's creation tests the directory */
         return -1;
     size_t pl = strlen(path);
     char *tmp = malloc(pl + 32);
