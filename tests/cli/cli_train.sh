@@ -35,11 +35,16 @@ p_m=$("$cnerf" train "$data/lego" -o "$work/vw1.ckpt" --iters 2 "${common[@]}" |
 "$cnerf" eval "$work/vw.ckpt" "$data/lego" --downscale 16 --every 100 > /dev/null || fail "eval of --view-width 0"
 
 # Ctrl-C: a checkpoint of the iterations done, exit status 130; --resume continues.
+# A background job of a non-interactive shell starts with SIGINT ignored, and a training
+# keeps a signal its caller ignores (as nohup asks): job control (set -m) starts it as a
+# terminal's foreground job would, with SIGINT at its default.
+set -m
 "$cnerf" train "$data/lego" -o "$work/int.ckpt" --iters 100000 "${common[@]}" \
   > "$work/int.log" 2>&1 &
 pid=$!
-# (a signal before the first progress line would find SIGINT ignored, as for any background
-# job of a non-interactive shell: wait for it, up to 5 minutes on a loaded machine)
+set +m
+# (a signal before the first progress line would stop the process before it takes SIGINT:
+# wait for that line, up to 5 minutes on a loaded machine)
 for _ in $(seq 1500); do grep -q "iter" "$work/int.log" 2>/dev/null && break; sleep 0.2; done
 sleep 1
 kill -INT $pid
