@@ -212,6 +212,15 @@ rows=(
   "2|$D and $work/ds/../ds are one dataset|encode $D $work/ds/../ds -o $work/x.cnrf --lambda 1"
   "2|--init encodes one scene; a stream of several scenes does not take it|encode $D $data/mic -o $work/x.cnrf --lambda 1 --init $work/t.ckpt"
   "1|set.cnrf.ckpt: a checkpoint of an encode of several scenes: resume it with the same datasets|encode $D -o $work/x.cnrf --lambda 1 --resume $work/set.cnrf.ckpt ${T[*]}"
+  # A run never starts over a checkpoint without being told: hours of training are not one
+  # typo away.
+  "1|$work/t.ckpt is a checkpoint at iteration 2: --resume continues it, --force starts over in its place|train $D -o $work/t.ckpt ${T[*]}"
+  "1|$work/e.cnrf.ckpt is a checkpoint at iteration 2: --resume $work/e.cnrf.ckpt continues it, --force starts over in its place|encode $D -o $work/e.cnrf --lambda 1 ${T[*]}"
+  "1|$work/e.cnrf.ckpt is a checkpoint at iteration 2: --resume $work/e.cnrf.ckpt continues it, --force starts over in its place|encode $D -o $work/e.cnrf --lambda 1 --init $work/t.ckpt ${T[*]}"
+  "1|$work/set.cnrf.ckpt is a checkpoint of 2 scenes at iteration 2: --resume $work/set.cnrf.ckpt continues it, --force starts over in its place|encode $D $data/mic -o $work/set.cnrf --lambda 1 --downscale 16 --iters 100000"
+  "1|$work/s.cnrf exists and is not a cnerf checkpoint: --force replaces it|train $D -o $work/s.cnrf ${T[*]}"
+  "2|--resume continues a checkpoint and --force replaces it: give one of them|train $D -o $work/t.ckpt --resume --force ${T[*]}"
+  "2|--resume continues a checkpoint and --force replaces it: give one of them|encode $D -o $work/x.cnrf --lambda 1 --resume $work/e.cnrf.ckpt --force ${T[*]}"
 )
 if [ $have_dev = 1 ]; then
   rows+=(
