@@ -34,7 +34,7 @@ for v in "${variants[@]}"; do
   if ! grep -q "^test: " "$f.log" 2> /dev/null || [ ! -s "$f.cnrf" ]; then
     echo "encode_variants.sh: $name ${opts:-}" >&2
     # shellcheck disable=SC2086 # the variant's options are words
-    if ! "$cnerf" encode "$data" -o "$f.cnrf" --threads "$threads" "$@" ${opts:-} > "$f.log" 2>&1; then
+    if ! "$cnerf" encode "$data" -o "$f.cnrf" --force --threads "$threads" "$@" ${opts:-} > "$f.log" 2>&1; then
       # a file written and scored that misses its --size says so and exits 1: keep the row
       grep -q "^test: " "$f.log" && [ -s "$f.cnrf" ] ||
         { echo "encode_variants.sh: encode failed (see $f.log)" >&2; exit 1; }

@@ -48,7 +48,7 @@ train() { # LOG IMAGES
     # an interrupted training continues from its checkpoint (train writes it to -o)
     local resume=()
     [ -s "${1%.log}.ckpt" ] && resume=(--resume)
-    "$cnerf" train "$data" -o "${1%.log}.ckpt" --train-images "$2" --eval-every "$iters" \
+    "$cnerf" train "$data" -o "${1%.log}.ckpt" --force --train-images "$2" --eval-every "$iters" \
       --log-every 250 "${opts[@]}" "${resume[@]}" >> "$1" 2>&1
   fi
 }

@@ -27,7 +27,7 @@ declare -A sched=([nerf]="--lr 5e-4 --lr-decay 500000" [default]="")
 for name in nerf default; do
   echo "lr_time.sh: $name schedule ${sched[$name]:-(5e-3 over the run)}, $iters iterations" >&2
   # shellcheck disable=SC2086 # the schedule's options are words
-  "$cnerf" train "$data" -o "$out/$name.ckpt" --iters "$iters" --eval-every "$every" \
+  "$cnerf" train "$data" -o "$out/$name.ckpt" --force --iters "$iters" --eval-every "$every" \
     --log-every "$every" "${opts[@]}" ${sched[$name]} > "$out/train-$name.log"
   awk -v p="$name" '/^eval: iteration/ {
       it = $3; sub(",", "", it); ssim = $12; sub(",", "", ssim)

@@ -35,7 +35,7 @@ for spec in $presets; do
   fi
   echo "psnr_time.sh: $p, to $n iterations${resume:+ (resumed)}" >&2
   echo "psnr_time.sh: run" >> "$log"
-  "$cnerf" train "$data" -o "$out/$p.ckpt" --preset "$p" --downscale 4 --iters "$n" \
+  "$cnerf" train "$data" -o "$out/$p.ckpt" --force --preset "$p" --downscale 4 --iters "$n" \
     --eval-every "$every" --every 40 --log-every "$every" ${TRAIN_OPTS:-} "${resume[@]}" >> "$log"
   # Each run's clock starts at zero; a resumed run's times continue from the training time
   # that the runs before it report when they save ("saved ... at iteration N: S s, ..."), or

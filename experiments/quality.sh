@@ -29,14 +29,14 @@ scene=$(basename "$data")
 log=$out/$scene-float.log
 if ! grep -q "^eval: iteration $iters," "$log" 2> /dev/null; then
   echo "quality.sh: $scene, uncompressed" >&2
-  "$cnerf" train "$data" -o "$out/$scene-float.ckpt" --eval-every "$iters" --log-every 250 \
+  "$cnerf" train "$data" -o "$out/$scene-float.ckpt" --force --eval-every "$iters" --log-every 250 \
     --ckpt-secs 100000 "${opts[@]}" > "$log" 2>&1
 fi
 for q in $qs; do
   log=$out/$scene-q$q.log
   if ! grep -q '^test:' "$log" 2> /dev/null; then
     echo "quality.sh: $scene, quality $q" >&2
-    "$cnerf" encode "$data" -o "$out/$scene-q$q.cnrf" --quality "$q" --log-every 250 \
+    "$cnerf" encode "$data" -o "$out/$scene-q$q.cnrf" --force --quality "$q" --log-every 250 \
       --ckpt-secs 100000 "${opts[@]}" > "$log" 2>&1
   fi
 done

@@ -27,7 +27,7 @@ for c in $ctls; do
     if ! grep -q '^test:' "$log" 2> /dev/null; then
       echo "rate_control.sh: $c, $s bytes" >&2
       # A miss beyond 3% makes encode fail; the sweep records it and goes on.
-      "$cnerf" encode "$data" -o "$out/$c-$s.cnrf" --size "$s" --rate-control "$c" \
+      "$cnerf" encode "$data" -o "$out/$c-$s.cnrf" --force --size "$s" --rate-control "$c" \
         --log-every 50 --ckpt-secs 100000 "${opts[@]}" > "$log" 2>&1 || true
     fi
     awk -v c="$c" -v s="$s" '

@@ -90,7 +90,7 @@ run() {
   local file=$out/files/$tag
   echo "== $tag"
   local t0=$SECONDS status=ok rc=0
-  "$@" -o "$file.$([ "${runname#train}" != "$runname" ] && echo ckpt || echo cnrf)" \
+  "$@" --force -o "$file.$([ "${runname#train}" != "$runname" ] && echo ckpt || echo cnrf)" \
     > "$log" 2>&1 || rc=$?
   local secs=$((SECONDS - t0)) bytes=0 psnr="" vals=","
   local f=$file.ckpt

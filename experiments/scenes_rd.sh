@@ -30,7 +30,7 @@ run() {
   local resume=()
   [ -s "$out/$name.cnrf.ckpt" ] && resume=(--resume "$out/$name.cnrf.ckpt")
   echo "scenes_rd.sh: $name" >&2
-  "$cnerf" encode "$@" -o "$out/$name.cnrf" --lambda "$lambda" --prune off --log-every 250 \
+  "$cnerf" encode "$@" -o "$out/$name.cnrf" --force --lambda "$lambda" --prune off --log-every 250 \
     "${opts[@]}" "${resume[@]}" >> "$log" 2>&1 ||
     echo "scenes_rd.sh: $name failed (see $log)" >&2
 }

@@ -38,7 +38,7 @@ run_cnerf() { # name, train options...
   local name=$1; shift
   echo "bench_train: cnerf $*, $iters iterations" >&2
   # The reference's learning rate and decay (cnerf's defaults are 5e-3 over the run).
-  build-rel/cnerf train "$data" -o "$out/$name.ckpt" --preset small --iters "$iters" --downscale 4 \
+  build-rel/cnerf train "$data" -o "$out/$name.ckpt" --force --preset small --iters "$iters" --downscale 4 \
     --lr 5e-4 --lr-decay 500000 --log-every 100 "$@" > "$out/${name}_train.log"
   build-rel/cnerf eval "$out/$name.ckpt" "$data" --downscale 4 --every 40 > "$out/${name}_eval.log"
   local s spi psnr ratio

@@ -11,6 +11,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 data=${CNERF_DATA:-../shared/data}
 mkdir -p out
+rm -f out/lego.cnrf.ckpt # the demo starts afresh each time it runs
 cmake -S . -B build -DCMAKE_BUILD_TYPE=RelWithDebInfo
 cmake --build build -j"$(nproc 2>/dev/null || echo 2)"
 ./build/cnerf encode "$data/lego" -o out/lego.cnrf --lambda 0.1 --preset tiny --downscale 4 \

@@ -44,7 +44,7 @@ vector() {
   local name=$1 feature=$2
   shift 2
   echo "== $name: $feature" >&2
-  rm -f "$tmp/s.cnrf"
+  rm -f "$tmp/s.cnrf" "$tmp/s.cnrf.ckpt"
   "$@" > "$tmp/cmd.log"
   cp "$tmp/s.cnrf" "vectors/valid/$name.cnrf"
   local m sfx vs min worst=inf tiles=0 hc hf nc nf

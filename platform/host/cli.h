@@ -39,6 +39,11 @@ int cli_check_output(const char *cmd, const char *path, const char *const *input
  * one file: for an input that a run reads and may write again (a --resume checkpoint), which
  * cli_check_output would protect. */
 int cli_check_not(const char *cmd, const char *path, const char *input);
+/* Before a run that starts a new checkpoint at `ckpt` (held locked): 1 with the message
+ * printed when a file is there already, a checkpoint (its iteration named, with `resume`, the
+ * option that continues it) or any other non-empty file; --force is what replaces it. */
+int cli_check_fresh(const char *cmd, const char *ckpt, const char *resume);
+#define CLI_RESUME_OR_FORCE "--resume continues a checkpoint and --force replaces it: give one of them"
 /* The same for an output directory (existing or to be made): not inside `dataset`. */
 int cli_check_output_dir(const char *cmd, const char *dir, const char *dataset);
 

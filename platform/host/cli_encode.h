@@ -16,11 +16,15 @@ typedef struct encode_args {
     long iters, downscale, max_size, threads, batch, every, depth, width, coarse, fine;
     long ckpt_every, log_every, view_width, eval_every, grid_g, precrop, val_views;
     uint64_t seed;
-    int black, n_pos, grid_verbose;
+    int black, n_pos, grid_verbose, force;
     int controlled; /* --size or --bits-per-param: lambda follows rate control */
     int autop;      /* --preset auto */
     char ckpt[4096];
 } encode_args;
+
+/* Before a run that writes OUT.ckpt afresh (not --resume, not --force): 1 with the message
+ * printed when a checkpoint or another file is there (cli_check_fresh). */
+int cli_check_ckpt_fresh(const encode_args *A);
 
 /* cnerf encode DATASET1 DATASET2 ... -o set.cnrf: several scenes in one stream with shared
  * shifts. A holds the parsed command line; returns the command's exit status. */

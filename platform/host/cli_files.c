@@ -3,10 +3,13 @@
  * or the dataset it reads. The checks themselves are the write module's (encoder/base/cn_file.h),
  * which every write goes through again. */
 #include <stdio.h>
+#include <string.h>
 #include <sys/stat.h>
 
 #include "cli.h"
+#include "cn_ckpt.h"
 #include "cn_file.h"
+#include "cn_reader.h"
 
 int cli_check_output(const char *cmd, const char *path, const char *const *inputs,
                      size_t n_inputs, const char *dataset)
@@ -29,6 +32,30 @@ int cli_check_not(const char *cmd, const char *path, const char *input)
         a.st_ino == b.st_ino)
         return cli_fail(cmd, "%s is also the input %s: choose another output", path, input);
     return 0;
+}
+
+int cli_check_fresh(const char *cmd, const char *ckpt, const char *resume)
+{
+    struct stat st;
+    if (lstat(ckpt, &st) != 0 || !S_ISREG(st.st_mode) || st.st_size == 0)
+        return 0; /* nothing to lose (what is not a regular file, cli_check_output refuses) */
+    /* "CNCK", u32 version, u64 step; "CNJT", u32 version, u32 scenes, u64 step */
+    uint8_t h[24] = {0};
+    size_t n = 0;
+    FILE *f = fopen(ckpt, "rb");
+    if (f) {
+        n = fread(h, 1, sizeof h, f);
+        fclose(f);
+    }
+    const char *tail = "continues it, --force starts over in its place";
+    if (n >= 16 && memcmp(h, CN_CKPT_MAGIC, 4) == 0)
+        return cli_fail(cmd, "%s is a checkpoint at iteration %llu: %s %s", ckpt,
+                        (unsigned long long)cn_le64(h + 8), resume, tail);
+    if (n >= 24 && memcmp(h, CN_CKPT_JOINT_MAGIC, 4) == 0)
+        return cli_fail(cmd, "%s is a checkpoint of %u scenes at iteration %llu: %s %s", ckpt,
+                        (unsigned)cn_le32(h + 8), (unsigned long long)cn_le64(h + 12), resume,
+                        tail);
+    return cli_fail(cmd, "%s exists and is not a cnerf checkpoint: --force replaces it", ckpt);
 }
 
 int cli_check_output_dir(const char *cmd, const char *dir, const char *dataset)

@@ -29,7 +29,8 @@
     "       [--preset tiny|small|paper|auto (the default with --size; else small)]\n"        \
     "       [--rate-control dual|pi] [--lr X] [--lr-decay N] [--precrop-iters N]\n"          \
     "       [--average N]\n"                                                                 \
-    "       [--iters N] [--downscale F|--max-size N] [--threads T] [--seed S] [--resume CKPT]\n"          \
+    "       [--iters N] [--downscale F|--max-size N] [--threads T] [--seed S]\n"                         \
+    "       [--resume CKPT | --force]\n"                                                     \
     "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N | --ckpt-secs S]\n" \
     "       [--log-every N] [--depth D] [--width W] [--view-width V] [--coarse N] [--fine N]\n"                \
     "       [--latent-lr latent|weight] [--init FLOAT.ckpt]\n"                                                   \
@@ -250,6 +251,7 @@ static int parse_args(int argc, char **argv, encode_args *A)
         {"--threads", CLI_LONG, &A->threads, 1, 256},
         {"--seed", CLI_U64, &A->seed, 0, 0},
         {"--resume", CLI_STR, &A->resume, 0, 0},
+        {"--force", CLI_FLAG, &A->force, 0, 0},
         {"--init", CLI_STR, &A->init, 0, 0},
         {"--levels", CLI_DOUBLE, &A->levels, 0.5, 10000},
         {"--batch", CLI_LONG, &A->batch, 1, 65536},
@@ -287,6 +289,8 @@ static int parse_args(int argc, char **argv, encode_args *A)
     if (cli_parse("encode", ENCODE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], A->pos,
                   CNERF_MAX_SCENES, &A->n_pos))
         return 2;
+    if (A->resume && A->force)
+        return cli_usage("encode", CLI_RESUME_OR_FORCE);
     if (A->n_pos > 1) /* several scenes */
         return cli_encode_set(A);
     if (!A->scheme)
@@ -487,6 +491,16 @@ static int write_and_report(encode_args *A, cn_trainer *t, const cn_dataset *ds,
     return rc;
 }
 
+int cli_check_ckpt_fresh(const encode_args *A)
+{
+    if (A->resume || A->force)
+        return 0;
+    char ckpt[4096], resume[4200];
+    snprintf(ckpt, sizeof ckpt, "%s.ckpt", A->out);
+    snprintf(resume, sizeof resume, "--resume %s", ckpt);
+    return cli_check_fresh("encode", ckpt, resume);
+}
+
 int cmd_encode(int argc, char **argv)
 {
     encode_args args, *A = &args;
@@ -506,6 +520,10 @@ int cmd_encode(int argc, char **argv)
     const char *written[2] = {A->out, A->ckpt};
     if (cli_lock_outputs("encode", written, 2, &locks))
         return 1;
+    if (cli_check_ckpt_fresh(A)) {
+        cli_unlock_outputs(&locks);
+        return 1;
+    }
     cn_dataset ds;
     if (cli_load_dataset("encode", A->pos[0], A->downscale, A->max_size, A->black, 0, 0,
                          A->val_views, &ds)) {

@@ -15,7 +15,7 @@
 
 #define TRAIN_USAGE                                                                            \
     "usage: cnerf train DATASET -o model.ckpt [--preset tiny|small|paper] [--iters N]\n"       \
-    "       [--downscale F|--max-size N] [--threads T] [--seed S] [--resume] [--batch R] [--depth D]\n"     \
+    "       [--downscale F|--max-size N] [--threads T] [--seed S] [--resume | --force] [--batch R] [--depth D]\n"     \
     "       [--width W] [--view-width V] [--coarse N] [--fine N] [--lr X] [--precrop-iters N] [--black]\n"     \
     "       [--near X] [--far X] [--ckpt-every N | --ckpt-secs S] [--log-every N] [--occupancy G]\n"     \
     "       [--eval-every N] [--every K] [--lr-decay N]\n"                                              \
@@ -37,7 +37,7 @@ int cmd_train(int argc, char **argv)
     long occ = o.occ_grid, occ_start = o.occ_start;
     double lr = o.lr, near = 0, far = 0;
     uint64_t seed = o.seed;
-    int resume = 0, black = 0, n_pos;
+    int resume = 0, force = 0, black = 0, n_pos;
     const cli_opt opts[] = {
         {"-o", CLI_STR, &out, 0, 0},
         {"--preset", CLI_STR, &o.preset, 0, 0},
@@ -47,6 +47,7 @@ int cmd_train(int argc, char **argv)
         {"--threads", CLI_LONG, &threads, 1, 256},
         {"--seed", CLI_U64, &seed, 0, 0},
         {"--resume", CLI_FLAG, &resume, 0, 0},
+        {"--force", CLI_FLAG, &force, 0, 0},
         {"--batch", CLI_LONG, &batch, 1, 65536},
         {"--depth", CLI_LONG, &depth, 1, CNERF_MAX_DEPTH},
         {"--width", CLI_LONG, &width, 1, CNERF_MAX_WIDTH},
@@ -85,6 +86,8 @@ int cmd_train(int argc, char **argv)
     if (iters == 0 && !resume)
         return cli_usage("train", "--iters 0 trains nothing: give at least 1, or --resume a "
                          "checkpoint");
+    if (resume && force)
+        return cli_usage("train", CLI_RESUME_OR_FORCE);
     cli_set_threads(threads);
     o.iters = iters;
     o.seed = seed;
@@ -106,6 +109,10 @@ int cmd_train(int argc, char **argv)
     const char *written[2] = {out, NULL};
     if (cli_lock_outputs("train", written, 2, &locks))
         return 1;
+    if (!resume && !force && cli_check_fresh("train", out, "--resume")) {
+        cli_unlock_outputs(&locks);
+        return 1;
+    }
     cn_dataset ds;
     if (cli_load_dataset("train", pos[0], downscale, max_size, black, near, far, val_views, &ds)) {
         cli_unlock_outputs(&locks);

@@ -225,6 +225,10 @@ int cli_encode_set(const encode_args *A)
     const char *written[2] = {A->out, ckpt};
     if (cli_lock_outputs("encode", written, 2, &locks))
         return 1;
+    if (cli_check_ckpt_fresh(A)) {
+        cli_unlock_outputs(&locks);
+        return 1;
+    }
     cn_dataset *ds = calloc(M, sizeof *ds);
     unsigned loaded = 0;
     rc = ds ? 0 : cli_fail("encode", "out of memory");
