@@ -38,10 +38,17 @@ int cn_make_dir(const char *dir, char *err, size_t errlen);
 int cn_write_file_atomic(const char *path, const void *data, size_t len, char *err,
                          size_t errlen);
 /* An exclusive lock on PATH.lock (written into lock[]) for a run that writes PATH, so that two
- * runs never write one output; the kernel drops it when the process dies. Returns the
- * descriptor for cn_unlock, or -1 with a message (*busy = 1: another process holds it). */
+ * runs never write one output; the kernel drops it when the process dies. Holding it, removes
+ * the PATH.tmp.PID files that runs killed in the middle of a write left (their PID gone).
+ * Returns the descriptor for cn_unlock, or -1 with a message (*busy = 1: another process
+ * holds it). flock is not reliable on some network file systems (older NFS, some SMB
+ * mounts): two runs there may not see each other's lock. */
 int cn_lock(const char *path, char lock[], size_t locklen, int *busy, char *err, size_t errlen);
 /* Removes PATH.lock while still holding it, then releases it. */
 void cn_unlock(int fd, const char *lock);
+/* For a run that a signal stops while it holds PATH.lock: removes PATH.lock and this
+ * process's unfinished PATH.tmp.PID. No allocation; safe from any thread (the process exits
+ * next, and the kernel drops the lock). */
+void cn_lock_abandon(const char *lock);
 
 #endif /* CNERF_ENC_FILE_H */

@@ -4,8 +4,10 @@
  * keeps it so). */
 #define _POSIX_C_SOURCE 200809L
 #include <errno.h>
+#include <dirent.h>
 #include <fcntl.h>
 #include <limits.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -247,6 +249,42 @@ int cn_write_file_atomic(const char *path, const void *data, size_t len, char *e
 
 /* ---- locks ---- */
 
+/* Removes PATH.tmp.PID files of our naming whose process is gone (a run killed with kill -9
+ * in the middle of a write), while the caller holds PATH.lock: no live run can be writing
+ * them. A PID that is alive, or that we may not signal, keeps its file. */
+static void sweep_stale(const char *path)
+{
+    char dir[PATH_MAX];
+    const char *slash = strrchr(path, '/');
+    const char *base = slash ? slash + 1 : path;
+    if (slash)
+        snprintf(dir, sizeof dir, "%.*s", (int)(slash - path) + (slash == path), path);
+    else
+        snprintf(dir, sizeof dir, ".");
+    DIR *d = opendir(dir);
+    if (!d)
+        return;
+    const size_t bl = strlen(base);
+    struct dirent *e;
+    while ((e = readdir(d)) != NULL) {
+        const char *n = e->d_name;
+        if (strncmp(n, base, bl) != 0 || strncmp(n + bl, ".tmp.", 5) != 0)
+            continue;
+        char *end;
+        const long pid = strtol(n + bl + 5, &end, 10);
+        if (*end || end == n + bl + 5 || pid <= 0 || pid == (long)getpid())
+            continue;
+        if (kill((pid_t)pid, 0) == 0 || errno != ESRCH)
+            continue;
+        char full[PATH_MAX + NAME_MAX + 2];
+        snprintf(full, sizeof full, "%s/%s", dir, n);
+        struct stat st;
+        if (lstat(full, &st) == 0 && S_ISREG(st.st_mode))
+            unlink(full);
+    }
+    closedir(d);
+}
+
 int cn_lock(const char *path, char lock[], size_t locklen, int *busy, char *err, size_t errlen)
 {
     snprintf(lock, locklen, "%s.lock", path);
@@ -265,8 +303,10 @@ int cn_lock(const char *path, char lock[], size_t locklen, int *busy, char *err,
         }
         struct stat held, named;
         if (fstat(fd, &held) == 0 && stat(lock, &named) == 0 && held.st_dev == named.st_dev &&
-            held.st_ino == named.st_ino)
+            held.st_ino == named.st_ino) {
+            sweep_stale(path);
             return fd;
+        }
         close(fd); /* removed in between: take the new one */
     }
     return cn_fail(err, errlen, "cannot lock %s: it keeps being replaced", lock);
@@ -278,4 +318,15 @@ void cn_unlock(int fd, const char *lock)
         return;
     unlink(lock); /* while still held: no other run can have taken this file */
     close(fd);
+}
+
+void cn_lock_abandon(const char *lock)
+{
+    char tmp[PATH_MAX + 32];
+    const size_t n = strlen(lock);
+    if (n > 5 && n - 5 < PATH_MAX) {
+        snprintf(tmp, sizeof tmp, "%.*s.tmp.%ld", (int)(n - 5), lock, (long)getpid());
+        unlink(tmp);
+    }
+    unlink(lock);
 }

@@ -62,6 +62,18 @@ typedef struct cli_locks {
 } cli_locks;
 int cli_lock_outputs(const char *cmd, const char *const *paths, int n, cli_locks *L);
 void cli_unlock_outputs(cli_locks *L);
+/* The stop signals of a run that holds the locks L (cli_lock_outputs and cli_unlock_outputs
+ * call these): from cli_stop_watch on, SIGINT, SIGTERM or SIGHUP (those the caller does not
+ * ignore) stops the run at once, printing "interrupted by SIGxxx " and the line of the
+ * current phase, removing the locks and the run's unfinished temporaries, and exiting with
+ * 128 + the signal; inside the training loop (cli_run_job) it stops the loop instead. */
+void cli_stop_watch(const cli_locks *L);
+void cli_stop_unwatch(void);
+/* Enters a phase: its line says what is saved and what is not if a signal stops the run in
+ * it, and how to go on ("while loading the dataset: nothing saved"). `name` is the phase's
+ * name for the test hook (CNERF_TEST_STOP_AT=name stops the process there), or NULL. */
+void cli_stop_phase(const char *name, const char *fmt, ...)
+    __attribute__((format(printf, 2, 3)));
 
 /* Seconds of training between two checkpoints by default: what kill -9 can lose. */
 #define CLI_CKPT_SECS 60.0
@@ -73,7 +85,8 @@ void cli_unlock_outputs(cli_locks *L);
  * "eval: iteration I, training S s, test psnr P dB, ssim Q, V views", S being the training
  * time so far without the evaluations. Returns 0 or 1 (error printed). */
 int cli_run_training(const char *cmd, struct cn_trainer *t, const char *ckpt, long ckpt_every,
-                     double ckpt_secs, long log_every, long eval_every, long every, int *stopped);
+                     double ckpt_secs, long log_every, long eval_every, long every,
+                     const char *after, int *stopped);
 /* Measures the trained model on its validation and training rays (cn_validate.h), prints
  * both PSNRs and warns on stderr when the training views beat the validation views by more
  * than CN_VAL_GAP_DB; cli_run_training calls it at the end of a run. 0 or 1 (error printed). */
@@ -81,7 +94,8 @@ int cli_report_validation(const char *cmd, struct cn_trainer *t);
 /* The same loop for any training job: done() gives the iterations done, step() runs one and
  * returns the loss (NaN with a message in err on failure), the PSNR to show and the rest of
  * the progress line, save() writes the checkpoint, eval() (NULL: none) evaluates and returns
- * the seconds it took or -1. */
+ * the seconds it took or -1. A run that ends enters the phase "after training: saved CKPT at
+ * iteration N; " + after (what is not done yet, and how to go on: cli_stop_phase). */
 typedef struct cli_job {
     void *ctx;
     long iters;
@@ -89,6 +103,7 @@ typedef struct cli_job {
     double (*step)(void *ctx, double *psnr, char *extra, size_t n, char *err, size_t errlen);
     int (*save)(void *ctx, const char *path, char *err, size_t errlen);
     double (*eval)(void *ctx, long every, double trained);
+    const char *after;
 } cli_job;
 int cli_run_job(const char *cmd, const cli_job *job, const char *ckpt, long ckpt_every,
                 double ckpt_secs, long log_every, long eval_every, long every, int *stopped);

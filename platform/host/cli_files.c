@@ -106,11 +106,13 @@ int cli_lock_outputs(const char *cmd, const char *const *paths, int n, cli_locks
         }
         L->fd[L->n++] = fd;
     }
+    cli_stop_watch(L);
     return 0;
 }
 
 void cli_unlock_outputs(cli_locks *L)
 {
+    cli_stop_unwatch();
     for (int i = L->n - 1; i >= 0; i--)
         cn_unlock(L->fd[i], L->path[i]);
     L->n = 0;

@@ -3,84 +3,168 @@
 #include <math.h>
 #include <pthread.h>
 #include <signal.h>
+#include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <time.h>
 #include <unistd.h>
 
 #include "cli.h"
+#include "cn_file.h"
 #include "cn_metrics.h"
 #include "cn_train.h"
 #include "progress.h"
 
-/* Stopping a training: Ctrl-C (SIGINT), and SIGTERM and SIGHUP as schedulers, service
- * managers and closed terminals send them. The loop stops after the current iteration, saves
- * and the command exits with 128 + the signal's number.
+/* Stopping a run: Ctrl-C (SIGINT), and SIGTERM and SIGHUP as schedulers, service managers
+ * and closed terminals send them. Inside the training loop a signal stops it after the
+ * current iteration, the checkpoint is saved and the command exits with 128 + the signal's
+ * number. In every other phase of a run (loading, setting up, the work after training) the
+ * run stops at once, with one line that says what was saved and what was not (the phase's,
+ * cli_stop_phase), its locks and unfinished temporaries removed.
  *
  * No signal handler may run on a thread that is inside a matrix product: oneDNN's x64 GEMM
  * kernels (before its 3.11.2; Debian 12 has 2.6.3) point the stack pointer into a heap
  * workspace while they run, and a handler's frame written there corrupts the heap (glibc
  * aborts at a later malloc or free: "corrupted size vs. prev_size while consolidating").
- * So the three signals are blocked in the calling thread and in every thread of OpenMP's
- * pool, whose threads run the products (a thread created later inherits the mask), and are
- * taken with sigtimedwait between iterations. The handler stays for threads outside that pool
- * (OpenBLAS's own, in a -DCNERF_GEMM=openblas build, whose kernels keep their stack). The
- * guard lasts until the final checkpoint is written, so a second signal does not lose it,
- * and on to the exit of a stopped command. */
+ * So from the moment a run holds its locks the signals are blocked in the calling thread and
+ * in every thread of OpenMP's pool, whose threads run the products (a thread created later
+ * inherits the mask), and one watcher thread takes them with sigwait. A handler stays for
+ * threads outside that pool (OpenBLAS's own, in a -DCNERF_GEMM=openblas build, whose kernels
+ * keep their stack): it passes the signal on to the watcher. A signal the caller ignores
+ * (nohup's SIGHUP, a script's background job's SIGINT) stays ignored. */
 static const int stop_signals[] = {SIGINT, SIGTERM, SIGHUP};
 #define N_STOP_SIGNALS (sizeof stop_signals / sizeof stop_signals[0])
-static volatile sig_atomic_t interrupted; /* the first stop signal taken, 0 if none */
-static void on_stop_signal(int sig)
-{
-    if (!interrupted)
-        interrupted = sig;
-}
+static volatile sig_atomic_t interrupted; /* the first stop signal the loop took, 0 if none */
+static struct {
+    pthread_mutex_t mu;
+    pthread_t watcher;
+    int started;
+    sigset_t set;
+    int defer;            /* 1: a signal is only recorded in `interrupted` (the loop's) */
+    char line[8400];      /* the phase's line after "interrupted by SIGxxx " */
+    int n_locks;
+    char locks[CLI_MAX_LOCKS][4200];
+} stop = {.mu = PTHREAD_MUTEX_INITIALIZER};
 
-typedef struct sigint_guard {
-    struct sigaction old_action[N_STOP_SIGNALS];
-    sigset_t set, old_mask;
-} sigint_guard;
-
-static void sigint_guard_begin(sigint_guard *g)
+/* Prints the phase's line, removes the locks and this process's temporaries, exits. Runs on
+ * the watcher (or on the caller, holding stop.mu), never inside a signal handler, but another
+ * thread may hold stdout's lock: the line goes out with write(). */
+static void stop_now(int sig)
 {
-    /* A signal the caller ignores stays ignored (nohup sets SIGHUP to SIG_IGN on purpose,
-     * and an exec keeps it): it is neither taken nor handled. */
-    sigemptyset(&g->set);
-    for (size_t i = 0; i < N_STOP_SIGNALS; i++) {
-        sigaction(stop_signals[i], NULL, &g->old_action[i]);
-        if (g->old_action[i].sa_handler != SIG_IGN)
-            sigaddset(&g->set, stop_signals[i]);
+    char msg[8600];
+    const int n = snprintf(msg, sizeof msg, "interrupted by %s %s\n", cli_signal_name(sig),
+                           stop.line);
+    if (n > 0) {
+        size_t left = (size_t)n < sizeof msg ? (size_t)n : sizeof msg - 1;
+        const char *p = msg;
+        while (left) {
+            const ssize_t w = write(STDOUT_FILENO, p, left);
+            if (w <= 0)
+                break;
+            p += w;
+            left -= (size_t)w;
+        }
     }
-    interrupted = 0;
-    pthread_sigmask(SIG_BLOCK, &g->set, &g->old_mask);
-#pragma omp parallel
-    pthread_sigmask(SIG_BLOCK, &g->set, NULL);
-    struct sigaction sa;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_stop_signal;
-    for (size_t i = 0; i < N_STOP_SIGNALS; i++)
-        if (sigismember(&g->set, stop_signals[i]))
-            sigaction(stop_signals[i], &sa, NULL);
+    for (int i = 0; i < stop.n_locks; i++)
+        cn_lock_abandon(stop.locks[i]);
+    _exit(128 + sig);
 }
 
-/* The stop signal taken so far (SIGINT, SIGTERM or SIGHUP), 0 if none. */
-static int sigint_seen(const sigint_guard *g)
+static void *stop_watch(void *arg)
 {
-    const struct timespec now = {0, 0};
-    int sig;
-    while ((sig = sigtimedwait(&g->set, NULL, &now)) > 0)
+    (void)arg;
+    for (;;) {
+        int sig;
+        if (sigwait(&stop.set, &sig) != 0)
+            continue;
+        pthread_mutex_lock(&stop.mu);
+        if (!stop.defer)
+            stop_now(sig);
         if (!interrupted)
             interrupted = sig;
-    return interrupted;
+        pthread_mutex_unlock(&stop.mu);
+    }
+    return NULL;
 }
 
-/* Restores the caller's mask and handlers. The pool's threads keep the signals blocked: they
- * go to the caller's thread from then on. */
-static void sigint_guard_end(sigint_guard *g)
+static void pass_to_watcher(int sig)
 {
-    pthread_sigmask(SIG_SETMASK, &g->old_mask, NULL);
-    for (size_t i = 0; i < N_STOP_SIGNALS; i++)
-        sigaction(stop_signals[i], &g->old_action[i], NULL);
+    pthread_kill(stop.watcher, sig);
+}
+
+void cli_stop_watch(const cli_locks *L)
+{
+    pthread_mutex_lock(&stop.mu);
+    stop.n_locks = 0;
+    for (int i = 0; i < L->n; i++)
+        snprintf(stop.locks[stop.n_locks++], sizeof stop.locks[0], "%s", L->path[i]);
+    snprintf(stop.line, sizeof stop.line, "while starting: nothing saved");
+    stop.defer = 0;
+    if (!stop.started) {
+        sigemptyset(&stop.set);
+        for (size_t i = 0; i < N_STOP_SIGNALS; i++) {
+            struct sigaction old;
+            sigaction(stop_signals[i], NULL, &old);
+            if (old.sa_handler != SIG_IGN)
+                sigaddset(&stop.set, stop_signals[i]);
+        }
+        pthread_sigmask(SIG_BLOCK, &stop.set, NULL);
+#pragma omp parallel
+        pthread_sigmask(SIG_BLOCK, &stop.set, NULL);
+        stop.started = pthread_create(&stop.watcher, NULL, stop_watch, NULL) == 0;
+        if (stop.started) {
+            struct sigaction sa;
+            memset(&sa, 0, sizeof sa);
+            sa.sa_handler = pass_to_watcher;
+            sigfillset(&sa.sa_mask);
+            for (size_t i = 0; i < N_STOP_SIGNALS; i++)
+                if (sigismember(&stop.set, stop_signals[i]))
+                    sigaction(stop_signals[i], &sa, NULL);
+        } else { /* no watcher: the signals keep their default meaning */
+            pthread_sigmask(SIG_UNBLOCK, &stop.set, NULL);
+        }
+    }
+    pthread_mutex_unlock(&stop.mu);
+}
+
+/* The phase's test hook: CNERF_TEST_STOP_AT=NAME stops the process (SIGSTOP) as it enters
+ * the phase NAME, so that a test can send a signal in exactly that phase. */
+static void stop_test_hook(const char *name)
+{
+    const char *at = getenv("CNERF_TEST_STOP_AT");
+    if (at && name && !strcmp(at, name))
+        raise(SIGSTOP);
+}
+
+void cli_stop_phase(const char *name, const char *fmt, ...)
+{
+    pthread_mutex_lock(&stop.mu);
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(stop.line, sizeof stop.line, fmt, ap);
+    va_end(ap);
+    stop.defer = 0;
+    if (interrupted && stop.started) /* taken by the loop after its last look */
+        stop_now(interrupted);
+    pthread_mutex_unlock(&stop.mu);
+    stop_test_hook(name);
+}
+
+void cli_stop_unwatch(void)
+{
+    pthread_mutex_lock(&stop.mu);
+    stop.defer = 1; /* the run has ended: what is left is the exit */
+    stop.n_locks = 0;
+    pthread_mutex_unlock(&stop.mu);
+}
+
+/* Inside the training loop: a signal is recorded, and the loop stops at it. */
+static void stop_defer(void)
+{
+    pthread_mutex_lock(&stop.mu);
+    stop.defer = 1;
+    pthread_mutex_unlock(&stop.mu);
 }
 
 const char *cli_signal_name(int sig)
@@ -125,10 +209,11 @@ int cli_run_job(const char *cmd, const cli_job *job, const char *ckpt, long ckpt
     if (job->done(job->ctx) >= job->iters) { /* a resumed checkpoint that is already done */
         printf("%s is at iteration %ld of %ld: nothing to train\n", ckpt, job->done(job->ctx),
                job->iters);
+        cli_stop_phase("after-training", "after training: saved %s at iteration %ld; %s", ckpt,
+                       job->done(job->ctx), job->after ? job->after : "");
         return 0;
     }
-    sigint_guard guard;
-    sigint_guard_begin(&guard);
+    stop_defer();
     cli_progress p;
     cli_progress_init(&p, job->done(job->ctx), job->iters, log_every);
     double psnr = 0;
@@ -136,7 +221,7 @@ int cli_run_job(const char *cmd, const cli_job *job, const char *ckpt, long ckpt
     const long first = job->done(job->ctx);
     double eval_secs = 0; /* time spent on evaluations, left out of the training time */
     double last_save = t0;  /* with ckpt_every 0: a checkpoint each ckpt_secs of training */
-    while (rc == 0 && job->done(job->ctx) < job->iters && !sigint_seen(&guard)) {
+    while (rc == 0 && job->done(job->ctx) < job->iters && !interrupted) {
         char extra[160] = "";
         const double loss = job->step(job->ctx, &psnr, extra, sizeof extra, err, sizeof err);
         if (isnan(loss) && err[0]) {
@@ -164,7 +249,7 @@ int cli_run_job(const char *cmd, const cli_job *job, const char *ckpt, long ckpt
     cli_progress_done(&p);
     if (rc == 0 && job->save(job->ctx, ckpt, err, sizeof err))
         rc = cli_fail(cmd, "%s", err);
-    *stopped = sigint_seen(&guard); /* a signal during the save stops the command too */
+    *stopped = interrupted; /* a signal during the save stops the command too */
     if (rc == 0) {
         const double el = cli_now() - t0 - eval_secs;
         const long it = job->done(job->ctx);
@@ -173,10 +258,13 @@ int cli_run_job(const char *cmd, const cli_job *job, const char *ckpt, long ckpt
         printf("saved %s at iteration %ld: %.1f s, %.3f s/it, train psnr %.2f dB\n", ckpt, it,
                el, it > first ? el / (double)(it - first) : 0.0, psnr);
     }
+    if (rc == 0 && !*stopped)
+        cli_stop_phase("after-training", "after training: saved %s at iteration %ld; %s", ckpt,
+                       job->done(job->ctx), job->after ? job->after : "");
     /* A stopped command exits next, and takes any further signal until then; a finished
-     * run gives the signals back their default meaning for the work after training. */
-    if (!*stopped && rc == 0)
-        sigint_guard_end(&guard);
+     * run goes on to a phase of its own (cli_stop_phase). */
+    if (*stopped)
+        interrupted = 0;
     return rc;
 }
 
@@ -227,10 +315,11 @@ static double trainer_eval(void *ctx, long every, double trained)
 }
 
 int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt_every,
-                     double ckpt_secs, long log_every, long eval_every, long every, int *stopped)
+                     double ckpt_secs, long log_every, long eval_every, long every,
+                     const char *after, int *stopped)
 {
     const cli_job job = {t, t->opts.iters, trainer_done, trainer_step, trainer_save,
-                         trainer_eval};
+                         trainer_eval, after};
     int rc = cli_run_job(cmd, &job, ckpt, ckpt_every, ckpt_secs, log_every, eval_every, every,
                          stopped);
     if (rc == 0 && !*stopped)

@@ -429,6 +429,10 @@ static int write_and_report(encode_args *A, cn_trainer *t, const cn_dataset *ds,
     }
     if (rc == 0 && cn_write_file_atomic(A->out, enc.stream.p, enc.stream.n, err, sizeof err))
         rc = cli_fail("encode", "%s", err);
+    if (rc == 0)
+        cli_stop_phase("wrote", "after training: saved %s at iteration %ld and wrote %s; its "
+                       "measurement was not finished (cnerf render %s --dataset %s measures it)",
+                       A->ckpt, t->step, A->out, A->out, A->pos[0]);
     const cn_write_report rep = enc.rep;
     /* The closed loop: read the file back through the decoder's parser. */
     cli_stream st;
@@ -524,6 +528,11 @@ int cmd_encode(int argc, char **argv)
         cli_unlock_outputs(&locks);
         return 1;
     }
+    char kept[4300] = "";
+    if (A->resume)
+        snprintf(kept, sizeof kept, " (%s is as it was)", A->resume);
+    cli_stop_phase("load", "while loading the dataset: nothing saved%s; run the command again",
+                   kept);
     cn_dataset ds;
     if (cli_load_dataset("encode", A->pos[0], A->downscale, A->max_size, A->black, 0, 0,
                          A->val_views, &ds)) {
@@ -545,6 +554,7 @@ int cmd_encode(int argc, char **argv)
     int rc = 0, stopped = 0;
 step_down: /* --preset auto encodes again with tiny when the rate collapses a larger preset */
     rc = 0;
+    cli_stop_phase("start", "before training: nothing saved%s; run the command again", kept);
     cn_trainer t;
     if (cn_trainer_init(&t, &ds, &A->o, err, sizeof err)) {
         cn_dataset_free(&ds);
@@ -594,8 +604,11 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
         if (A->o.average > 0)
             printf("the file will hold the mean of the parameters over the last %ld "
                    "iterations\n", A->o.average);
+        char after[8400];
+        snprintf(after, sizeof after, "%s not written: run the command again with --resume %s "
+                 "to write it", A->out, A->ckpt);
         rc = cli_run_training("encode", &t, A->ckpt, A->ckpt_every, A->ckpt_secs, A->log_every,
-                              A->eval_every, A->every, &stopped);
+                              A->eval_every, A->every, after, &stopped);
         if (rc && t.collapsed && A->autop && !A->resume && !A->init &&
             strcmp(A->o.preset, "tiny")) {
             printf("preset auto: %s collapsed at %.0f bytes; encoding again with preset tiny\n",

@@ -113,6 +113,13 @@ int cmd_train(int argc, char **argv)
         cli_unlock_outputs(&locks);
         return 1;
     }
+    /* What a stop signal before training leaves: nothing new, and a checkpoint to resume as
+     * it was. */
+    char kept[4300] = "";
+    if (resume && access(out, F_OK) == 0)
+        snprintf(kept, sizeof kept, " (%s is as it was)", out);
+    cli_stop_phase("load", "while loading the dataset: nothing saved%s; run the command again",
+                   kept);
     cn_dataset ds;
     if (cli_load_dataset("train", pos[0], downscale, max_size, black, near, far, val_views, &ds)) {
         cli_unlock_outputs(&locks);
@@ -129,6 +136,7 @@ int cmd_train(int argc, char **argv)
     if (train_images)
         printf("training views: the %d images in %s instead of the dataset's\n", ds.n_train,
                train_images);
+    cli_stop_phase("start", "before training: nothing saved%s; run the command again", kept);
     char err[1024];
     cn_trainer t;
     if (cn_trainer_init(&t, &ds, &o, err, sizeof err)) {
@@ -146,9 +154,12 @@ int cmd_train(int argc, char **argv)
                T->n_nets, T->net[0].depth, T->net[0].width, T->n_coarse, T->n_fine,
                t.model.n_params);
     int stopped = 0;
+    char after[4400];
+    snprintf(after, sizeof after, "the model is complete, its validation not measured (cnerf "
+             "eval %s %s measures it)", out, pos[0]);
     if (rc == 0)
         rc = cli_run_training("train", &t, out, ckpt_every, ckpt_secs, log_every, eval_every,
-                              every, &stopped);
+                              every, after, &stopped);
     cn_trainer_free(&t);
     cn_dataset_free(&ds);
     cli_unlock_outputs(&locks);

@@ -163,6 +163,9 @@ static int write_set(const encode_args *A, cn_joint *j, const cn_train_opts *o,
     }
     if (cn_write_file_atomic(A->out, enc->stream.p, enc->stream.n, err, sizeof err))
         return cli_fail("encode", "%s", err);
+    cli_stop_phase("wrote", "after training: saved %s%s and wrote %s; its measurement was "
+                   "not finished (cnerf render %s --scene M --dataset D measures scene M)",
+                   A->resume ? A->resume : A->out, A->resume ? "" : ".ckpt", A->out, A->out);
     return 0;
 }
 
@@ -229,6 +232,11 @@ int cli_encode_set(const encode_args *A)
         cli_unlock_outputs(&locks);
         return 1;
     }
+    char kept[4300] = "";
+    if (A->resume)
+        snprintf(kept, sizeof kept, " (%s is as it was)", A->resume);
+    cli_stop_phase("load", "while loading the datasets: nothing saved%s; run the command again",
+                   kept);
     cn_dataset *ds = calloc(M, sizeof *ds);
     unsigned loaded = 0;
     rc = ds ? 0 : cli_fail("encode", "out of memory");
@@ -243,6 +251,7 @@ int cli_encode_set(const encode_args *A)
         cli_unlock_outputs(&locks);
         return rc;
     }
+    cli_stop_phase("start", "before training: nothing saved%s; run the command again", kept);
     char err[1024];
     cn_joint j;
     if (cn_joint_init(&j, ds, M, &o, A->lr_shift >= 0 ? A->lr_shift : A->o.lr_affine, err,
@@ -266,7 +275,10 @@ int cli_encode_set(const encode_args *A)
         for (unsigned m = 0; m < M; m++)
             printf("  scene %u: %s, %d train views %dx%d, %s\n", m, A->pos[m], ds[m].n_train,
                    ds[m].train[0].w, ds[m].train[0].h, ds[m].ndc ? "NDC" : "world");
-        const cli_job job = {&j, A->iters, set_done, set_step, set_save, NULL};
+        char after[8400];
+        snprintf(after, sizeof after, "%s not written: run the command again with --resume %s "
+                 "to write it", A->out, ckpt);
+        const cli_job job = {&j, A->iters, set_done, set_step, set_save, NULL, after};
         rc = cli_run_job("encode", &job, ckpt, A->ckpt_every, A->ckpt_secs, A->log_every,
                          A->eval_every, A->every, &stopped);
     }

@@ -79,3 +79,74 @@ rc=$?
 set -e
 [ $rc -eq 143 ] || fail "nohup: SIGTERM exited $rc, want 143"
 echo "nohup: SIGHUP ignored, SIGTERM stopped the run"
+
+# Outside the training loop too, a stop signal says in one line what was saved, what was not
+# and how to go on, and leaves no lock or temporary file behind. CNERF_TEST_STOP_AT=PHASE
+# stops the process (SIGSTOP) as it enters that phase; the signal is sent there.
+# stop_in CMD PHASE OUT ARGS...: runs cnerf CMD ARGS -o OUT.x, signals SIGTERM in PHASE.
+stop_in() {
+  local cmd=$1 phase=$2 o=$3 st
+  shift 3
+  CNERF_TEST_STOP_AT=$phase "$cnerf" "$cmd" "$@" -o "$o.x" > "$o.log" 2> "$o.err" &
+  local p=$!
+  for _ in $(seq 1200); do
+    st=$(awk '{print $3}' "/proc/$p/stat" 2> /dev/null || true)
+    [ "$st" = T ] && break
+    kill -0 $p 2> /dev/null || fail "$cmd: exited before the phase $phase: $(tail -3 "$o.err")"
+    sleep 0.1
+  done
+  [ "$st" = T ] || fail "$cmd: never reached the phase $phase"
+  kill -TERM $p
+  kill -CONT $p
+  set +e; wait $p; rc=$?; set -e
+  [ $rc -eq 143 ] || fail "$cmd: SIGTERM in the phase $phase exited $rc, want 143: $(tail -3 "$o.err")"
+  ! ls "$work" | grep -q "^$(basename "$o").x.*\(lock\|tmp\)" ||
+    fail "$cmd: SIGTERM in the phase $phase left $(ls "$work" | grep "^$(basename "$o").x.*\(lock\|tmp\)")"
+  echo "$cmd SIGTERM in the phase $phase: $(grep '^interrupted' "$o.log")"
+}
+short=(--preset tiny --downscale 16 --iters 3 --threads 2)
+for cmd in train encode; do
+  extra=()
+  [ $cmd = encode ] && extra=(--lambda 1 --every 20)
+  for phase in load start; do
+    o="$work/$phase-$cmd"
+    stop_in $cmd $phase "$o" "$data/lego" "${short[@]}" "${extra[@]}"
+    want="while loading the dataset"
+    [ $phase = start ] && want="before training"
+    grep -q "^interrupted by SIGTERM $want: nothing saved; run the command again$" "$o.log" ||
+      fail "$cmd: SIGTERM in the phase $phase said: '$(cat "$o.log")'"
+    [ ! -e "$o.x" ] && [ ! -e "$o.x.ckpt" ] || fail "$cmd: SIGTERM in the phase $phase wrote a file"
+  done
+done
+o="$work/after-train"
+stop_in train after-training "$o" "$data/lego" "${short[@]}"
+grep -q "^interrupted by SIGTERM after training: saved $o.x at iteration 3; the model is complete, its validation not measured (cnerf eval $o.x $data/lego measures it)$" \
+  "$o.log" || fail "train: SIGTERM after training said: '$(tail -2 "$o.log")'"
+"$cnerf" eval "$o.x" "$data/lego" --downscale 16 --every 200 > /dev/null ||
+  fail "train: the checkpoint saved before SIGTERM after training does not load"
+o="$work/after-encode"
+stop_in encode after-training "$o" "$data/lego" "${short[@]}" --lambda 1 --every 20
+grep -q "^interrupted by SIGTERM after training: saved $o.x.ckpt at iteration 3; $o.x not written: run the command again with --resume $o.x.ckpt to write it$" \
+  "$o.log" || fail "encode: SIGTERM after training said: '$(tail -2 "$o.log")'"
+[ ! -e "$o.x" ] || fail "encode: SIGTERM after training wrote the stream"
+"$cnerf" encode "$data/lego" -o "$o.x" "${short[@]}" --lambda 1 --every 20 --resume "$o.x.ckpt" \
+  > "$o.resume" || fail "encode: the advice after SIGTERM after training failed: $(tail -2 "$o.resume")"
+[ -s "$o.x" ] || fail "encode: the advice after SIGTERM after training wrote no stream"
+o="$work/wrote-encode"
+stop_in encode wrote "$o" "$data/lego" "${short[@]}" --lambda 1 --every 20
+grep -q "^interrupted by SIGTERM after training: saved $o.x.ckpt at iteration 3 and wrote $o.x; its measurement was not finished" \
+  "$o.log" || fail "encode: SIGTERM after the stream said: '$(tail -2 "$o.log")'"
+"$cnerf" info "$o.x" > /dev/null || fail "encode: the stream written before SIGTERM does not load"
+# A temporary file of a run killed in the middle of a write (kill -9: nothing removes it) is
+# removed by the next run to that output, while it holds the lock; one of a live process is
+# kept.
+o="$work/stale"
+sleep 1000 & live=$!
+: > "$o.x.tmp.$live"
+( exit 0 ) & dead=$!; wait $dead
+: > "$o.x.tmp.$dead"
+"$cnerf" train "$data/lego" -o "$o.x" "${short[@]}" > "$o.log" || fail "stale: train failed"
+[ ! -e "$o.x.tmp.$dead" ] || fail "stale: the temporary file of the gone process $dead was kept"
+[ -e "$o.x.tmp.$live" ] || fail "stale: the temporary file of the live process $live was removed"
+kill $live
+echo "stale temporaries: that of a gone process removed, that of a live one kept"

@@ -415,7 +415,7 @@ done
 [ "$n_off" -lt "$n_on" ] || fail "--bits-per-param counts the unsent coarse colour: $n_off, $n_on"
 # --size without --preset: --preset auto gives the bits per latent sent beyond the floor.
 for size in 12000 40000; do
-  msg=$("$cnerf" encode "$data/lego" -o "$work/auto.cnrf" --size $size --iters 2 --every 100 \
+  msg=$("$cnerf" encode "$data/lego" -o "$work/auto-$size.cnrf" --size $size --iters 2 --every 100 \
     --downscale 16 --batch 64 --threads 2 2>&1); rc=$?
   bits=$(sed -n 's/^preset auto: [a-z]* (\([0-9.]*\) bits per latent beyond.*/\1/p' <<<"$msg")
   floor=$(sed -n 's/^rate control .* the topology alone takes \([0-9]*\)$/\1/p' <<<"$msg")
