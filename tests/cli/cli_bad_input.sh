@@ -105,12 +105,89 @@ have_dev=0
 if mknod "$work/dev" c 1 3 2> /dev/null && mknod "$work/rdir/orbit_000.png" c 1 3; then
   have_dev=1
 fi
+# Cameras as users bring them, each broken one way: a COLMAP text model and an instant-ngp
+# transforms.json of 8 Lego views (400x400, focal 1111.1), made from Lego's own poses.
+python3 - "$data/lego" "$work" <<'PY'
+import json, math, os, struct, sys
+src, work = sys.argv[1], sys.argv[2]
+j = json.load(open(src + "/transforms_train.json"))
+F = 0.5 * 800 / math.tan(0.5 * j["camera_angle_x"]) / 2  # the 400x400 files' focal length
+frames = j["frames"][:8]
+def quat(R):  # rotation matrix -> (w, x, y, z)
+    t = R[0][0] + R[1][1] + R[2][2]
+    if t > 0:
+        s = 0.5 / math.sqrt(t + 1)
+        return (0.25 / s, (R[2][1] - R[1][2]) * s, (R[0][2] - R[2][0]) * s, (R[1][0] - R[0][1]) * s)
+    i = max(range(3), key=lambda k: R[k][k]); a, b = (i + 1) % 3, (i + 2) % 3
+    s = 2 * math.sqrt(1 + R[i][i] - R[a][a] - R[b][b])
+    q = [0, 0, 0, 0]; q[0] = (R[b][a] - R[a][b]) / s; q[1 + i] = 0.25 * s
+    q[1 + a] = (R[a][i] + R[i][a]) / s; q[1 + b] = (R[b][i] + R[i][b]) / s
+    return tuple(q)
+def colmap_rows():
+    rows = []
+    for f in frames:
+        M = f["transform_matrix"]
+        R = [[M[r][0], -M[r][1], -M[r][2]] for r in range(3)]  # OpenGL -> OpenCV camera axes
+        C = [M[r][3] for r in range(3)]
+        Rt = [[R[c][r] for c in range(3)] for r in range(3)]  # world -> camera
+        t = [-sum(Rt[r][k] * C[k] for k in range(3)) for r in range(3)]
+        rows.append([*quat(Rt), *t])
+    return rows
+def colmap(name, cam="1 PINHOLE 400 400 %r %r 200 200" % (F, F), edit=None, bin_cam=None):
+    d = "%s/%s" % (work, name)
+    os.makedirs(d + "/sparse/0", exist_ok=True); os.makedirs(d + "/images", exist_ok=True)
+    rows = colmap_rows()
+    names = [os.path.basename(f["file_path"]) + ".png" for f in frames]
+    for n in names:
+        if not os.path.exists(d + "/images/" + n):
+            os.link(src + "/train/" + n, d + "/images/" + n)
+    ids = list(range(1, 9))
+    fields = [[repr(v) for v in r] for r in rows]
+    if edit:
+        edit(ids, fields, names)
+    img = "".join("%d %s 1 %s\n\n" % (i, " ".join(f), n) for i, f, n in zip(ids, fields, names))
+    open(d + "/sparse/0/images.txt", "w").write(img)
+    if bin_cam:
+        open(d + "/sparse/0/cameras.bin", "wb").write(bin_cam)
+    else:
+        open(d + "/sparse/0/cameras.txt", "w").write("# cameras\n" + cam + "\n")
+colmap("col_ok")
+colmap("col_nan", cam="1 PINHOLE 400 400 nan %r 200 200" % F)
+colmap("col_inf", edit=lambda i, f, n: f[2].__setitem__(4, "inf"))
+colmap("col_q0", edit=lambda i, f, n: f[3].__setitem__(slice(0, 4), ["0", "0", "0", "0"]))
+colmap("col_dupname", edit=lambda i, f, n: n.__setitem__(5, n[0]))
+colmap("col_dupid", edit=lambda i, f, n: i.__setitem__(5, 3))
+colmap("col_radial", cam="1 SIMPLE_RADIAL 400 400 %r 200 200 -5" % F)
+colmap("col_huge", bin_cam=struct.pack("<QIiQQ4d", 1, 1, 1, 2**40, 2**40, F * 2**40 / 400,
+                                        F * 2**40 / 400, 2**39, 2**39))
+def ngp(name, **cam):
+    d = "%s/%s" % (work, name)
+    os.makedirs(d + "/train", exist_ok=True)
+    for f in frames:
+        n = os.path.basename(f["file_path"]) + ".png"
+        if not os.path.exists(d + "/train/" + n):
+            os.link(src + "/train/" + n, d + "/train/" + n)
+    t = {"fl_x": F, "fl_y": F, "cx": 200, "cy": 200, "w": 400, "h": 400}
+    t.update(cam)
+    t["frames"] = [{"file_path": "train/" + os.path.basename(f["file_path"]) + ".png",
+                    "transform_matrix": f["transform_matrix"]} for f in frames]
+    open(d + "/transforms.json", "w").write(json.dumps(t).replace('"INF"', "1e999"))
+ngp("ngp_ok")
+ngp("ngp_k1", camera_model="OPENCV", k1=-5)
+ngp("ngp_fisheye", camera_model="OPENCV_FISHEYE", k1=-5, k2=3)
+ngp("ngp_tangential", camera_model="OPENCV", p1=3, p2=-3)
+ngp("ngp_big", w=1e12, h=1e12)
+ngp("ngp_cx", cx=1e6)
+ngp("ngp_focal", fl_x=1e300, fl_y=1e300)
+ngp("ngp_aabb", aabb_scale=1e30)
+PY
 sums() { md5sum "$work/t.ckpt" "$work/s.cnrf" "$work/e.cnrf.ckpt" "$work/ds/transforms_train.json" \
          "$work/ds/test/r_0.png"; }
 before=$(sums)
 
 D=$work/ds
 T=(--preset tiny --downscale 16 --iters 100000)
+T2=(--preset tiny --downscale 16 --iters 2) # a row that the binary before its fix runs through
 rows=(
   # status|message fragment|arguments (split on spaces)
   "1|is a device, not a regular file|info /dev/zero"
@@ -212,6 +289,21 @@ rows=(
   "2|$D and $work/ds/../ds are one dataset|encode $D $work/ds/../ds -o $work/x.cnrf --lambda 1"
   "2|--init encodes one scene; a stream of several scenes does not take it|encode $D $data/mic -o $work/x.cnrf --lambda 1 --init $work/t.ckpt"
   "1|set.cnrf.ckpt: a checkpoint of an encode of several scenes: resume it with the same datasets|encode $D -o $work/x.cnrf --lambda 1 --resume $work/set.cnrf.ckpt ${T[*]}"
+  # Cameras validated at load: each message names the file, the entry and the rule.
+  "1|col_nan/sparse/0/cameras.txt:2: camera 1: PINHOLE parameter 1 (fx) is 'nan', not a finite number|train $work/col_nan -o $work/x.ckpt --force ${T2[*]}"
+  "1|col_inf/sparse/0/images.txt:5: image 3: TX is 'inf', not a finite number|train $work/col_inf -o $work/x.ckpt --force ${T2[*]}"
+  "1|col_q0/sparse/0/images.txt:7: image 4: the rotation quaternion QW QX QY QZ is zero|train $work/col_q0 -o $work/x.ckpt --force ${T2[*]}"
+  "1|col_dupname/sparse/0/images.txt: images 1 and 6 are both named r_0.png|train $work/col_dupname -o $work/x.ckpt --force ${T2[*]}"
+  "1|col_dupid/sparse/0/images.txt:11: image 3: the id is used twice|train $work/col_dupid -o $work/x.ckpt --force ${T2[*]}"
+  "1|col_radial/sparse/0/cameras.txt, camera 1: the SIMPLE_RADIAL lens folds the image|train $work/col_radial -o $work/x.ckpt --force ${T2[*]}"
+  "1|col_huge/sparse/0/cameras.bin, camera 1: a field of view of 180.0 degrees across the image|train $work/col_huge -o $work/x.ckpt --force ${T2[*]}"
+  "1|ngp_k1/transforms.json: the OPENCV lens folds the image|train $work/ngp_k1 -o $work/x.ckpt --force ${T2[*]}"
+  "1|ngp_fisheye/transforms.json: the OPENCV_FISHEYE lens folds the image|train $work/ngp_fisheye -o $work/x.ckpt --force ${T2[*]}"
+  "1|ngp_tangential/transforms.json: the OPENCV lens folds the image|train $work/ngp_tangential -o $work/x.ckpt --force ${T2[*]}"
+  "1|ngp_big/transforms.json: a field of view of 180.0 degrees across the image|train $work/ngp_big -o $work/x.ckpt --force ${T2[*]}"
+  "1|ngp_cx/transforms.json: the principal point (1e+06, 200) lies outside the 400x400 image|train $work/ngp_cx -o $work/x.ckpt --force ${T2[*]}"
+  "1|ngp_focal/transforms.json: a field of view of 0.0 degrees across the image|train $work/ngp_focal -o $work/x.ckpt --force ${T2[*]}"
+  "1|ngp_aabb/transforms.json: aabb_scale: 1e+30 is not a scene scale (1/64 to 128)|train $work/ngp_aabb -o $work/x.ckpt --force ${T2[*]}"
   # A run never starts over a checkpoint without being told: hours of training are not one
   # typo away.
   "1|$work/t.ckpt is a checkpoint at iteration 2: --resume continues it, --force starts over in its place|train $D -o $work/t.ckpt ${T[*]}"
