@@ -40,6 +40,7 @@ typedef struct cn_colmap_image {
     double q[4]; /* world-to-camera rotation, w x y z */
     double t[3]; /* world-to-camera translation; camera axes x right, y down, z forward */
     char name[CN_COLMAP_NAME];
+    int line; /* its line in images.txt, 0 from images.bin */
 } cn_colmap_image;
 
 typedef struct cn_colmap {

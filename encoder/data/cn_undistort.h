@@ -31,6 +31,16 @@ int cn_lens_distorts(const cn_lens *l);
  * fisheye: t = atan(r), td = t (1 + k1 t^2 + k2 t^4 + k3 t^6 + k4 t^8), (xd, yd) = td / r (x, y). */
 void cn_lens_distort(const cn_lens *l, double x, double y, double *xd, double *yd);
 
+/* Checks that lens l, on an image of w x h pixels with intrinsics fx, fy, cx, cy, is a lens:
+ * along 48 directions from the principal point, out to where the ray leaves the image (or to
+ * atan(CN_LENS_CHECK_TAN) off the axis), the distorted radius grows and the Jacobian's
+ * determinant stays positive, so that no two rays meet on one pixel. Returns 0, or -1 with
+ * the rule broken in why (a model whose coefficients fold the image: OpenCV's k1 = -5, or
+ * tangential p1 = 3, p2 = -3). */
+#define CN_LENS_CHECK_TAN 20.0
+int cn_lens_check(const cn_lens *l, double w, double h, double fx, double fy, double cx,
+                  double cy, char *why, size_t n);
+
 /* Resamples a photo taken through lens l with intrinsics fx, fy, cx, cy (pixels of `in`,
  * pixel centres at half-integers) into a pinhole image of the same size, principal point
  * and channels, with focal lengths scale * fx, scale * fy. scale is the smallest (the

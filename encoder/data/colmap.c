@@ -14,11 +14,32 @@
 static const struct {
     const char *name;
     int n;
+    const char *params; /* their names, blank-separated */
 } cn_models[CN_COLMAP_N_MODELS] = {
-    {"SIMPLE_PINHOLE", 3}, {"PINHOLE", 4},     {"SIMPLE_RADIAL", 4},
-    {"RADIAL", 5},         {"OPENCV", 8},      {"OPENCV_FISHEYE", 8},
-    {"FULL_OPENCV", 12},   {"FOV", 5},         {"SIMPLE_RADIAL_FISHEYE", 4},
-    {"RADIAL_FISHEYE", 5}, {"THIN_PRISM_FISHEYE", 12}};
+    {"SIMPLE_PINHOLE", 3, "f cx cy"},
+    {"PINHOLE", 4, "fx fy cx cy"},
+    {"SIMPLE_RADIAL", 4, "f cx cy k"},
+    {"RADIAL", 5, "f cx cy k1 k2"},
+    {"OPENCV", 8, "fx fy cx cy k1 k2 p1 p2"},
+    {"OPENCV_FISHEYE", 8, "fx fy cx cy k1 k2 k3 k4"},
+    {"FULL_OPENCV", 12, "fx fy cx cy k1 k2 p1 p2 k3 k4 k5 k6"},
+    {"FOV", 5, "fx fy cx cy omega"},
+    {"SIMPLE_RADIAL_FISHEYE", 4, "f cx cy k"},
+    {"RADIAL_FISHEYE", 5, "f cx cy k1 k2"},
+    {"THIN_PRISM_FISHEYE", 12, "fx fy cx cy k1 k2 p1 p2 k3 k4 sx1 sy1"}};
+
+/* The name of parameter k of a model, into buf. */
+static const char *param_name(int model, int k, char *buf, size_t n)
+{
+    const char *p = cn_models[model].params;
+    for (int i = 0; i < k && p; i++) {
+        p = strchr(p, ' ');
+        p = p ? p + 1 : NULL;
+    }
+    const char *e = p ? strchr(p, ' ') : NULL;
+    snprintf(buf, n, "%.*s", p ? (int)(e ? (size_t)(e - p) : strlen(p)) : 1, p ? p : "?");
+    return buf;
+}
 
 const char *cn_colmap_model_name(int model)
 {
@@ -161,6 +182,9 @@ static int bin_images(const char *file, cn_cur *c, cn_colmap *m, char *err, size
         if (r)
             return cn_fail(err, errlen, "%s: image %llu: %s", file, (unsigned long long)i,
                         r == -2 ? "a pose value is not a finite number" : "truncated");
+        if (im.q[0] == 0 && im.q[1] == 0 && im.q[2] == 0 && im.q[3] == 0)
+            return cn_fail(err, errlen, "%s: image %u: the rotation quaternion QW QX QY QZ is "
+                           "zero", file, im.id);
         size_t k = 0;
         const uint8_t *ch;
         for (;;) {
@@ -256,14 +280,27 @@ static char *word(char **s)
     return w;
 }
 
-static int num(char **s, double *v)
+/* The next word as a number: 0, -1 (no word, or not a number), or -2 with *w the word when it
+ * reads as a number that is not finite (nan, inf, 1e999). */
+static int num_w(char **s, double *v, const char **wp)
 {
     char *w = word(s), *end;
+    if (wp)
+        *wp = w;
     if (!w)
         return -1;
     errno = 0;
     *v = strtod(w, &end);
-    return *end || errno || !isfinite(*v) ? -1 : 0;
+    if (*end)
+        return -1;
+    if (!isfinite(*v))
+        return -2;
+    return errno ? -1 : 0;
+}
+
+static int num(char **s, double *v)
+{
+    return num_w(s, v, NULL) ? -1 : 0;
 }
 
 static int uint_word(char **s, uint64_t max, uint64_t *v)
@@ -326,10 +363,20 @@ static int txt_parse(const char *file, int kind, const uint8_t *data, size_t len
             if (uint_word(&s, UINT32_MAX, &cam.w) || uint_word(&s, UINT32_MAX, &cam.h))
                 return cn_fail(err, errlen, "%s:%d: camera %u: expected its width and height",
                             file, lineno, cam.id);
-            for (int k = 0; k < cn_models[cam.model].n; k++)
-                if (num(&s, &cam.params[k]))
-                    return cn_fail(err, errlen, "%s:%d: camera %u: %s takes %d parameters", file,
-                                lineno, cam.id, model, cn_models[cam.model].n);
+            for (int k = 0; k < cn_models[cam.model].n; k++) {
+                const char *w;
+                char pn[16];
+                const int r = num_w(&s, &cam.params[k], &w);
+                if (r == -2)
+                    return cn_fail(err, errlen, "%s:%d: camera %u: %s parameter %d (%s) is '%s', "
+                                   "not a finite number", file, lineno, cam.id, model, k + 1,
+                                   param_name(cam.model, k, pn, sizeof pn), w);
+                if (r)
+                    return cn_fail(err, errlen, "%s:%d: camera %u: %s takes %d parameters (%s)%s%s%s",
+                                   file, lineno, cam.id, model, cn_models[cam.model].n,
+                                   cn_models[cam.model].params, w ? ": '" : "", w ? w : "",
+                                   w ? "' is not a number" : "");
+            }
             if (word(&s))
                 return cn_fail(err, errlen, "%s:%d: camera %u: %s takes %d parameters", file,
                             lineno, cam.id, model, cn_models[cam.model].n);
@@ -341,13 +388,21 @@ static int txt_parse(const char *file, int kind, const uint8_t *data, size_t len
             im.id = (uint32_t)id;
             uint64_t cam;
             int r = 0;
-            for (int k = 0; k < 4 && !r; k++)
-                r = num(&s, &im.q[k]);
-            for (int k = 0; k < 3 && !r; k++)
-                r = num(&s, &im.t[k]);
+            static const char *field[7] = {"QW", "QX", "QY", "QZ", "TX", "TY", "TZ"};
+            for (int k = 0; k < 7 && !r; k++) {
+                const char *w;
+                r = num_w(&s, k < 4 ? &im.q[k] : &im.t[k - 4], &w);
+                if (r == -2)
+                    return cn_fail(err, errlen, "%s:%d: image %u: %s is '%s', not a finite "
+                                   "number", file, lineno, im.id, field[k], w);
+            }
             if (r || uint_word(&s, UINT32_MAX, &cam))
                 return cn_fail(err, errlen, "%s:%d: image %u: expected QW QX QY QZ TX TY TZ "
                             "CAMERA_ID NAME", file, lineno, im.id);
+            if (im.q[0] == 0 && im.q[1] == 0 && im.q[2] == 0 && im.q[3] == 0)
+                return cn_fail(err, errlen, "%s:%d: image %u: the rotation quaternion QW QX QY "
+                               "QZ is zero", file, lineno, im.id);
+            im.line = lineno;
             im.camera_id = (uint32_t)cam;
             while (*s == ' ' || *s == '\t')
                 s++;
@@ -386,6 +441,51 @@ static int ends_with(const char *s, const char *e)
     return n >= k && !strcmp(s + n - k, e);
 }
 
+static int by_id(const void *a, const void *b)
+{
+    const cn_colmap_image *x = *(const cn_colmap_image *const *)a;
+    const cn_colmap_image *y = *(const cn_colmap_image *const *)b;
+    return x->id != y->id ? (x->id > y->id ? 1 : -1) : x < y ? -1 : x > y;
+}
+static int by_name(const void *a, const void *b)
+{
+    const cn_colmap_image *x = *(const cn_colmap_image *const *)a;
+    const cn_colmap_image *y = *(const cn_colmap_image *const *)b;
+    const int c = strcmp(x->name, y->name);
+    return c ? c : x < y ? -1 : x > y;
+}
+
+/* Every image's id and name once: a model with two poses for one photo is not a capture. */
+static int check_unique(const char *file, const cn_colmap *m, char *err, size_t errlen)
+{
+    if (m->n_imgs < 2)
+        return 0;
+    const cn_colmap_image **ix = malloc(sizeof *ix * (size_t)m->n_imgs);
+    if (!ix)
+        return cn_fail(err, errlen, "%s: out of memory", file);
+    for (int i = 0; i < m->n_imgs; i++)
+        ix[i] = &m->imgs[i];
+    int rc = 0;
+    qsort(ix, (size_t)m->n_imgs, sizeof *ix, by_id);
+    for (int i = 1; i < m->n_imgs && !rc; i++) {
+        const cn_colmap_image *b = ix[i];
+        if (ix[i - 1]->id != b->id)
+            continue;
+        if (b->line)
+            rc = cn_fail(err, errlen, "%s:%d: image %u: the id is used twice", file, b->line,
+                         b->id);
+        else
+            rc = cn_fail(err, errlen, "%s: image %u: the id is used twice", file, b->id);
+    }
+    qsort(ix, (size_t)m->n_imgs, sizeof *ix, by_name);
+    for (int i = 1; i < m->n_imgs && !rc; i++)
+        if (!strcmp(ix[i - 1]->name, ix[i]->name))
+            rc = cn_fail(err, errlen, "%s: images %u and %u are both named %s", file,
+                         ix[i - 1]->id, ix[i]->id, ix[i]->name);
+    free(ix);
+    return rc;
+}
+
 int cn_colmap_parse(const char *file, const uint8_t *data, size_t len, cn_colmap *m, char *err,
                     size_t errlen)
 {
@@ -397,14 +497,19 @@ int cn_colmap_parse(const char *file, const uint8_t *data, size_t len, cn_colmap
                                                      : -1;
     if (kind < 0)
         return cn_fail(err, errlen, "%s: not a COLMAP cameras, images or points3D file", file);
-    if (ends_with(base, ".txt"))
-        return txt_parse(file, kind, data, len, m, err, errlen);
-    cn_cur c = {data, len, 0};
-    const int rc = kind == TXT_CAMERAS  ? bin_cameras(file, &c, m, err, errlen)
-                   : kind == TXT_IMAGES ? bin_images(file, &c, m, err, errlen)
-                                        : bin_points(file, &c, m, err, errlen);
-    if (rc == 0 && c.pos != c.n)
-        return cn_fail(err, errlen, "%s: %zu bytes after the last entry", file, c.n - c.pos);
+    int rc;
+    if (ends_with(base, ".txt")) {
+        rc = txt_parse(file, kind, data, len, m, err, errlen);
+    } else {
+        cn_cur c = {data, len, 0};
+        rc = kind == TXT_CAMERAS  ? bin_cameras(file, &c, m, err, errlen)
+             : kind == TXT_IMAGES ? bin_images(file, &c, m, err, errlen)
+                                  : bin_points(file, &c, m, err, errlen);
+        if (rc == 0 && c.pos != c.n)
+            return cn_fail(err, errlen, "%s: %zu bytes after the last entry", file, c.n - c.pos);
+    }
+    if (rc == 0 && kind == TXT_IMAGES)
+        rc = check_unique(file, m, err, errlen);
     return rc;
 }
 

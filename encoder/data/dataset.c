@@ -122,10 +122,12 @@ typedef struct cn_intr {
     int sized;               /* 1: ref_w x ref_h is the shape of this camera's images (COLMAP,
                                 instant-ngp's w and h); 0: only a scale for the intrinsics,
                                 and every image of the dataset has the same size */
+    const char *lens;        /* the lens model's name as the file gives it, or NULL */
+    char src[512];           /* where they are stated, for messages ("" : the image's camera) */
 } cn_intr;
 
 static const cn_intr cn_intr_none = {NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN,
-                                     {0, 0, 0, 0}, {0, 0}, -1, -1, 0};
+                                     {0, 0, 0, 0}, {0, 0}, -1, -1, 0, NULL, ""};
 
 /* The lens of resolved intrinsics (checked when they were read). */
 static cn_lens cn_intr_lens(const cn_intr *in)
@@ -265,6 +267,58 @@ static double cn_ref_aspect(const cn_intr *in)
     return isnan(in->ref_w) || isnan(in->ref_h) ? NAN : in->ref_w / in->ref_h;
 }
 
+/* The fields of view a camera may have across its image, per lens kind (degrees): a
+ * rectilinear lens (pinhole and OpenCV's models) cannot see 180 degrees; an equidistant
+ * fisheye can, up to what a circular fisheye covers. */
+#define CN_FOV_MIN 0.5
+#define CN_FOV_MAX_PERSPECTIVE 170.0
+#define CN_FOV_MAX_FISHEYE 270.0
+
+/* A frame's camera against its image (file_w x file_h known): focal lengths, a field of
+ * view within the lens kind's range, the principal point inside the image, and a lens that
+ * does not fold it (cn_lens_check). Each message names where the camera is stated. */
+static int cn_camera_check(const cn_frame *fr, char *err, size_t errlen)
+{
+    cn_view full; /* the intrinsics at the file's size, as the user knows them */
+    cn_intr_resolve(&fr->in, fr->file_w, fr->file_h, 0, 0, 1, &full);
+    const double w = fr->file_w, h = fr->file_h;
+    char src[CN_PATH_MAX + 64];
+    if (fr->in.src[0])
+        snprintf(src, sizeof src, "%s", fr->in.src);
+    else
+        snprintf(src, sizeof src, "%s (its camera)", fr->path);
+    const cn_lens lens = cn_intr_lens(&fr->in);
+    const char *name = fr->in.lens ? fr->in.lens
+                       : lens.model == CN_LENS_FISHEYE ? "OPENCV_FISHEYE"
+                       : cn_lens_distorts(&lens) ? "OPENCV" : "PINHOLE";
+    if (!(isfinite(full.fx) && full.fx > 0 && isfinite(full.fy) && full.fy > 0))
+        return cn_fail(err, errlen, "%s: the focal length (%g, %g) is not a positive number",
+                       src, full.fx, full.fy);
+    if (!(isfinite(full.cx) && isfinite(full.cy) && full.cx >= 0 && full.cx <= w &&
+          full.cy >= 0 && full.cy <= h))
+        return cn_fail(err, errlen, "%s: the principal point (%g, %g) lies outside the %dx%d "
+                       "image %s; are the intrinsics for another image size?", src, full.cx,
+                       full.cy, fr->file_w, fr->file_h, fr->path);
+    const int fish = lens.model == CN_LENS_FISHEYE;
+    const double hi = fish ? CN_FOV_MAX_FISHEYE : CN_FOV_MAX_PERSPECTIVE;
+    for (int axis = 0; axis < 2; axis++) {
+        const double px = axis ? h : w, f = axis ? full.fy : full.fx;
+        const double fov = (fish ? px / f : 2 * atan(0.5 * px / f)) * 180 / M_PI;
+        if (!(fov >= CN_FOV_MIN && fov <= hi))
+            return cn_fail(err, errlen, "%s: a field of view of %.1f degrees across the image "
+                           "(%s %.0f pixels of %s, focal length %g): a %s camera sees %g to %g; "
+                           "are the intrinsics for another image size?", src, fov,
+                           axis ? "the height's" : "the width's", px, fr->path, f, name,
+                           CN_FOV_MIN, hi);
+    }
+    char why[256];
+    if (cn_lens_check(&lens, w, h, full.fx, full.fy, full.cx, full.cy, why, sizeof why))
+        return cn_fail(err, errlen, "%s: the %s lens folds the image: %s (k1 %g, k2 %g, k3 %g, "
+                       "k4 %g, p1 %g, p2 %g)", src, name, why, lens.k1, lens.k2, lens.k3, lens.k4,
+                       lens.p1, lens.p2);
+    return 0;
+}
+
 /* Reads one frame's image, upright and downscaled by `factor`, and composites it. */
 static int cn_frame_load(cn_frame *fr, int factor, const float bg[3], char *err, size_t errlen)
 {
@@ -284,6 +338,10 @@ static int cn_frame_load(cn_frame *fr, int factor, const float bg[3], char *err,
     fr->v.w = im.w;
     fr->v.h = im.h;
     cn_intr_resolve(&fr->in, fr->file_w, fr->file_h, fr->crop_x, fr->crop_y, fr->factor, &fr->v);
+    if (cn_camera_check(fr, err, errlen)) {
+        cn_image_free(&im);
+        return -1;
+    }
     const cn_lens lens = cn_intr_lens(&fr->in);
     if (cn_lens_distorts(&lens)) {
         /* Resampled into a pinhole image: everything after the loader sees pinhole cameras. */
@@ -624,6 +682,10 @@ static int cn_frame_intr(const cJSON *fr, const cn_jloc *l, const cn_frame_rule 
     *in = *file_in;
     if (rule->frame_camera && cn_json_camera(fr, l, in, err, errlen) != 0)
         return -1;
+    if (memcmp(in, file_in, sizeof *in) != 0) /* the frame's own camera */
+        snprintf(in->src, sizeof in->src, "%s: frames[%d]", l->file, l->frame);
+    else
+        snprintf(in->src, sizeof in->src, "%s", l->file);
     return cn_intr_check(in, l, err, errlen);
 }
 
@@ -789,6 +851,10 @@ static int cn_ngp_intrinsics(const cJSON *root, const cn_jloc *l, cn_intr *in, d
     if (cn_json_camera(root, l, in, err, errlen) ||
         cn_json_positive(root, "aabb_scale", l, aabb, err, errlen))
         return -1;
+    /* instant-ngp's scene box is aabb_scale times the unit cube, a power of two up to 128 */
+    if (!(*aabb >= 1.0 / 64 && *aabb <= 128))
+        return cn_jfail(l, "aabb_scale", err, errlen, "%g is not a scene scale (1/64 to 128)",
+                        *aabb);
     return 0;
 }
 
@@ -1538,6 +1604,10 @@ static int cn_load_colmap(const char *dir, cn_dataset *ds, cn_frames *L, char *e
     cn_colmap m;
     if (cn_colmap_read(sparse, &m, err, errlen) != 0)
         return -1;
+    char camfile[CN_PATH_MAX + 16]; /* the one cn_colmap_read took: .bin before .txt */
+    snprintf(camfile, sizeof camfile, "%s/cameras.bin", sparse);
+    if (!cn_is_file(camfile))
+        snprintf(camfile, sizeof camfile, "%s/cameras.txt", sparse);
     int rc = 0;
     const int n = m.n_imgs;
     if (n == 0)
@@ -1568,6 +1638,10 @@ static int cn_load_colmap(const char *dir, cn_dataset *ds, cn_frames *L, char *e
         for (int k = 0; k < m.n_cams && !c; k++)
             c = m.cams[k].id == im->camera_id ? &m.cams[k] : NULL;
         const int r = cn_colmap_intr(c, &cams[i].in);
+        if (r == 0) {
+            snprintf(cams[i].in.src, sizeof cams[i].in.src, "%.480s, camera %u", camfile, c->id);
+            cams[i].in.lens = cn_colmap_model_name(c->model);
+        }
         if (r == -1)
             rc = cn_fail(err, errlen, "%s: image %s: camera %u is a %s camera, which cnerf does "
                          "not read (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, "

@@ -82,6 +82,49 @@ static int fits(const cn_undist *u, double s)
     return 1;
 }
 
+int cn_lens_check(const cn_lens *l, double w, double h, double fx, double fy, double cx,
+                  double cy, char *why, size_t n)
+{
+    if (!cn_lens_distorts(l))
+        return 0;
+    /* the image's rectangle in normalised distorted coordinates */
+    const double x0 = -cx / fx, x1 = (w - cx) / fx, y0 = -cy / fy, y1 = (h - cy) / fy;
+    const int dirs = 48, steps = 1000;
+    const double tmax = atan(CN_LENS_CHECK_TAN);
+    for (int d = 0; d < dirs; d++) {
+        const double c = cos(2 * M_PI * d / dirs), s = sin(2 * M_PI * d / dirs);
+        double prev = 0;
+        for (int i = 1; i <= steps; i++) {
+            const double r = tan(tmax * i / steps), x = r * c, y = r * s;
+            double xd, yd;
+            cn_lens_distort(l, x, y, &xd, &yd);
+            if (!isfinite(xd) || !isfinite(yd)) {
+                snprintf(why, n, "its distortion is not finite %.0f degrees off the axis, "
+                         "inside the image", tmax * i / steps * 180 / M_PI);
+                return -1;
+            }
+            if (xd < x0 || xd > x1 || yd < y0 || yd > y1)
+                break; /* this direction reaches the image's border unfolded */
+            const double e = 1e-6 * (1 + r);
+            double ax, ay, bx, by, cx_, cy_, dx, dy;
+            cn_lens_distort(l, x + e, y, &ax, &ay);
+            cn_lens_distort(l, x - e, y, &bx, &by);
+            cn_lens_distort(l, x, y + e, &cx_, &cy_);
+            cn_lens_distort(l, x, y - e, &dx, &dy);
+            const double det = (ax - bx) * (cy_ - dy) - (ay - by) * (cx_ - dx);
+            const double rd = hypot(xd, yd);
+            if (!(rd > prev) || !(det > 0)) {
+                snprintf(why, n, "its distortion turns back %.0f pixels from the principal "
+                         "point, inside the image, where two directions meet on one pixel",
+                         rd * fx);
+                return -1;
+            }
+            prev = rd;
+        }
+    }
+    return 0;
+}
+
 int cn_undistort(const cn_image *in, const cn_lens *l, double fx, double fy, double cx,
                  double cy, cn_image *out, double *scale, char *err, size_t errlen)
 {

@@ -158,8 +158,8 @@ colmap("col_q0", edit=lambda i, f, n: f[3].__setitem__(slice(0, 4), ["0", "0", "
 colmap("col_dupname", edit=lambda i, f, n: n.__setitem__(5, n[0]))
 colmap("col_dupid", edit=lambda i, f, n: i.__setitem__(5, 3))
 colmap("col_radial", cam="1 SIMPLE_RADIAL 400 400 %r 200 200 -5" % F)
-colmap("col_huge", bin_cam=struct.pack("<QIiQQ4d", 1, 1, 1, 2**40, 2**40, F * 2**40 / 400,
-                                        F * 2**40 / 400, 2**39, 2**39))
+# a camera of 2^40 x 2^40 pixels whose focal length and centre are those of the 400x400 files
+colmap("col_huge", bin_cam=struct.pack("<QIiQQ4d", 1, 1, 1, 2**40, 2**40, F, F, 200, 200))
 def ngp(name, **cam):
     d = "%s/%s" % (work, name)
     os.makedirs(d + "/train", exist_ok=True)

@@ -134,12 +134,41 @@ static void test_too_strong(void **state)
     cn_image_free(&photo);
 }
 
+/* cn_lens_check: lenses that real calibrations give pass; coefficients that fold the image
+ * (the distortion turns back, or the Jacobian changes sign, inside the image) are refused,
+ * whichever model; what lies beyond the image's border does not count. */
+static void test_lens_check(void **state)
+{
+    (void)state;
+    char why[256];
+    const double w = 400, h = 300, f = 300, cx = 200, cy = 150;
+    const cn_lens ok[] = {{CN_LENS_PINHOLE, 0, 0, 0, 0, 0, 0},
+                          {CN_LENS_OPENCV, -0.05, 0.01, 0, 0, 0.001, -0.001},
+                          {CN_LENS_OPENCV, 0.2, 0, 0, 0, 0, 0},
+                          {CN_LENS_FISHEYE, 0.01, -0.005, 0, 0, 0, 0}};
+    for (size_t i = 0; i < sizeof ok / sizeof ok[0]; i++)
+        assert_int_equal(cn_lens_check(&ok[i], w, h, f, f, cx, cy, why, sizeof why), 0);
+    const cn_lens bad[] = {{CN_LENS_OPENCV, -5, 0, 0, 0, 0, 0},
+                           {CN_LENS_OPENCV, 0, 0, 0, 0, 3, -3},
+                           {CN_LENS_FISHEYE, -5, 3, 0, 0, 0, 0},
+                           {CN_LENS_OPENCV, -0.6, 0, 0, 0, 0, 0}};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        why[0] = 0;
+        assert_int_equal(cn_lens_check(&bad[i], w, h, f, f, cx, cy, why, sizeof why), -1);
+        assert_non_null(strstr(why, "turns back"));
+    }
+    /* k1 = -0.6 turns back at r = 0.745 (rd 0.497): inside a wide image, beyond a narrow one */
+    const cn_lens k = {CN_LENS_OPENCV, -0.6, 0, 0, 0, 0, 0};
+    assert_int_equal(cn_lens_check(&k, w, h, 1000, 1000, cx, cy, why, sizeof why), 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_models),
         cmocka_unit_test(test_points_land_on_their_pixels),
         cmocka_unit_test(test_too_strong),
+        cmocka_unit_test(test_lens_check),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
