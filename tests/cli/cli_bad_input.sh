@@ -158,6 +158,25 @@ colmap("col_q0", edit=lambda i, f, n: f[3].__setitem__(slice(0, 4), ["0", "0", "
 colmap("col_dupname", edit=lambda i, f, n: n.__setitem__(5, n[0]))
 colmap("col_dupid", edit=lambda i, f, n: i.__setitem__(5, 3))
 colmap("col_radial", cam="1 SIMPLE_RADIAL 400 400 %r 200 200 -5" % F)
+colmap("col_aspect", cam="1 PINHOLE 400 300 %r %r 200 150" % (F, F))
+# two cameras: views 1 and 2 (r_1, r_10) are 200x200 files with a camera of their own
+def two_sizes(ids, fields, names):
+    import zlib
+    def png(path, w, h):
+        def chunk(t, d):
+            return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))
+        raw = b"".join(b"\0" + bytes([128]) * (3 * w) for _ in range(h))
+        open(path, "wb").write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)) +
+                               chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+    for k in (1, 2):
+        os.remove(work + "/col_sizes/images/" + names[k])
+        png(work + "/col_sizes/images/" + names[k], 200, 200)
+colmap("col_sizes", cam="1 PINHOLE 400 400 %r %r 200 200\n2 PINHOLE 200 200 %r %r 100 100"
+       % (F, F, F / 2, F / 2), edit=two_sizes)
+import re
+imgs = open(work + "/col_sizes/sparse/0/images.txt").read()
+open(work + "/col_sizes/sparse/0/images.txt", "w").write(
+    re.sub(r" 1 (r_[12]\.png)$", r" 2 \1", imgs, flags=re.M))
 # a camera of 2^40 x 2^40 pixels whose focal length and centre are those of the 400x400 files
 colmap("col_huge", bin_cam=struct.pack("<QIiQQ4d", 1, 1, 1, 2**40, 2**40, F, F, 200, 200))
 def ngp(name, **cam):
@@ -304,6 +323,8 @@ rows=(
   "1|ngp_cx/transforms.json: the principal point (1e+06, 200) lies outside the 400x400 image|train $work/ngp_cx -o $work/x.ckpt --force ${T2[*]}"
   "1|ngp_focal/transforms.json: a field of view of 0.0 degrees across the image|train $work/ngp_focal -o $work/x.ckpt --force ${T2[*]}"
   "1|ngp_aabb/transforms.json: aabb_scale: 1e+30 is not a scene scale (1/64 to 128)|train $work/ngp_aabb -o $work/x.ckpt --force ${T2[*]}"
+  "1|r_0.png is 400x400, but its camera ($work/col_aspect/sparse/0/cameras.txt, camera 1) is for 400x300 images (another shape): give it a camera of its own size in the COLMAP model|train $work/col_aspect -o $work/x.ckpt --force ${T2[*]}"
+  "1|scene 1 ($data/fern): a forward-facing scene is rendered in NDC|encode $D $data/fern -o $work/x.cnrf --lambda 1 --background contract ${T2[*]}"
   # A run never starts over a checkpoint without being told: hours of training are not one
   # typo away.
   "1|$work/t.ckpt is a checkpoint at iteration 2: --resume continues it, --force starts over in its place|train $D -o $work/t.ckpt ${T[*]}"
@@ -334,6 +355,12 @@ for row in "${rows[@]}"; do
     fail "'$args': no '$frag' in: $(head -3 "$work/err.txt")"
   n=$((n + 1))
 done
+
+# Views of several sizes say so, not the first view's size alone.
+out=$("$cnerf" views "$work/col_sizes" -o "$work/vsz" --split train --downscale 16) ||
+  fail "views of two sizes: $out"
+grep -q "^views: 7 train views of $work/col_sizes, from 12x12 to 25x25, in " <<<"$out" ||
+  fail "views of two sizes: $out"
 
 # A payload damaged under a recomputed CRC passes the structural check and fails --check.
 v=$(dirname "$0")/../../vectors
