@@ -55,7 +55,10 @@ int cn_joint_init(cn_joint *j, const cn_dataset *ds, unsigned n, const cn_train_
         om.seed = o->seed + m;
         char e[512];
         if (cn_trainer_init(&j->t[m], &ds[m], &om, e, sizeof e)) {
-            snprintf(err, errlen, "scene %u: %s", m, e);
+            if (ds[m].dir[0])
+                snprintf(err, errlen, "scene %u (%.300s): %s", m, ds[m].dir, e);
+            else
+                snprintf(err, errlen, "scene %u: %s", m, e);
             cn_joint_free(j);
             return -1;
         }

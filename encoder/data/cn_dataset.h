@@ -112,6 +112,7 @@ typedef struct cn_dataset {
     int n_skipped;   /* frames left out because their image is missing (instant-ngp and
                         nerfstudio layouts); the library prints nothing, the caller tells */
     char skipped[300]; /* the first of them: "PATH: why" (truncated), or "" */
+    char dir[4096];    /* the directory it was loaded from, for messages ("" : not loaded) */
 } cn_dataset;
 
 typedef struct cn_dataset_opts {

@@ -123,11 +123,12 @@ typedef struct cn_intr {
                                 instant-ngp's w and h); 0: only a scale for the intrinsics,
                                 and every image of the dataset has the same size */
     const char *lens;        /* the lens model's name as the file gives it, or NULL */
+    int colmap;              /* 1: a camera of a COLMAP model */
     char src[512];           /* where they are stated, for messages ("" : the image's camera) */
 } cn_intr;
 
 static const cn_intr cn_intr_none = {NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN,
-                                     {0, 0, 0, 0}, {0, 0}, -1, -1, 0, NULL, ""};
+                                     {0, 0, 0, 0}, {0, 0}, -1, -1, 0, NULL, 0, ""};
 
 /* The lens of resolved intrinsics (checked when they were read). */
 static cn_lens cn_intr_lens(const cn_intr *in)
@@ -399,10 +400,16 @@ static int cn_frames_load_images(cn_frames *L, const float bg[3], char *err, siz
         const cn_frame *b = &L->f[i];
         const double rw = b->in.ref_w, rh = b->in.ref_h;
         if (b->in.sized && !isnan(rw) && !isnan(rh)) {
-            if (fabs((double)b->file_w * rh / ((double)b->file_h * rw) - 1) > 0.01)
+            if (fabs((double)b->file_w * rh / ((double)b->file_h * rw) - 1) > 0.01) {
+                if (b->in.colmap)
+                    return cn_fail(err, errlen, "%s is %dx%d, but its camera (%s) is for %gx%g "
+                                   "images (another shape): give it a camera of its own size "
+                                   "in the COLMAP model", b->path, b->file_w, b->file_h,
+                                   b->in.src, rw, rh);
                 return cn_fail(err, errlen, "%s is %dx%d, but its camera is for %gx%g images "
                                "(another shape): give the frame its own w, h and intrinsics",
                                b->path, b->file_w, b->file_h, rw, rh);
+            }
         } else if (!a) {
             a = b;
         } else if (b->file_w != a->file_w || b->file_h != a->file_h) {
@@ -1641,6 +1648,7 @@ static int cn_load_colmap(const char *dir, cn_dataset *ds, cn_frames *L, char *e
         if (r == 0) {
             snprintf(cams[i].in.src, sizeof cams[i].in.src, "%.480s, camera %u", camfile, c->id);
             cams[i].in.lens = cn_colmap_model_name(c->model);
+            cams[i].in.colmap = 1;
         }
         if (r == -1)
             rc = cn_fail(err, errlen, "%s: image %s: camera %u is a %s camera, which cnerf does "
@@ -1831,6 +1839,8 @@ int cn_dataset_load(const char *dir, const cn_dataset_opts *o, cn_dataset *ds, c
     cn_frames_free(&L);
     if (rc != 0)
         cn_dataset_free(ds);
+    else
+        snprintf(ds->dir, sizeof ds->dir, "%s", dir);
     return rc;
 }
 

@@ -114,10 +114,26 @@ int cmd_views(int argc, char **argv)
             rc = cli_fail("views", "%s", err);
         cn_buf_free(&list);
     }
-    if (rc == 0)
-        printf("views: %d %s views of %s, %dx%d, in %s/0000.png ...; a path through them for "
-               "a video coder in %s/order.txt\n", n, split, pos[0], views[0].w, views[0].h,
-               outdir, outdir);
+    if (rc == 0) {
+        int lo = 0, hi = 0, differ = 0; /* the smallest and the largest view, by pixels */
+        for (int i = 1; i < n; i++) {
+            differ |= views[i].w != views[0].w || views[i].h != views[0].h;
+            const long a = (long)views[i].w * views[i].h;
+            lo = a < (long)views[lo].w * views[lo].h ? i : lo;
+            hi = a > (long)views[hi].w * views[hi].h ? i : hi;
+        }
+        char size[64];
+        if (!differ)
+            snprintf(size, sizeof size, "%dx%d", views[0].w, views[0].h);
+        else if (views[lo].w * views[lo].h == views[hi].w * views[hi].h)
+            snprintf(size, sizeof size, "%dx%d and other shapes of as many pixels", views[0].w,
+                     views[0].h);
+        else
+            snprintf(size, sizeof size, "from %dx%d to %dx%d", views[lo].w, views[lo].h,
+                     views[hi].w, views[hi].h);
+        printf("views: %d %s views of %s, %s, in %s/0000.png ...; a path through them for "
+               "a video coder in %s/order.txt\n", n, split, pos[0], size, outdir, outdir);
+    }
     free(order);
     cn_dataset_free(&ds);
     return rc;
