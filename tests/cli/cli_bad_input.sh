@@ -356,6 +356,17 @@ for row in "${rows[@]}"; do
   n=$((n + 1))
 done
 
+# An LLFF capture as imgs2poses leaves it: only images/, poses_bounds.npy's cameras for a
+# larger size of the same shape. It loads from images/, scaled, and says so.
+mkdir -p "$work/llff_images" && cp "$data/fern/poses_bounds.npy" "$work/llff_images/"
+cp -al "$data/fern/images_8" "$work/llff_images/images"
+out=$("$cnerf" train "$work/llff_images" -o "$work/llff.ckpt" --preset tiny --downscale 8 --iters 1 2>&1) ||
+  fail "LLFF with images/ only: $out"
+grep -q "^images: $work/llff_images/images (504x378 files; poses_bounds.npy's cameras are for 4032x3024), downscaled by 8$" <<<"$out" ||
+  fail "LLFF with images/ only: $out"
+grep -q "^dataset $work/llff_images: 16 train, 1 val, 3 test views, 63x47, forward-facing" <<<"$out" ||
+  fail "LLFF with images/ only: $out"
+
 # Views of several sizes say so, not the first view's size alone.
 out=$("$cnerf" views "$work/col_sizes" -o "$work/vsz" --split train --downscale 16) ||
   fail "views of two sizes: $out"
