@@ -113,6 +113,8 @@ typedef struct cn_dataset {
                         nerfstudio layouts); the library prints nothing, the caller tells */
     char skipped[300]; /* the first of them: "PATH: why" (truncated), or "" */
     char dir[4096];    /* the directory it was loaded from, for messages ("" : not loaded) */
+    char note[600];    /* how the images were found when the layout's own rule did not (an LLFF
+                          capture with images/ only), for the caller to print; or "" */
 } cn_dataset;
 
 typedef struct cn_dataset_opts {

@@ -1285,6 +1285,58 @@ static int cn_list_images(const char *dir, const char *suffix, char ***names, in
 }
 
 /* images_<8F>/ when it exists (no further downscaling), else images_8/ downscaled by F. */
+/* An LLFF capture without images_8/ (as imgs2poses leaves it: images/ only): images/ or any
+ * images_N/ whose files have the shape of poses_bounds.npy's cameras (W x H). The one
+ * closest above the width that images_{8f}/ would have (W / 8f) is taken, reduced by the
+ * integer factor that comes nearest to that width; the intrinsics scale with the files. */
+static int cn_llff_any_dir(const char *dir, int f, double W, double H, char out[CN_PATH_MAX],
+                           int *factor, char *note, size_t notelen, char *err, size_t errlen)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return cn_fail(err, errlen, "%s: %s", dir, strerror(errno));
+    const double T = W / (8.0 * f);
+    int bw = 0, bh = 0;
+    struct dirent *e;
+    while ((e = readdir(d)) != NULL) {
+        const char *nm = e->d_name;
+        if (strcmp(nm, "images") != 0 &&
+            !(strncmp(nm, "images_", 7) == 0 && nm[7] && strspn(nm + 7, "0123456789") == strlen(nm + 7)))
+            continue;
+        char sub[CN_PATH_MAX], first[CN_PATH_MAX], e2[512];
+        if (cn_join(sub, dir, nm, "", e2, sizeof e2) != 0 || !cn_is_dir(sub))
+            continue;
+        char **names;
+        int n, w, h;
+        if (cn_list_images(sub, NULL, &names, &n, e2, sizeof e2) != 0)
+            continue;
+        const int joined = n > 0 && cn_join(first, sub, names[0], "", e2, sizeof e2) == 0;
+        cn_free_names(names, n);
+        if (!joined || cn_image_size(first, W / H, &w, &h, e2, sizeof e2) != 0 ||
+            fabs((double)w * H / ((double)h * W) - 1) > 0.01)
+            continue;
+        const int better = !bw || (w >= T ? (bw < T || w < bw) : (bw < T && w > bw));
+        if (better) {
+            bw = w;
+            bh = h;
+            memcpy(out, sub, CN_PATH_MAX);
+        }
+    }
+    closedir(d);
+    char tried[40] = "";
+    if (f > 1)
+        snprintf(tried, sizeof tried, "images_%d/, ", 8 * f);
+    if (!bw)
+        return cn_fail(err, errlen, "%s: no image directory: looked for %simages_8/, and images/ "
+                       "or images_N/ with images of the shape of poses_bounds.npy's cameras "
+                       "(%gx%g)", dir, tried, W, H);
+    const long k = lround(bw / T);
+    *factor = k > 1 ? (int)k : 1;
+    snprintf(note, notelen, "images: %.400s (%dx%d files; poses_bounds.npy's cameras are for "
+             "%gx%g), downscaled by %d", out, bw, bh, W, H, *factor);
+    return 0;
+}
+
 static int cn_llff_image_dir(const char *dir, int f, char out[CN_PATH_MAX], int *factor,
                              char *err, size_t errlen)
 {
@@ -1302,8 +1354,7 @@ static int cn_llff_image_dir(const char *dir, int f, char out[CN_PATH_MAX], int 
         *factor = f;
         return 0;
     }
-    return cn_fail(err, errlen, "%s: no image directory: looked for %s/ and images_8/", dir,
-                   name);
+    return 1; /* neither: cn_llff_any_dir looks further */
 }
 
 /* Pairs the images of imgdir (cn_list_images), in name order, with the n cameras of `file`;
@@ -1345,6 +1396,10 @@ static int cn_load_llff(const char *dir, cn_dataset *ds, cn_frames *L, char *err
         rc = cn_llff_cameras(file, &cams, &n, ds, err, errlen);
     if (rc == 0)
         rc = cn_llff_image_dir(dir, L->factor, imgdir, &L->factor, err, errlen);
+    if (rc == 1)
+        rc = n > 0 ? cn_llff_any_dir(dir, L->factor, cams[0].in.ref_w, cams[0].in.ref_h, imgdir,
+                                     &L->factor, ds->note, sizeof ds->note, err, errlen)
+                   : cn_fail(err, errlen, "%s: no cameras", file);
     if (rc == 0)
         rc = cn_sorted_frames(imgdir, NULL, "PNG, JPEG", file, cams, n, L, err, errlen);
     free(cams);

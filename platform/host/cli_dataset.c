@@ -26,6 +26,8 @@ int cli_load_dataset(const char *cmd, const char *dir, long downscale, long max_
     else if (ds->n_skipped > 1)
         fprintf(stderr, "cnerf %s: warning: %d frames skipped for a missing image, the first: %s\n",
                 cmd, ds->n_skipped, ds->skipped);
+    if (ds->note[0])
+        printf("%s\n", ds->note);
     const int held = cn_dataset_hold_out(ds, (int)val_views, err, sizeof err);
     if (held < 0) {
         cn_dataset_free(ds);
