@@ -68,4 +68,9 @@ int cn_colmap_read(const char *dir, cn_colmap *m, char *err, size_t errlen);
 
 void cn_colmap_free(cn_colmap *m);
 
+/* Checks a camera as the loader checks the cameras of the images it loads, on an image of the
+ * camera's own size: a model cnerf reads, the focal length, field of view, principal point
+ * and a lens that does not fold the image (encoder/data/dataset.c). 0, or -1 with a message. */
+int cn_colmap_check_camera(const cn_colmap_camera *c, char *err, size_t errlen);
+
 #endif /* CNERF_ENC_COLMAP_H */

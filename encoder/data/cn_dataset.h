@@ -143,5 +143,10 @@ void cn_dataset_free(cn_dataset *ds);
  * Everything the loader checks before it looks for images is checked; images are not
  * read. Returns 0, or -1 with the loader's message (for fuzzing and tests). */
 int cn_dataset_parse_meta(int kind, const uint8_t *data, size_t len, char *err, size_t errlen);
+/* The same, and (img_w, img_h > 0) every frame's camera of a JSON layout checked against an
+ * image file of img_w x img_h as the loader checks it (focal length, field of view,
+ * principal point, lens). */
+int cn_dataset_check_cameras(int kind, const uint8_t *data, size_t len, int img_w, int img_h,
+                             char *err, size_t errlen);
 
 #endif /* CNERF_ENC_DATASET_H */

@@ -1918,7 +1918,37 @@ void cn_dataset_free(cn_dataset *ds)
 
 /* ---- the metadata parsers on bytes (fuzzing, tests) ---- */
 
+/* A frame of the given camera on an image file of w x h (no pixels) through cn_camera_check. */
+static int cn_camera_check_size(const cn_intr *in, int w, int h, char *err, size_t errlen)
+{
+    cn_frame fr = {.path = "(image)", .in = *in, .file_w = w, .file_h = h, .factor = 1};
+    fr.v.w = w;
+    fr.v.h = h;
+    cn_intr_resolve(&fr.in, w, h, 0, 0, 1, &fr.v);
+    return cn_camera_check(&fr, err, errlen);
+}
+
+int cn_colmap_check_camera(const cn_colmap_camera *c, char *err, size_t errlen)
+{
+    cn_intr in;
+    const int r = cn_colmap_intr(c, &in);
+    if (r == -1)
+        return cn_fail(err, errlen, "camera %u: a %s camera, which cnerf does not read", c->id,
+                       cn_colmap_model_name(c->model));
+    if (r == -2 || c->w > CN_IMAGE_MAX_PIXELS || c->h > CN_IMAGE_MAX_PIXELS)
+        return cn_fail(err, errlen, "camera %u: a size or focal length out of range", c->id);
+    snprintf(in.src, sizeof in.src, "camera %u", c->id);
+    in.lens = cn_colmap_model_name(c->model);
+    return cn_camera_check_size(&in, (int)c->w, (int)c->h, err, errlen);
+}
+
 int cn_dataset_parse_meta(int kind, const uint8_t *data, size_t len, char *err, size_t errlen)
+{
+    return cn_dataset_check_cameras(kind, data, len, 0, 0, err, errlen);
+}
+
+int cn_dataset_check_cameras(int kind, const uint8_t *data, size_t len, int img_w, int img_h,
+                             char *err, size_t errlen)
 {
     static const char *names[4] = {"transforms_train.json", "transforms.json",
                                    "poses_bounds.npy", "cameras.npz"};
@@ -1964,6 +1994,9 @@ int cn_dataset_parse_meta(int kind, const uint8_t *data, size_t len, char *err, 
             cn_intr fin;
             if ((rc = cn_json_frame(fr, &lf, &file_path, c2w, err, errlen)) != 0 ||
                 (rc = cn_frame_intr(fr, &lf, &rule, &in, &fin, err, errlen)) != 0)
+                break;
+            if (img_w > 0 && img_h > 0 &&
+                (rc = cn_camera_check_size(&fin, img_w, img_h, err, errlen)) != 0)
                 break;
         }
     cJSON_Delete(root);
