@@ -200,6 +200,9 @@ ngp("ngp_cx", cx=1e6)
 ngp("ngp_focal", fl_x=1e300, fl_y=1e300)
 ngp("ngp_aabb", aabb_scale=1e30)
 PY
+# A transforms file of 100 MB (sparse: no disk used): more than any capture's cameras need.
+cp -al "$data/lego" "$work/ds_hugejson" && rm "$work/ds_hugejson/transforms_train.json"
+truncate -s 100M "$work/ds_hugejson/transforms_train.json"
 sums() { md5sum "$work/t.ckpt" "$work/s.cnrf" "$work/e.cnrf.ckpt" "$work/ds/transforms_train.json" \
          "$work/ds/test/r_0.png"; }
 before=$(sums)
@@ -322,6 +325,7 @@ rows=(
   "1|ngp_big/transforms.json: a field of view of 180.0 degrees across the image|train $work/ngp_big -o $work/x.ckpt --force ${T2[*]}"
   "1|ngp_cx/transforms.json: the principal point (1e+06, 200) lies outside the 400x400 image|train $work/ngp_cx -o $work/x.ckpt --force ${T2[*]}"
   "1|ngp_focal/transforms.json: a field of view of 0.0 degrees across the image|train $work/ngp_focal -o $work/x.ckpt --force ${T2[*]}"
+  "1|ds_hugejson/transforms_train.json: 104857600 bytes, more than the 67108864 that a camera file can need|train $work/ds_hugejson -o $work/x.ckpt --force ${T2[*]}"
   "1|ngp_aabb/transforms.json: aabb_scale: 1e+30 is not a scene scale (1/64 to 128)|train $work/ngp_aabb -o $work/x.ckpt --force ${T2[*]}"
   "1|r_0.png is 400x400, but its camera ($work/col_aspect/sparse/0/cameras.txt, camera 1) is for 400x300 images (another shape): give it a camera of its own size in the COLMAP model|train $work/col_aspect -o $work/x.ckpt --force ${T2[*]}"
   "1|scene 1 ($data/fern): a forward-facing scene is rendered in NDC|encode $D $data/fern -o $work/x.cnrf --lambda 1 --background contract ${T2[*]}"
