@@ -14,6 +14,10 @@
  * directory, a device and anything larger than CN_READ_MAX (a pipe is read up to it), and
  * stops at the first failed allocation. */
 int cn_read_file(const char *path, uint8_t **data, size_t *len, char *err, size_t errlen);
+/* The same with a limit of the file's kind: more than max bytes (a regular file by its size,
+ * a pipe as it is read) is refused with "PATH: N bytes, more than the MAX that KIND can need". */
+int cn_read_file_max(const char *path, uint64_t max, const char *kind, uint8_t **data,
+                     size_t *len, char *err, size_t errlen);
 
 /* ---- every file cnerf writes goes through these (tools/check_layers.py) ---- */
 

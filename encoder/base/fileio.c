@@ -18,7 +18,26 @@
 #include "cn_buf.h"
 #include "cn_file.h"
 
+/* "PATH: N bytes, more than the MAX that KIND can need" (a pipe, read until it passed MAX:
+ * "N bytes or more"). */
+static void too_big(const char *path, uint64_t n, int exact, uint64_t max, const char *kind,
+                    char *err, size_t errlen)
+{
+    if (kind)
+        snprintf(err, errlen, "%s: %llu bytes%s, more than the %llu that %s can need", path,
+                 (unsigned long long)n, exact ? "" : " or more", (unsigned long long)max, kind);
+    else
+        snprintf(err, errlen, "%s: is larger than the %llu bytes that cnerf reads", path,
+                 (unsigned long long)max);
+}
+
 int cn_read_file(const char *path, uint8_t **data, size_t *len, char *err, size_t errlen)
+{
+    return cn_read_file_max(path, CN_READ_MAX, NULL, data, len, err, errlen);
+}
+
+int cn_read_file_max(const char *path, uint64_t max, const char *kind, uint8_t **data,
+                     size_t *len, char *err, size_t errlen)
 {
     *data = NULL;
     *len = 0;
@@ -35,10 +54,11 @@ int cn_read_file(const char *path, uint8_t **data, size_t *len, char *err, size_
         what = "is a directory, not a file";
     else if (S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode))
         what = "is a device, not a regular file";
-    else if (S_ISREG(st.st_mode) && (uint64_t)st.st_size > CN_READ_MAX)
-        what = "is larger than the 4294967295 bytes that cnerf reads";
-    if (what) {
-        snprintf(err, errlen, "%s: %s", path, what);
+    if (what || (S_ISREG(st.st_mode) && (uint64_t)st.st_size > max)) {
+        if (what)
+            snprintf(err, errlen, "%s: %s", path, what);
+        else
+            too_big(path, (uint64_t)st.st_size, 1, max, kind, err, errlen);
         fclose(f);
         return -1;
     }
@@ -47,15 +67,15 @@ int cn_read_file(const char *path, uint8_t **data, size_t *len, char *err, size_
     cn_buf b = {0};
     uint8_t chunk[65536];
     size_t got;
-    while (!b.oom && b.n <= CN_READ_MAX && (got = fread(chunk, 1, sizeof chunk, f)) > 0)
+    while (!b.oom && b.n <= max && (got = fread(chunk, 1, sizeof chunk, f)) > 0)
         cn_buf_put(&b, chunk, got);
-    const int bad = ferror(f), big = b.n > CN_READ_MAX;
+    const int bad = ferror(f), big = b.n > max;
     fclose(f);
     if (bad || b.oom || big) {
-        snprintf(err, errlen, "%s: %s", path,
-                 bad ? "read error"
-                 : big ? "is larger than the 4294967295 bytes that cnerf reads"
-                       : "out of memory");
+        if (big)
+            too_big(path, b.n, 0, max, kind, err, errlen);
+        else
+            snprintf(err, errlen, "%s: %s", path, bad ? "read error" : "out of memory");
         cn_buf_free(&b);
         return -1;
     }

@@ -531,12 +531,16 @@ static int cn_json_parse(const char *path, const uint8_t *data, size_t len, cJSO
     return rc;
 }
 
+/* A transforms file lists a camera in under 1 kB per frame: 64 MiB is some 70,000 frames,
+ * more than any capture, and a file larger than that is refused before it is read. */
+#define CN_JSON_MAX (64u << 20)
+
 static int cn_json_load(const char *path, cJSON **root, char *err, size_t errlen)
 {
     *root = NULL;
     uint8_t *data;
     size_t len;
-    if (cn_read_file(path, &data, &len, err, errlen) != 0)
+    if (cn_read_file_max(path, CN_JSON_MAX, "a camera file", &data, &len, err, errlen) != 0)
         return -1;
     const int rc = cn_json_parse(path, data, len, root, err, errlen);
     free(data);

@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cjson/cJSON.h>
@@ -1122,6 +1123,48 @@ static int remove_tmp_root(void **state)
     return 0;
 }
 
+/* cn_read_file_max: a regular file by its size, a pipe as it is read (a FIFO fed without end
+ * is refused once it passes the limit, not read to 4 GiB), and what fits is read whole. */
+static void test_read_limit(void **state)
+{
+    (void)state;
+    char err[512], path[256];
+    uint8_t *data;
+    size_t len;
+    snprintf(path, sizeof path, "/tmp/cnerf_read_limit_%ld", (long)getpid());
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    for (int i = 0; i < 3000; i++)
+        fputc('x', f);
+    fclose(f);
+    assert_int_equal(cn_read_file_max(path, 3000, "a test file", &data, &len, err, sizeof err), 0);
+    assert_int_equal(len, 3000);
+    free(data);
+    assert_int_equal(cn_read_file_max(path, 2999, "a test file", &data, &len, err, sizeof err), -1);
+    assert_non_null(strstr(err, "3000 bytes, more than the 2999 that a test file can need"));
+    assert_null(data);
+    remove(path);
+    int fd[2];
+    assert_int_equal(pipe(fd), 0);
+    const pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) { /* the writer: zeros until the reader closes the pipe */
+        close(fd[0]);
+        static const uint8_t zero[4096];
+        while (write(fd[1], zero, sizeof zero) > 0) {
+        }
+        _exit(0);
+    }
+    close(fd[1]);
+    snprintf(path, sizeof path, "/dev/fd/%d", fd[0]);
+    assert_int_equal(cn_read_file_max(path, 100000, "a test file", &data, &len, err, sizeof err),
+                     -1);
+    assert_non_null(strstr(err, "bytes or more, more than the 100000 that a test file can need"));
+    close(fd[0]);
+    int st;
+    waitpid(pid, &st, 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1130,7 +1173,7 @@ int main(void)
         cmocka_unit_test(test_lego),           cmocka_unit_test(test_fern),
         cmocka_unit_test(test_ngp),            cmocka_unit_test(test_blender_errors),
         cmocka_unit_test(test_ngp_errors),     cmocka_unit_test(test_llff_synthetic),
-        cmocka_unit_test(test_llff_errors),
+        cmocka_unit_test(test_llff_errors),    cmocka_unit_test(test_read_limit),
     };
     return cmocka_run_group_tests(tests, NULL, remove_tmp_root);
 }
