@@ -128,9 +128,14 @@ int cli_load_dataset(const char *cmd, const char *dir, long downscale, long max_
 /* --random-bg auto|on|off into cn_train_opts.random_bg (-1, 1, 0); prints the error and
  * returns 1 for another word. */
 int cli_random_bg(const char *cmd, const char *word, int *random_bg);
-/* --background constant|contract into cn_train_opts.contract (0, 1); prints the error and
- * returns 2 for another word. */
+/* --background auto|constant|contract into cn_train_opts.contract (-1, 0, 1); prints the
+ * error and returns 2 for another word. */
 int cli_background(const char *cmd, const char *word, int *contract);
+/* --background auto (*contract < 0) decided on the n datasets loaded: contracted when every
+ * training view is opaque (its photos show what lies beyond the object) and no scene is
+ * forward-facing (NDC reaches to infinity already), else the constant colour; says which and
+ * why. A background given (0 or 1) is kept. */
+void cli_auto_background(const struct cn_dataset *ds, int n, int *contract);
 /* encode's --coarse-color off|on and --coarse-weight W (weight <= 0: not given) into
  * cn_train_opts.coarse_color and .coarse_weight; prints the error and returns 2 for another
  * word. */

@@ -54,11 +54,33 @@ int cli_random_bg(const char *cmd, const char *word, int *random_bg)
 
 int cli_background(const char *cmd, const char *word, int *contract)
 {
-    if (!strcmp(word, "constant") || !strcmp(word, "contract")) {
-        *contract = !strcmp(word, "contract");
+    if (!strcmp(word, "constant") || !strcmp(word, "contract") || !strcmp(word, "auto")) {
+        *contract = !strcmp(word, "auto") ? -1 : !strcmp(word, "contract");
         return 0;
     }
-    return cli_usage(cmd, "--background takes constant or contract, not '%s'", word);
+    return cli_usage(cmd, "--background takes auto, constant or contract, not '%s'", word);
+}
+
+void cli_auto_background(const cn_dataset *ds, int n, int *contract)
+{
+    if (*contract >= 0)
+        return;
+    int transparent = 0, views = 0, forward = 0;
+    for (int m = 0; m < n; m++) {
+        forward |= ds[m].ndc;
+        views += ds[m].n_train;
+        for (int i = 0; i < ds[m].n_train; i++)
+            transparent += ds[m].train[i].alpha != NULL;
+    }
+    *contract = !forward && transparent == 0;
+    if (forward)
+        printf("background: the constant colour (auto: a forward-facing scene, in NDC)\n");
+    else if (transparent)
+        printf("background: the constant colour (auto: %d of %d training views have "
+               "transparency)\n", transparent, views);
+    else
+        printf("background: contracted (auto: the %d training views are opaque and see beyond "
+               "the object; --background constant for a plain one)\n", views);
 }
 
 int cli_coarse_color(const char *cmd, const char *word, double weight, cn_train_opts *o)

@@ -36,7 +36,7 @@
     "       [--latent-lr latent|weight] [--init FLOAT.ckpt]\n"                                                   \
     "       [--eval-every N] [--prior-lr X] [--affine-lr X] [--scale-lr R]\n"   \
     "       [--skip-saturated EPS] [--grid G|0] [--grid-verbose] [--random-bg auto|on|off]\n" \
-    "       [--background constant|contract]\n"                                               \
+    "       [--background auto|constant|contract]\n"                                               \
     "       [--prune on|off] [--group-penalty MU] [--coarse-color off|on] [--coarse-weight W]\n" \
     "       [--val-views N]"
 
@@ -125,7 +125,7 @@ static void encode_defaults(encode_args *A)
     cn_train_defaults(&A->o);
     A->o.compress = 1;
     A->random_bg = "auto";
-    A->background = "constant";
+    A->background = "auto";
     A->coarse_color = "off";
     A->coarse_weight = -1;
     A->iters = A->o.iters;
@@ -540,6 +540,17 @@ int cmd_encode(int argc, char **argv)
         return 1;
     }
     char err[1024];
+    if (A->init && A->o.contract < 0) { /* auto: the float model's own background */
+        cn_model fm;
+        if (cn_checkpoint_load_model(A->init, &fm, NULL, err, sizeof err)) {
+            cn_dataset_free(&ds);
+            cli_unlock_outputs(&locks);
+            return cli_fail("encode", "%s", err);
+        }
+        A->o.contract = fm.topo.coord == CNERF_COORD_CONTRACT;
+        cn_model_free(&fm);
+    }
+    cli_auto_background(&ds, 1, &A->o.contract);
     int stepped_down = 0, trials_done = 0; /* --preset auto took tiny over the rule's choice */
     if (A->autop) {
         double bits;

@@ -20,7 +20,7 @@
     "       [--near X] [--far X] [--ckpt-every N | --ckpt-secs S] [--log-every N] [--occupancy G]\n"     \
     "       [--eval-every N] [--every K] [--lr-decay N]\n"                                              \
     "       [--occupancy-start N] [--skip-saturated EPS] [--random-bg auto|on|off]\n"    \
-    "       [--background constant|contract]\n"                                          \
+    "       [--background auto|constant|contract]\n"                                          \
     "       [--group-penalty MU] [--train-images DIR] [--val-views N]"
 
 
@@ -28,7 +28,7 @@ int cmd_train(int argc, char **argv)
 {
     cn_train_opts o;
     cn_train_defaults(&o);
-    const char *out = NULL, *pos[1], *random_bg = "auto", *background = "constant", *train_images = NULL;
+    const char *out = NULL, *pos[1], *random_bg = "auto", *background = "auto", *train_images = NULL;
     long iters = o.iters, downscale = 1, max_size = 0, threads = 0, batch = o.batch, depth = -1, width = -1;
     long view_width = -1;
     long coarse = -1, fine = -1, precrop = -1, ckpt_every = 0, log_every = 100;
@@ -136,6 +136,7 @@ int cmd_train(int argc, char **argv)
     if (train_images)
         printf("training views: the %d images in %s instead of the dataset's\n", ds.n_train,
                train_images);
+    cli_auto_background(&ds, 1, &o.contract);
     cli_stop_phase("start", "before training: nothing saved%s; run the command again", kept);
     char err[1024];
     cn_trainer t;

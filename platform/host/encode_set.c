@@ -252,6 +252,7 @@ int cli_encode_set(const encode_args *A)
         return rc;
     }
     cli_stop_phase("start", "before training: nothing saved%s; run the command again", kept);
+    cli_auto_background(ds, (int)M, &o.contract);
     char err[1024];
     cn_joint j;
     if (cn_joint_init(&j, ds, M, &o, A->lr_shift >= 0 ? A->lr_shift : A->o.lr_affine, err,

@@ -199,6 +199,19 @@ ngp("ngp_big", w=1e12, h=1e12)
 ngp("ngp_cx", cx=1e6)
 ngp("ngp_focal", fl_x=1e300, fl_y=1e300)
 ngp("ngp_aabb", aabb_scale=1e30)
+# opaque photos (no alpha channel), as a camera takes them
+import zlib
+def opaque_png(path, w, h, v):
+    def chunk(t, d):
+        return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))
+    raw = b"".join(b"\0" + bytes([v]) * (3 * w) for _ in range(h))
+    open(path, "wb").write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)) +
+                           chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+ngp("ngp_opaque")
+for k, f in enumerate(frames):
+    p = work + "/ngp_opaque/train/" + os.path.basename(f["file_path"]) + ".png"
+    os.remove(p)
+    opaque_png(p, 400, 400, 60 + 20 * k)
 PY
 # A transforms file of 100 MB (sparse: no disk used): more than any capture's cameras need.
 cp -al "$data/lego" "$work/ds_hugejson" && rm "$work/ds_hugejson/transforms_train.json"
@@ -370,6 +383,22 @@ grep -q "^images: $work/llff_images/images (504x378 files; poses_bounds.npy's ca
   fail "LLFF with images/ only: $out"
 grep -q "^dataset $work/llff_images: 16 train, 1 val, 3 test views, 63x47, forward-facing" <<<"$out" ||
   fail "LLFF with images/ only: $out"
+
+# The background by default: contracted for opaque photos of a 360-degree capture, the
+# constant colour for views with transparency or a forward-facing scene; a background given
+# is kept.
+out=$("$cnerf" train "$work/ngp_opaque" -o "$work/bg1.ckpt" "${T2[@]}") || fail "background auto: $out"
+grep -q "^background: contracted (auto: the 7 training views are opaque and see beyond the object" \
+  <<<"$out" || fail "background auto, opaque: $out"
+out=$("$cnerf" train "$work/ngp_opaque" -o "$work/bg2.ckpt" "${T2[@]}" --background constant) ||
+  fail "background constant: $out"
+! grep -q "^background:" <<<"$out" || fail "background constant given, auto spoke: $out"
+out=$("$cnerf" train "$D" -o "$work/bg3.ckpt" "${T2[@]}") || fail "background auto, Lego: $out"
+grep -q "^background: the constant colour (auto: 100 of 100 training views have transparency)" \
+  <<<"$out" || fail "background auto, Lego: $out"
+out=$("$cnerf" train "$data/fern" -o "$work/bg4.ckpt" "${T2[@]}") || fail "background auto, Fern: $out"
+grep -q "^background: the constant colour (auto: a forward-facing scene, in NDC)" <<<"$out" ||
+  fail "background auto, Fern: $out"
 
 # Views of several sizes say so, not the first view's size alone.
 out=$("$cnerf" views "$work/col_sizes" -o "$work/vsz" --split train --downscale 16) ||
