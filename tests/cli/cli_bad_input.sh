@@ -384,6 +384,38 @@ grep -q "^images: $work/llff_images/images (504x378 files; poses_bounds.npy's ca
 grep -q "^dataset $work/llff_images: 16 train, 1 val, 3 test views, 63x47, forward-facing" <<<"$out" ||
   fail "LLFF with images/ only: $out"
 
+# A hostile file put at the checkpoint's path while a run goes on (a link to a file outside,
+# a FIFO, a device node): the next periodic save refuses it and the run fails, and what the
+# link points to stays as it was.
+echo keep > "$work/outside.txt"
+kinds=(link fifo)
+[ $have_dev = 1 ] && kinds+=(dev)
+for cmd in train encode; do
+  for kind in "${kinds[@]}"; do
+    o=$work/hostile-$cmd-$kind.x
+    ck=$o
+    extra=()
+    [ $cmd = encode ] && { ck=$o.ckpt; extra=(--lambda 1 --every 200); }
+    "$cnerf" $cmd "$D" -o "$o" --preset tiny --downscale 16 --iters 100000 --ckpt-every 3 \
+      "${extra[@]}" > "$o.log" 2>&1 &
+    pid=$!
+    for _ in $(seq 600); do [ -s "$ck" ] && break; sleep 0.1; done
+    [ -s "$ck" ] || fail "$cmd: no periodic checkpoint"
+    case $kind in
+      link) ln -s "$work/outside.txt" "$ck.new" ;;
+      fifo) mkfifo "$ck.new" ;;
+      dev) mknod "$ck.new" c 1 3 ;;
+    esac
+    mv -T "$ck.new" "$ck"
+    set +e; timeout 120 tail --pid=$pid -f /dev/null; wait $pid; rc=$?; set -e
+    want=$([ $kind = link ] && echo "a symbolic link" || { [ $kind = fifo ] && echo "a FIFO" || echo "a device"; })
+    [ $rc -eq 1 ] && grep -q "$ck is $want; cnerf writes regular files only" "$o.log" ||
+      fail "$cmd: a $kind put at its checkpoint mid-run: status $rc, $(tail -2 "$o.log")"
+    [ "$(cat "$work/outside.txt")" = keep ] || fail "$cmd: the file a link pointed to was written"
+    rm -f "$ck"
+  done
+done
+
 # The background by default: contracted for opaque photos of a 360-degree capture, the
 # constant colour for views with transparency or a forward-facing scene; a background given
 # is kept.
