@@ -527,6 +527,66 @@ grep -q "^cnerf views: warning: .*gone.png: missing, frame skipped$" "$work/err.
 [ "$(ls "$work/ngp_views"/*.png | wc -l)" -eq 2 ] || fail "missing frame: $(ls "$work/ngp_views")"
 n=$((n + 1))
 
+# Every command that writes, against each kind of hostile output: a link to a file outside
+# the command's files, a FIFO, a device node (as root; made here, c 1 3) and one of the
+# command's own inputs (a hard link to it inside an output folder). Each is refused before
+# any work (status 1, within the table's time), and the special file stays what it was.
+# OUT is a file the command writes; DIR/NAME a file it writes inside an output folder.
+matrix=(
+  "train $D -o OUT ${T2[*]} --force"
+  "encode $D -o OUT --lambda 1 ${T2[*]} --force"
+  "synth -o OUT --preset tiny"
+  "quantize $work/t.ckpt -o OUT"
+  "render $work/s.cnrf --orbit 1 --size 8 --save-cameras OUT"
+  "eval $work/t.ckpt $D -o DIR/r_0.png --downscale 16 --every 200"
+  "views $D -o DIR/0000.png --downscale 16"
+  "render $work/s.cnrf --orbit 1 --size 8 -o DIR/orbit_000.png"
+)
+# (a dataset's images are inputs by their folder: a hard link to one elsewhere is not known
+# as an input, and a write replaces the link, never the image: those cases are left out)
+input_of=("" "" "" "$work/t.ckpt" "$work/s.cnrf" "$work/t.ckpt" "" "$work/s.cnrf")
+kinds=(link fifo input)
+[ $have_dev = 1 ] && kinds+=(dev)
+m=0
+for i in "${!matrix[@]}"; do
+  for kind in "${kinds[@]}"; do
+    [ $kind = input ] && [ -z "${input_of[$i]}" ] && continue
+    h=$work/hm$m
+    m=$((m + 1))
+    mkdir -p "$h"
+    args=${matrix[$i]}
+    if [[ $args == *" DIR/"* ]]; then
+      name=$(sed 's|.* DIR/\([^ ]*\).*|\1|' <<<"$args")
+      target=$h/d/$name
+      mkdir -p "$h/d"
+      args=$(sed "s| DIR/[^ ]*| $h/d|" <<<"$args")
+    else
+      target=$h/out
+      args=${args/OUT/$target}
+    fi
+    case $kind in
+      link) ln -s "$work/outside.txt" "$target" ;;
+      fifo) mkfifo "$target" ;;
+      dev) mknod "$target" c 1 3 ;;
+      input) ln "${input_of[$i]}" "$target" ;;
+    esac
+    read -r -a argv <<< "$args"
+    set +e
+    timeout 60 "$cnerf" "${argv[@]}" > "$work/out.txt" 2> "$work/err.txt" < /dev/null
+    rc=$?
+    set -e
+    [ $rc -eq 1 ] || fail "hostile $kind: '$args' exited $rc: $(head -2 "$work/err.txt")"
+    case $kind in
+      link) [ -L "$target" ] ;;
+      fifo) [ -p "$target" ] ;;
+      dev) [ -c "$target" ] ;;
+      input) [ "$target" -ef "${input_of[$i]}" ] ;;
+    esac || fail "hostile $kind: '$args' replaced $target"
+    [ "$(cat "$work/outside.txt")" = keep ] || fail "hostile $kind: '$args' wrote through a link"
+  done
+done
+echo "# hostile outputs: $m cases, ${#matrix[@]} commands x ${kinds[*]}"
+
 # Help is not an error: on standard output, status 0.
 for args in "help encode" "encode --help" "info -h" "help"; do
   read -r -a argv <<< "$args"
