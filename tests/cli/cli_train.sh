@@ -200,7 +200,7 @@ msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --prune yes 2>&1
 [ $rc = 2 ] && grep -q "\-\-prune takes on (remove dead units) or off, not 'yes'" <<<"$msg" \
   || fail "--prune yes: $rc $msg"
 msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --background far 2>&1); rc=$?
-[ $rc = 2 ] && grep -q -- "--background takes constant or contract, not 'far'" <<<"$msg" ||
+[ $rc = 2 ] && grep -q -- "--background takes auto, constant or contract, not 'far'" <<<"$msg" ||
   fail "--background far: $rc $msg"
 msg=$("$cnerf" encode "$data/fern" -o "$work/z.cnrf" --lambda 1 --background contract \
   "${common[@]}" 2>&1); rc=$?
