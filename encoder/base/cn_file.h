@@ -18,6 +18,11 @@ int cn_read_file(const char *path, uint8_t **data, size_t *len, char *err, size_
  * a pipe as it is read) is refused with "PATH: N bytes, more than the MAX that KIND can need". */
 int cn_read_file_max(const char *path, uint64_t max, const char *kind, uint8_t **data,
                      size_t *len, char *err, size_t errlen);
+/* cn_read_file for a kind of file that begins with sig[0..siglen): a pipe whose first bytes
+ * differ is read no further than its first block (64 KiB), which the caller's parser then
+ * refuses, instead of up to CN_READ_MAX. A regular file is read whole as before. */
+int cn_read_file_sig(const char *path, const char *sig, size_t siglen, uint8_t **data,
+                     size_t *len, char *err, size_t errlen);
 
 /* ---- every file cnerf writes goes through these (tools/check_layers.py) ---- */
 

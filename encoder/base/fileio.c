@@ -31,13 +31,28 @@ static void too_big(const char *path, uint64_t n, int exact, uint64_t max, const
                  (unsigned long long)max);
 }
 
+static int read_file(const char *path, uint64_t max, const char *kind, const char *sig,
+                     size_t siglen, uint8_t **data, size_t *len, char *err, size_t errlen);
+
 int cn_read_file(const char *path, uint8_t **data, size_t *len, char *err, size_t errlen)
 {
-    return cn_read_file_max(path, CN_READ_MAX, NULL, data, len, err, errlen);
+    return read_file(path, CN_READ_MAX, NULL, NULL, 0, data, len, err, errlen);
 }
 
 int cn_read_file_max(const char *path, uint64_t max, const char *kind, uint8_t **data,
                      size_t *len, char *err, size_t errlen)
+{
+    return read_file(path, max, kind, NULL, 0, data, len, err, errlen);
+}
+
+int cn_read_file_sig(const char *path, const char *sig, size_t siglen, uint8_t **data,
+                     size_t *len, char *err, size_t errlen)
+{
+    return read_file(path, CN_READ_MAX, NULL, sig, siglen, data, len, err, errlen);
+}
+
+static int read_file(const char *path, uint64_t max, const char *kind, const char *sig,
+                     size_t siglen, uint8_t **data, size_t *len, char *err, size_t errlen)
 {
     *data = NULL;
     *len = 0;
@@ -67,8 +82,13 @@ int cn_read_file_max(const char *path, uint64_t max, const char *kind, uint8_t *
     cn_buf b = {0};
     uint8_t chunk[65536];
     size_t got;
-    while (!b.oom && b.n <= max && (got = fread(chunk, 1, sizeof chunk, f)) > 0)
+    while (!b.oom && b.n <= max && (got = fread(chunk, 1, sizeof chunk, f)) > 0) {
         cn_buf_put(&b, chunk, got);
+        /* a pipe that does not begin like the file it should hold: what was read is enough
+         * for the parser to refuse it with its own message */
+        if (sig && !S_ISREG(st.st_mode) && b.n >= siglen && memcmp(b.p, sig, siglen) != 0)
+            break;
+    }
     const int bad = ferror(f), big = b.n > max;
     fclose(f);
     if (bad || b.oom || big) {

@@ -175,7 +175,7 @@ int cn_joint_resume(cn_joint *j, const char *path, char *err, size_t errlen)
 {
     uint8_t *data;
     size_t len;
-    if (cn_read_file(path, &data, &len, err, errlen))
+    if (cn_read_file_sig(path, "CN", 2, &data, &len, err, errlen)) /* CNJT */
         return -1;
     const cn_model *s = &j->shift;
     const size_t fixed = 4 + 4 + 4 + 8 + 8, blocks = 12 * s->n_params;

@@ -615,7 +615,7 @@ int cn_checkpoint_save(const cn_trainer *t, const char *path, char *err, size_t 
 static int ckpt_read(const char *path, uint8_t **data, cn_ckpt *c, char *err, size_t errlen)
 {
     size_t len;
-    if (cn_read_file(path, data, &len, err, errlen))
+    if (cn_read_file_sig(path, "CN", 2, data, &len, err, errlen)) /* CNCK, CNJT */
         return -1;
     if (cn_ckpt_parse(path, *data, len, c, err, errlen)) {
         free(*data);
@@ -660,7 +660,7 @@ int cn_checkpoint_resume(cn_trainer *t, const char *path, char *err, size_t errl
 {
     uint8_t *data;
     size_t len;
-    if (cn_read_file(path, &data, &len, err, errlen))
+    if (cn_read_file_sig(path, "CN", 2, &data, &len, err, errlen)) /* CNCK, CNJT */
         return -1;
     const int rc = cn_checkpoint_resume_data(t, path, data, len, err, errlen);
     free(data);

@@ -171,6 +171,9 @@ void cli_stream_free(cli_stream *s);
 /* One line: file bytes = latent payload + overhead (tables, affine, biases, headers). */
 void cli_print_sizes(const char *path, const cli_stream *s);
 
+/* The first bytes of every cnerf stream (docs/bitstream.md section 2). */
+#define CLI_STREAM_SIG "\x89" "CNF"
+
 /* Prints "cnerf <cmd>: <message>" to stderr and returns 1 (a failure). */
 int cli_fail(const char *cmd, const char *fmt, ...);
 /* The same for a usage error (a bad command line): returns 2. */

@@ -63,7 +63,7 @@ int cmd_info(int argc, char **argv)
     char err[512];
     uint8_t *buf;
     size_t len;
-    if (cn_read_file(argv[1], &buf, &len, err, sizeof err))
+    if (cn_read_file_sig(argv[1], CLI_STREAM_SIG, 4, &buf, &len, err, sizeof err))
         return cli_fail("info", "%s", err);
     cnerf_info *info = malloc(sizeof *info);
     if (!info) {

@@ -17,7 +17,7 @@ int cli_stream_open_scene(const char *cmd, const char *path, unsigned scene, cli
     memset(s, 0, sizeof *s);
     if (ref)
         memset(ref, 0, sizeof *ref);
-    if (cn_read_file(path, &s->file, &s->len, err, sizeof err))
+    if (cn_read_file_sig(path, CLI_STREAM_SIG, 4, &s->file, &s->len, err, sizeof err))
         return cli_fail(cmd, "%s", err);
     s->dec = malloc(sizeof *s->dec);
     if (!s->dec) {

@@ -587,6 +587,25 @@ for i in "${!matrix[@]}"; do
 done
 echo "# hostile outputs: $m cases, ${#matrix[@]} commands x ${kinds[*]}"
 
+# A stream or a checkpoint read from a pipe fed without end (zeros): refused from its first
+# block with the parser's own message, not read to the 4 GiB limit.
+mkfifo "$work/zero.fifo"
+for c in "info $work/zero.fifo|CNERF_E_MAGIC (-6): not a valid cnerf stream" \
+         "quantize $work/zero.fifo -o $work/zq.cnrf|zero.fifo: not a cnerf checkpoint"; do
+  IFS='|' read -r args frag <<< "$c"
+  read -r -a argv <<< "$args"
+  ( exec cat /dev/zero > "$work/zero.fifo" ) 2> /dev/null &
+  feeder=$!
+  set +e
+  timeout 60 "$cnerf" "${argv[@]}" > /dev/null 2> "$work/err.txt"
+  rc=$?
+  set -e
+  kill $feeder 2> /dev/null || true
+  wait $feeder 2> /dev/null || true
+  [ $rc -eq 1 ] && grep -qF -- "$frag" "$work/err.txt" ||
+    fail "'$args' on a pipe of zeros: status $rc, $(head -2 "$work/err.txt")"
+done
+
 # Help is not an error: on standard output, status 0.
 for args in "help encode" "encode --help" "info -h" "help"; do
   read -r -a argv <<< "$args"
