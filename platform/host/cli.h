@@ -74,6 +74,9 @@ void cli_stop_unwatch(void);
  * name for the test hook (CNERF_TEST_STOP_AT=name stops the process there), or NULL. */
 void cli_stop_phase(const char *name, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)));
+/* A phase before training: "WHAT: nothing saved (RESUMED is as it was); run the command
+ * again", RESUMED being the checkpoint a resumed run reads (NULL: none). */
+void cli_stop_before(const char *name, const char *what, const char *resumed);
 
 /* Seconds of training between two checkpoints by default: what kill -9 can lose. */
 #define CLI_CKPT_SECS 60.0

@@ -22,9 +22,10 @@ typedef struct encode_args {
     char ckpt[4096];
 } encode_args;
 
-/* Before a run that writes OUT.ckpt afresh (not --resume, not --force): 1 with the message
- * printed when a checkpoint or another file is there (cli_check_fresh). */
-int cli_check_ckpt_fresh(const encode_args *A);
+/* Locks the stream A->out and the checkpoint ckpt (OUT.ckpt, or --resume's), refuses to
+ * start a new checkpoint over an existing file without --force (cli_check_fresh) and enters
+ * the loading phase (cli_stop_before). 0, or 1 with the message printed and no lock held. */
+int cli_encode_lock(const encode_args *A, const char *ckpt, struct cli_locks *L);
 
 /* cnerf encode DATASET1 DATASET2 ... -o set.cnrf: several scenes in one stream with shared
  * shifts. A holds the parsed command line; returns the command's exit status. */

@@ -151,6 +151,12 @@ void cli_stop_phase(const char *name, const char *fmt, ...)
     stop_test_hook(name);
 }
 
+void cli_stop_before(const char *name, const char *what, const char *resumed)
+{
+    cli_stop_phase(name, "%s: nothing saved%s%s%s; run the command again", what,
+                   resumed ? " (" : "", resumed ? resumed : "", resumed ? " is as it was)" : "");
+}
+
 void cli_stop_unwatch(void)
 {
     pthread_mutex_lock(&stop.mu);

@@ -495,14 +495,22 @@ static int write_and_report(encode_args *A, cn_trainer *t, const cn_dataset *ds,
     return rc;
 }
 
-int cli_check_ckpt_fresh(const encode_args *A)
+int cli_encode_lock(const encode_args *A, const char *ckpt, cli_locks *L)
 {
-    if (A->resume || A->force)
-        return 0;
-    char ckpt[4096], resume[4200];
-    snprintf(ckpt, sizeof ckpt, "%s.ckpt", A->out);
+    /* The stream and the checkpoint (--resume's when it is given) are both locked: another
+     * run may write neither. */
+    const char *written[2] = {A->out, ckpt};
+    if (cli_lock_outputs("encode", written, 2, L))
+        return 1;
+    char resume[4200];
     snprintf(resume, sizeof resume, "--resume %s", ckpt);
-    return cli_check_fresh("encode", ckpt, resume);
+    if (!A->resume && !A->force && cli_check_fresh("encode", ckpt, resume)) {
+        cli_unlock_outputs(L);
+        return 1;
+    }
+    cli_stop_before("load", A->n_pos > 1 ? "while loading the datasets" :
+                    "while loading the dataset", A->resume);
+    return 0;
 }
 
 int cmd_encode(int argc, char **argv)
@@ -518,21 +526,9 @@ int cmd_encode(int argc, char **argv)
         cli_check_output("encode", A->ckpt, inputs, 1, A->pos[0]) ||
         cli_check_not("encode", A->out, A->resume))
         return 1;
-    /* The stream and the checkpoint (--resume's when it is given) are both locked: another
-     * run may write neither. */
     cli_locks locks;
-    const char *written[2] = {A->out, A->ckpt};
-    if (cli_lock_outputs("encode", written, 2, &locks))
+    if (cli_encode_lock(A, A->ckpt, &locks))
         return 1;
-    if (cli_check_ckpt_fresh(A)) {
-        cli_unlock_outputs(&locks);
-        return 1;
-    }
-    char kept[4300] = "";
-    if (A->resume)
-        snprintf(kept, sizeof kept, " (%s is as it was)", A->resume);
-    cli_stop_phase("load", "while loading the dataset: nothing saved%s; run the command again",
-                   kept);
     cn_dataset ds;
     if (cli_load_dataset("encode", A->pos[0], A->downscale, A->max_size, A->black, 0, 0,
                          A->val_views, &ds)) {
@@ -565,7 +561,7 @@ int cmd_encode(int argc, char **argv)
     int rc = 0, stopped = 0;
 step_down: /* --preset auto encodes again with tiny when the rate collapses a larger preset */
     rc = 0;
-    cli_stop_phase("start", "before training: nothing saved%s; run the command again", kept);
+    cli_stop_before("start", "before training", A->resume);
     cn_trainer t;
     if (cn_trainer_init(&t, &ds, &A->o, err, sizeof err)) {
         cn_dataset_free(&ds);

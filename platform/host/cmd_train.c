@@ -115,11 +115,8 @@ int cmd_train(int argc, char **argv)
     }
     /* What a stop signal before training leaves: nothing new, and a checkpoint to resume as
      * it was. */
-    char kept[4300] = "";
-    if (resume && access(out, F_OK) == 0)
-        snprintf(kept, sizeof kept, " (%s is as it was)", out);
-    cli_stop_phase("load", "while loading the dataset: nothing saved%s; run the command again",
-                   kept);
+    const char *resumed = resume && access(out, F_OK) == 0 ? out : NULL;
+    cli_stop_before("load", "while loading the dataset", resumed);
     cn_dataset ds;
     if (cli_load_dataset("train", pos[0], downscale, max_size, black, near, far, val_views, &ds)) {
         cli_unlock_outputs(&locks);
@@ -137,7 +134,7 @@ int cmd_train(int argc, char **argv)
         printf("training views: the %d images in %s instead of the dataset's\n", ds.n_train,
                train_images);
     cli_auto_background(&ds, 1, &o.contract);
-    cli_stop_phase("start", "before training: nothing saved%s; run the command again", kept);
+    cli_stop_before("start", "before training", resumed);
     char err[1024];
     cn_trainer t;
     if (cn_trainer_init(&t, &ds, &o, err, sizeof err)) {

@@ -222,21 +222,9 @@ int cli_encode_set(const encode_args *A)
             cli_check_output("encode", ckpt, NULL, 0, A->pos[m]) ||
             cli_check_not("encode", A->out, A->resume))
             return 1;
-    /* The stream and the checkpoint (--resume's when it is given) are both locked: another
-     * run may write neither. */
     cli_locks locks;
-    const char *written[2] = {A->out, ckpt};
-    if (cli_lock_outputs("encode", written, 2, &locks))
+    if (cli_encode_lock(A, ckpt, &locks))
         return 1;
-    if (cli_check_ckpt_fresh(A)) {
-        cli_unlock_outputs(&locks);
-        return 1;
-    }
-    char kept[4300] = "";
-    if (A->resume)
-        snprintf(kept, sizeof kept, " (%s is as it was)", A->resume);
-    cli_stop_phase("load", "while loading the datasets: nothing saved%s; run the command again",
-                   kept);
     cn_dataset *ds = calloc(M, sizeof *ds);
     unsigned loaded = 0;
     rc = ds ? 0 : cli_fail("encode", "out of memory");
@@ -251,7 +239,7 @@ int cli_encode_set(const encode_args *A)
         cli_unlock_outputs(&locks);
         return rc;
     }
-    cli_stop_phase("start", "before training: nothing saved%s; run the command again", kept);
+    cli_stop_before("start", "before training", A->resume);
     cli_auto_background(ds, (int)M, &o.contract);
     char err[1024];
     cn_joint j;
