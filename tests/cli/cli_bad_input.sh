@@ -542,9 +542,10 @@ matrix=(
   "views $D -o DIR/0000.png --downscale 16"
   "render $work/s.cnrf --orbit 1 --size 8 -o DIR/orbit_000.png"
 )
-# (a dataset's images are inputs by their folder: a hard link to one elsewhere is not known
-# as an input, and a write replaces the link, never the image: those cases are left out)
-input_of=("" "" "" "$work/t.ckpt" "$work/s.cnrf" "$work/t.ckpt" "" "$work/s.cnrf")
+# (for train, encode and views the input is an image of the dataset, linked outside its
+# folder: known as an input only once the dataset is loaded)
+input_of=("$D/train/r_0.png" "$D/train/r_1.png" "" "$work/t.ckpt" "$work/s.cnrf" "$work/t.ckpt"
+          "$D/train/r_2.png" "$work/s.cnrf")
 kinds=(link fifo input)
 [ $have_dev = 1 ] && kinds+=(dev)
 m=0
