@@ -26,17 +26,22 @@ int cn_read_file_sig(const char *path, const char *sig, size_t siglen, uint8_t *
 
 /* ---- every file cnerf writes goes through these (tools/check_layers.py) ---- */
 
-/* The inputs of this run (files and folders), recorded before its work starts: no output may
- * be one of them or lie inside one of the folders. `role` names it in messages ("the
- * dataset"; NULL: "the input"). A path that does not exist is skipped. Returns -1 when more
- * than CN_MAX_INPUTS are recorded. Process-wide, for one command's run. */
-#define CN_MAX_INPUTS 64
+/* The inputs of this run (files and folders), recorded before its work starts and, by the
+ * dataset loader, each file it reads: no output may be one of them or lie inside one of the
+ * folders. `role` (a string that outlives the run) names it in messages ("the dataset";
+ * NULL: "the input"). A path that does not exist is skipped. Returns -1 when out of memory.
+ * Process-wide, for one command's run; not thread-safe (call it from one thread). */
 int cn_input_add(const char *path, const char *role);
+/* Forgets the inputs and the checked outputs (and frees them). */
 void cn_inputs_clear(void);
 /* `path` can be written: it is absent or a regular file (not a link, device, FIFO or
  * directory), not an input nor inside an input folder, and its directory takes a new file.
  * Returns 0, or -1 with a message naming `path`. */
 int cn_output_check(const char *path, char *err, size_t errlen);
+/* Checks again every output that cn_output_check passed, against the inputs recorded since:
+ * a command calls it once its dataset is loaded, so that an output that is a hard link to one
+ * of the images is refused before the work starts, not when the result is written. */
+int cn_outputs_recheck(char *err, size_t errlen);
 /* The same for an output directory, existing or to be made: a directory if it exists, not an
  * input, not inside one. */
 int cn_output_dir_check(const char *dir, char *err, size_t errlen);

@@ -106,19 +106,35 @@ static int read_file(const char *path, uint64_t max, const char *kind, const cha
 
 /* ---- the files and folders a run reads ---- */
 
-/* Process-wide: the command records its inputs before its work starts, and its writes (on
- * its main thread) check against them. */
+/* Process-wide: the command records its inputs before its work starts (and the loader each
+ * file it reads), and its writes (on its main thread) check against them. */
 typedef struct cn_input {
     dev_t dev;
     ino_t ino;
     int dir;
-    char real[PATH_MAX]; /* its real path (a folder: to tell what lies inside it) */
-    char name[PATH_MAX]; /* as the user gave it */
+    char *real; /* a folder's real path (to tell what lies inside it); NULL for a file */
+    char *name; /* as the user gave it */
     const char *role;
 } cn_input;
 
-static cn_input cn_inputs[CN_MAX_INPUTS];
-static int cn_n_inputs;
+static cn_input *cn_inputs;
+static int cn_n_inputs, cn_cap_inputs;
+/* The outputs cn_output_check passed, for cn_outputs_recheck once the inputs are all known. */
+static char **cn_outputs;
+static int cn_n_outputs, cn_cap_outputs;
+
+static int grow(void **a, int *cap, int n, size_t elem)
+{
+    if (n < *cap)
+        return 0;
+    const int c = *cap ? 2 * *cap : 16;
+    void *p = realloc(*a, (size_t)c * elem);
+    if (!p)
+        return -1;
+    *a = p;
+    *cap = c;
+    return 0;
+}
 
 int cn_input_add(const char *path, const char *role)
 {
@@ -128,21 +144,38 @@ int cn_input_add(const char *path, const char *role)
     for (int i = 0; i < cn_n_inputs; i++)
         if (cn_inputs[i].dev == st.st_dev && cn_inputs[i].ino == st.st_ino)
             return 0;
-    if (cn_n_inputs == CN_MAX_INPUTS)
+    if (grow((void **)&cn_inputs, &cn_cap_inputs, cn_n_inputs, sizeof *cn_inputs))
         return -1;
     cn_input *in = &cn_inputs[cn_n_inputs];
     in->dev = st.st_dev;
     in->ino = st.st_ino;
     in->dir = S_ISDIR(st.st_mode);
-    if (!realpath(path, in->real))
+    in->real = NULL;
+    if (in->dir && !(in->real = realpath(path, NULL)))
         return 0;
-    snprintf(in->name, sizeof in->name, "%s", path);
+    if (!(in->name = strdup(path))) {
+        free(in->real);
+        return -1;
+    }
     in->role = role ? role : "the input";
     cn_n_inputs++;
     return 0;
 }
 
-void cn_inputs_clear(void) { cn_n_inputs = 0; }
+void cn_inputs_clear(void)
+{
+    for (int i = 0; i < cn_n_inputs; i++) {
+        free(cn_inputs[i].real);
+        free(cn_inputs[i].name);
+    }
+    for (int i = 0; i < cn_n_outputs; i++)
+        free(cn_outputs[i]);
+    free(cn_inputs);
+    free(cn_outputs);
+    cn_inputs = NULL;
+    cn_outputs = NULL;
+    cn_n_inputs = cn_cap_inputs = cn_n_outputs = cn_cap_outputs = 0;
+}
 
 static const char *kind_of(mode_t m)
 {
@@ -204,10 +237,25 @@ static int may_replace(const char *path, char *err, size_t errlen)
     return not_an_input(path, &out, exists, err, errlen);
 }
 
+static int output_record(const char *path)
+{
+    for (int i = 0; i < cn_n_outputs; i++)
+        if (!strcmp(cn_outputs[i], path))
+            return 0;
+    if (grow((void **)&cn_outputs, &cn_cap_outputs, cn_n_outputs, sizeof *cn_outputs))
+        return -1;
+    if (!(cn_outputs[cn_n_outputs] = strdup(path)))
+        return -1;
+    cn_n_outputs++;
+    return 0;
+}
+
 int cn_output_check(const char *path, char *err, size_t errlen)
 {
     if (may_replace(path, err, errlen))
         return -1;
+    if (output_record(path))
+        return cn_fail(err, errlen, "%s: out of memory", path);
     /* The writer's own temporary name, created and removed: the directory exists and takes
      * a new file. */
     char tmp[PATH_MAX + 32];
@@ -217,6 +265,14 @@ int cn_output_check(const char *path, char *err, size_t errlen)
         return cn_fail(err, errlen, "cannot write %s: %s", path, strerror(errno));
     close(fd);
     unlink(tmp);
+    return 0;
+}
+
+int cn_outputs_recheck(char *err, size_t errlen)
+{
+    for (int i = 0; i < cn_n_outputs; i++)
+        if (may_replace(cn_outputs[i], err, errlen))
+            return -1;
     return 0;
 }
 

@@ -528,6 +528,10 @@ static int read_one(const char *dir, const char *stem, int optional, cn_colmap *
         size_t len;
         if (cn_read_file(path, &data, &len, err, errlen))
             return -1;
+        if (cn_input_add(path, "a camera file of the dataset")) {
+            free(data);
+            return cn_fail(err, errlen, "%s: out of memory", path);
+        }
         const int rc = cn_colmap_parse(path, data, len, m, err, errlen);
         free(data);
         return rc;

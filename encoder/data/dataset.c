@@ -392,6 +392,11 @@ static int cn_frames_load_images(cn_frames *L, const float bg[3], char *err, siz
     free(rc);
     if (bad >= 0)
         return -1;
+    /* An output must not replace an image, wherever it lies (a hard link outside the
+     * dataset's folder, a --train-images folder): the command checks its outputs again. */
+    for (int i = 0; i < L->n; i++)
+        if (cn_input_add(L->f[i].path, "an image of the dataset"))
+            return cn_fail(err, errlen, "out of memory loading %d images", L->n);
     /* Frames whose camera states the image size it is for (COLMAP, instant-ngp's and
      * nerfstudio's w, h) may differ in size, as long as each file has its camera's aspect;
      * the others must all have the same size. */
@@ -542,6 +547,10 @@ static int cn_json_load(const char *path, cJSON **root, char *err, size_t errlen
     size_t len;
     if (cn_read_file_max(path, CN_JSON_MAX, "a camera file", &data, &len, err, errlen) != 0)
         return -1;
+    if (cn_input_add(path, "a camera file of the dataset")) {
+        free(data);
+        return cn_fail(err, errlen, "%s: out of memory", path);
+    }
     const int rc = cn_json_parse(path, data, len, root, err, errlen);
     free(data);
     return rc;
@@ -1218,6 +1227,10 @@ static int cn_llff_cameras(const char *file, cn_llff_cam **cams, int *n, cn_data
     size_t len;
     if (cn_read_file(file, &data, &len, err, errlen) != 0)
         return -1;
+    if (cn_input_add(file, "a camera file of the dataset")) {
+        free(data);
+        return cn_fail(err, errlen, "%s: out of memory", file);
+    }
     const int rc = cn_llff_cameras_mem(file, data, len, cams, n, ds, err, errlen);
     free(data);
     return rc;

@@ -314,6 +314,10 @@ int cn_dtu_read(const char *file, cn_dtu_cam **cams, int *n, char *err, size_t e
     *n = 0;
     if (cn_read_file(file, &data, &len, err, errlen) != 0)
         return -1;
+    if (cn_input_add(file, "a camera file of the dataset")) {
+        free(data);
+        return cn_fail(err, errlen, "%s: out of memory", file);
+    }
     const int rc = cn_dtu_parse(file, data, len, cams, n, err, errlen);
     free(data);
     return rc;

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "cn_file.h"
 #include "cn_train.h"
 
 int cli_load_dataset(const char *cmd, const char *dir, long downscale, long max_size, int black,
@@ -21,6 +22,13 @@ int cli_load_dataset(const char *cmd, const char *dir, long downscale, long max_
     char err[1024];
     if (cn_dataset_load(dir, &o, ds, err, sizeof err))
         return cli_fail(cmd, "%s", err);
+    /* The loader recorded every file it read: an output that is one of them (a hard link to
+     * an image, an image outside the dataset's folder) is refused now, before the work. */
+    char oerr[8400];
+    if (cn_outputs_recheck(oerr, sizeof oerr)) {
+        cn_dataset_free(ds);
+        return cli_fail(cmd, "%s", oerr);
+    }
     if (ds->n_skipped == 1)
         fprintf(stderr, "cnerf %s: warning: %s, frame skipped\n", cmd, ds->skipped);
     else if (ds->n_skipped > 1)

@@ -17,9 +17,9 @@ int cli_check_output(const char *cmd, const char *path, const char *const *input
     char err[8400];
     for (size_t i = 0; i < n_inputs; i++)
         if (cn_input_add(inputs[i], NULL))
-            return cli_fail(cmd, "more than %d inputs", CN_MAX_INPUTS);
+            return cli_fail(cmd, "out of memory recording the inputs");
     if (cn_input_add(dataset, "the dataset"))
-        return cli_fail(cmd, "more than %d inputs", CN_MAX_INPUTS);
+        return cli_fail(cmd, "out of memory recording the inputs");
     if (cn_output_check(path, err, sizeof err))
         return cli_fail(cmd, "%s", err);
     return 0;
@@ -62,7 +62,7 @@ int cli_check_output_dir(const char *cmd, const char *dir, const char *dataset)
 {
     char err[8400];
     if (cn_input_add(dataset, "the dataset"))
-        return cli_fail(cmd, "more than %d inputs", CN_MAX_INPUTS);
+        return cli_fail(cmd, "out of memory recording the inputs");
     if (cn_output_dir_check(dir, err, sizeof err))
         return cli_fail(cmd, "%s", err);
     return 0;

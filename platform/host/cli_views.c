@@ -35,6 +35,13 @@ int cli_eval_views(const cn_model *m, const cn_view *views, int n, int ndc, long
     double sp = 0, ss = 0, st = 0;
     int count = 0;
     char err[1024];
+    /* Every file it will write, checked before the first is: none is one of the inputs. */
+    for (int i = 0; outdir && i < n; i += (int)every) {
+        char path[4096];
+        snprintf(path, sizeof path, "%s/%s.png", outdir, views[i].name);
+        if (cli_check_output("eval", path, NULL, 0, NULL))
+            return -1;
+    }
     for (int i = 0; i < n; i += (int)every) {
         const cn_view *v = &views[i];
         const size_t npx = (size_t)v->w * v->h;

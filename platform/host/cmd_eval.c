@@ -76,7 +76,7 @@ int cmd_eval(int argc, char **argv)
     int n = 0;
     int rc = cli_split_views("eval", &ds, pos[1], split, &views, &n);
     if (rc == 0 && outdir && cn_input_add(pos[0], NULL))
-        rc = cli_fail("eval", "more than %d inputs", CN_MAX_INPUTS);
+        rc = cli_fail("eval", "out of memory recording the inputs");
     if (rc == 0 && outdir && cli_check_output_dir("eval", outdir, pos[1]))
         rc = 1;
     if (rc == 0 && outdir)

@@ -387,7 +387,7 @@ int cmd_render(int argc, char **argv)
                           I->coord == CNERF_COORD_NDC ? "in NDC" : "in world coordinates");
     }
     if (rc == 0 && outdir && cn_input_add(pos[0], NULL))
-        rc = cli_fail("render", "more than %d inputs", CN_MAX_INPUTS);
+        rc = cli_fail("render", "out of memory recording the inputs");
     if (rc == 0 && outdir && cli_check_output_dir("render", outdir, dataset))
         rc = 1;
     if (rc == 0 && outdir)

@@ -97,6 +97,14 @@ int cmd_views(int argc, char **argv)
     if (rc == 0 && !order)
         rc = cli_fail("views", "out of memory");
     char err[1024], path[4200];
+    /* Every file it will write, checked before the first is: none is one of the images. */
+    for (int i = 0; rc == 0 && i <= n; i++) {
+        if (i < n)
+            cli_view_path(path, sizeof path, outdir, i);
+        else
+            snprintf(path, sizeof path, "%s/order.txt", outdir);
+        rc = cli_check_output("views", path, NULL, 0, NULL);
+    }
     for (int i = 0; rc == 0 && i < n; i++) {
         cli_view_path(path, sizeof path, outdir, i);
         if (cli_write_png(path, views[i].rgb, views[i].w, views[i].h, err, sizeof err))

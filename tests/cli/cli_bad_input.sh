@@ -541,11 +541,12 @@ matrix=(
   "eval $work/t.ckpt $D -o DIR/r_0.png --downscale 16 --every 200"
   "views $D -o DIR/0000.png --downscale 16"
   "render $work/s.cnrf --orbit 1 --size 8 -o DIR/orbit_000.png"
+  "eval $work/t.ckpt $D -o DIR/r_0.png --downscale 16 --every 200"
 )
 # (for train, encode and views the input is an image of the dataset, linked outside its
 # folder: known as an input only once the dataset is loaded)
 input_of=("$D/train/r_0.png" "$D/train/r_1.png" "" "$work/t.ckpt" "$work/s.cnrf" "$work/t.ckpt"
-          "$D/train/r_2.png" "$work/s.cnrf")
+          "$D/train/r_2.png" "$work/s.cnrf" "$D/test/r_0.png")
 kinds=(link fifo input)
 [ $have_dev = 1 ] && kinds+=(dev)
 m=0
