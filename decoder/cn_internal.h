@@ -51,6 +51,11 @@ typedef struct cn_state {
                    const int32_t *bq, int32_t *y, int relu);
     const uint8_t *grid;    /* occupancy bitmap, bit (z g + y) g + x, LSB first; NULL: none */
     uint32_t grid_occupied; /* occupied cells */
+    /* The grid's summary, made at open (open.c, build_summary): levels k = 1, 2, ... of
+     * ceil(g / 2^k)^3 cells down to one cell, stored one after another bit by bit, a cell
+     * set when any grid cell it covers is occupied. The renderer rules out a stretch of a
+     * ray with a few of its bits. */
+    const uint8_t *grid_summary;
 } cn_state;
 
 /* The state in dec's opaque part (whose union aligns it for pointers and 64-bit integers;

@@ -20,6 +20,20 @@ static uint32_t alphabet(const cnerf_layer_info *L)
 /* Bytes of the occupancy bitmap of g^3 cells (g <= CNERF_MAX_GRID: at most 2^18). */
 static size_t grid_bitmap_bytes(uint32_t g) { return ((size_t)g * g * g + 7u) >> 3; }
 
+/* Bits of the grid's summary (cn_grid_levels): level k >= 1 has ceil(g / 2^k)^3 cells, each
+ * set when one of the 2x2x2 cells it covers at level k - 1 is, down to a single cell. At
+ * most g^3 bits for g >= 2 (the levels of a cube of side 2^n sum to (8^n - 1) / 7 <= g^3,
+ * and ceil adds at most that much again for other sides). */
+static size_t grid_summary_bytes(uint32_t g)
+{
+    size_t bits = 0;
+    for (uint32_t k = g; k > 1u;) {
+        k = (k + 1u) >> 1;
+        bits += (size_t)k * k * k;
+    }
+    return (bits + 7u) >> 3;
+}
+
 /* Inputs of a layer padded to whole pairs (the kernels take two at a time). */
 static uint32_t in_pad(const cnerf_layer_info *L) { return ((uint32_t)L->n_in + 1u) & ~1u; }
 
@@ -47,7 +61,8 @@ size_t cnerf_workspace_size(const cnerf_info *info)
         scratch = rows4 > scratch ? rows4 : scratch;
     }
     if (info->grid_g)
-        total += align8(grid_bitmap_bytes(info->grid_g));
+        total += align8(grid_bitmap_bytes(info->grid_g)) +
+                 align8(grid_summary_bytes(info->grid_g));
     return total + align8(scratch);
 }
 
@@ -283,6 +298,32 @@ static void prove_layer(cnerf_decoder *dec, uint32_t l, uint32_t maxsum, uint32_
         ds->b_shift[l] = (uint8_t)nb;
 }
 
+/* ---- the grid's summary ---- */
+
+/* Each level of the summary from the one below it (level 0: the grid itself), into `out`,
+ * the levels one after another bit by bit (cn_grid_level_at). */
+static void build_summary(const uint8_t *grid, uint32_t g, uint8_t *out)
+{
+    cn_memzero(out, grid_summary_bytes(g));
+    const uint8_t *src = grid;
+    uint32_t src_off = 0, n = g, dst_off = 0;
+    while (n > 1u) {
+        const uint32_t m = (n + 1u) >> 1;
+        for (uint32_t z = 0; z < n; z++)
+            for (uint32_t y = 0; y < n; y++)
+                for (uint32_t x = 0; x < n; x++) {
+                    if (!cn_grid_bit(src, src_off + (z * n + y) * n + x))
+                        continue;
+                    const uint32_t i = dst_off + ((z >> 1) * m + (y >> 1)) * m + (x >> 1);
+                    out[i >> 3] = (uint8_t)(out[i >> 3] | (1u << (i & 7u)));
+                }
+        src = out;
+        src_off = dst_off;
+        dst_off += m * m * m;
+        n = m;
+    }
+}
+
 /* ---- cnerf_open ---- */
 
 /* The workspace's layout: per layer its packed latents (and shifts), bias mantissas, Q16
@@ -310,6 +351,8 @@ static uint8_t *lay_out(cnerf_decoder *dec, uint8_t *w)
     if (info->grid_g) {
         ds->grid = w;
         w += align8(grid_bitmap_bytes(info->grid_g));
+        ds->grid_summary = w;
+        w += align8(grid_summary_bytes(info->grid_g));
     }
     return w;
 }
@@ -375,6 +418,8 @@ cnerf_status cnerf_open_scene(cnerf_decoder *dec, const uint8_t *buf, size_t len
             st = cn_grid_decode(buf + info->grid_payload_offset, info->grid_payload_bytes,
                                 info->grid_g, info->grid_prec, info->grid_f1,
                                 (uint8_t *)(uintptr_t)ds->grid, &ds->grid_occupied);
+        if (info->grid_g && st == CNERF_OK)
+            build_summary(ds->grid, info->grid_g, (uint8_t *)(uintptr_t)ds->grid_summary);
         for (uint32_t l = 0; st == CNERF_OK && l < info->n_layers; l++)
             st = open_layer(dec, buf, l, scratch);
     }

@@ -21,6 +21,7 @@
 #define MAX_UV_Q28 ((int64_t)2 << 28) /* |u|, |v| <= 2 at the image corners */
 #define MAX_POS_Q32 ((int64_t)1 << 47) /* camera centre within +-2^15 world units */
 #define MAX_DEPTH_Q16 ((int64_t)32 << 16) /* optical depth beyond which T is 0 in Q30 */
+#define CN_BLOCK 8u /* pixels a side of the blocks tested whole for the background */
 
 /* ---- tables ---- */
 
@@ -294,6 +295,9 @@ typedef struct scratch {
     int32_t *vpe;               /* the ray's encoded view direction */
     int16_t *xq;                /* a layer's inputs at its scale, padded to pairs */
     int32_t *acc;               /* a layer's sums, one per live row */
+    uint8_t *maybe;             /* the coarse bins that may hold a density */
+    uint16_t *bin_f, *bin_all;  /* the bins of the fine and of the merged samples */
+    uint16_t *prior;            /* a block's marked bins before each bin (mark_bins) */
 } scratch;
 
 static uint32_t max_width(const cnerf_info *I, int view)
@@ -326,12 +330,13 @@ static size_t carve(const cnerf_info *I, uint8_t *base, scratch *s)
     const size_t nc = I->n_coarse, nf = I->n_fine, W = max_width(I, 0), V = max_width(I, 1);
     size_t xin, yout;
     layer_extent(I, &xin, &yout);
-    const size_t sizes[10] = {8 * nc, 8 * (nf ? nf : 1), 8 * (nc + nf), 4 * nc,
+    const size_t sizes[14] = {8 * nc, 8 * (nf ? nf : 1), 8 * (nc + nf), 4 * nc,
                               4 * (I->in_pos + W), 4 * (I->in_pos + W), 4 * (W + I->in_dir),
-                              4 * V + 4 * (size_t)I->in_dir, 2 * xin, 4 * yout};
-    void *p[10];
+                              4 * V + 4 * (size_t)I->in_dir, 2 * xin, 4 * yout,
+                              nc, 2 * (nf ? nf : 1), 2 * (nc + nf), 2 * (nc + 1)};
+    void *p[14];
     size_t off = 0;
-    for (unsigned i = 0; i < 10; i++) {
+    for (unsigned i = 0; i < 14; i++) {
         p[i] = base ? base + off : (void *)0;
         off += round8(sizes[i]);
     }
@@ -347,6 +352,10 @@ static size_t carve(const cnerf_info *I, uint8_t *base, scratch *s)
         s->vpe = s->view_h + V;
         s->xq = (int16_t *)p[8];
         s->acc = (int32_t *)p[9];
+        s->maybe = (uint8_t *)p[10];
+        s->bin_f = (uint16_t *)p[11];
+        s->bin_all = (uint16_t *)p[12];
+        s->prior = (uint16_t *)p[13];
     }
     return off;
 }
@@ -421,8 +430,9 @@ static void net_color(const cnerf_decoder *dec, unsigned net, const scratch *s, 
 typedef struct ray {
     int64_t o[3];   /* origin, Q32 */
     int32_t d[3];   /* direction, Q28 */
-    int64_t vd[3];  /* unit view direction, Q32 */
-    int32_t dn;     /* |d| in Q27 */
+    int64_t d0[3];  /* the camera's direction (before NDC), Q28 */
+    int64_t vd[3];  /* unit view direction, Q32 (ray_finish) */
+    int32_t dn;     /* |d| in Q27 (ray_finish) */
 } ray;
 
 /* |v| of a Q28 vector in Q28 (< 2^32). */
@@ -434,25 +444,31 @@ static uint32_t norm_q28(const int64_t v[3])
     return cn_isqrt64(s);
 }
 
-/* The ray through pixel (x, y); 0 when it cannot be represented (then the pixel shows the
- * background: NDC rays parallel to the image plane or leaving the Q28 range). */
-static int make_ray(const cnerf_info *I, const cnerf_camera *c, int64_t sx_q28, int64_t sy_q28,
-                    uint32_t x, uint32_t y, ray *r)
+/* The ray through the pixel whose image-plane coordinates are u, v (Q28: (x + 1/2 - cx) /
+ * fx and -(y + 1/2 - cy) / fy, rounded half away from zero); 0 when it cannot be
+ * represented (then the pixel shows the background: a zero direction, NDC rays parallel to
+ * the image plane or leaving the Q28 range). The unit view direction and |d| come after,
+ * from ray_finish, for the rays that meet the scene. */
+/* Axis a of the camera's direction through image-plane point (u, v) (Q28), |d_a| <= 5 2^28:
+ * the rounding of a function affine in u and v. */
+static int64_t cam_dir(const cnerf_camera *c, unsigned a, int64_t u, int64_t v)
 {
-    const int64_t u = cn_sdiv_frac((int64_t)x * 65536 + 32768 - c->cx, c->fx, 28);
-    const int64_t v = -cn_sdiv_frac((int64_t)y * 65536 + 32768 - c->cy, c->fy, 28);
+    const int64_t acc = (int64_t)c->rot[3 * a] * u + (int64_t)c->rot[3 * a + 1] * v -
+                        (int64_t)c->rot[3 * a + 2] * ((int64_t)1 << 28);
+    return cn_asr64(acc + ((int64_t)1 << 29), 30);
+}
+
+static int make_ray(const cnerf_info *I, const cnerf_camera *c, int64_t sx_q28, int64_t sy_q28,
+                    int64_t u, int64_t v, ray *r)
+{
     int64_t d[3];
     for (unsigned a = 0; a < 3; a++) {
-        const int64_t acc = (int64_t)c->rot[3 * a] * u + (int64_t)c->rot[3 * a + 1] * v -
-                            (int64_t)c->rot[3 * a + 2] * ((int64_t)1 << 28);
-        d[a] = cn_asr64(acc + ((int64_t)1 << 29), 30); /* |d_a| <= 5 2^28 */
+        d[a] = cam_dir(c, a, u, v);
         r->o[a] = c->pos[a];
+        r->d0[a] = d[a];
     }
-    const uint32_t n = norm_q28(d);
-    if (n == 0)
-        return 0;
-    for (unsigned a = 0; a < 3; a++)
-        r->vd[a] = cn_sdiv_frac(d[a], n, 32);
+    if (d[0] == 0 && d[1] == 0 && d[2] == 0)
+        return 0; /* |d| = 0 */
     if (I->coord == CNERF_COORD_NDC) {
         /* Move to the near plane z = -1, then warp (docs/rendering.md). */
         if (d[2] == 0)
@@ -478,17 +494,71 @@ static int make_ray(const cnerf_info *I, const cnerf_camera *c, int64_t sx_q28, 
     }
     for (unsigned a = 0; a < 3; a++)
         r->d[a] = (int32_t)d[a];
+    return 1;
+}
+
+/* The unit view direction (from the camera's direction) and |d| of a ray from make_ray. */
+static void ray_finish(ray *r)
+{
+    const uint32_t n = norm_q28(r->d0); /* > 0: make_ray refused a zero direction */
+    for (unsigned a = 0; a < 3; a++)
+        r->vd[a] = cn_sdiv_frac(r->d0[a], n, 32);
     const int64_t dd[3] = {r->d[0], r->d[1], r->d[2]};
     r->dn = (int32_t)(norm_q28(dd) >> 1);
-    return 1;
+}
+
+/* u = round((p + 1/2 - c) / f) in Q28 (halves away from zero) for the pixels p = p0, p0 + 1,
+ * ... of a row or a column, one addition each: N = (p 2^16 + 2^15 - c) 2^29 is kept as
+ * q f + r with 0 <= r < f (f > 0, Q16), and u = sign(N) round(|N| / (2 f)) follows from q
+ * and r. |N| < 2^62: the camera's check bounds |u| by 2 over the image. */
+typedef struct pixel_coord {
+    int64_t q;
+    uint64_t r, f, step_q, step_r; /* 2^45 = step_q f + step_r */
+} pixel_coord;
+
+/* The step of pixel coordinates with focal length f (Q16, > 0): once per tile. */
+static void coord_setup(pixel_coord *pc, int64_t f)
+{
+    pc->f = (uint64_t)f;
+    pc->step_q = cn_udiv_frac(1, pc->f, 45);
+    pc->step_r = ((uint64_t)1 << 45) - pc->step_q * pc->f;
+}
+
+/* Starts at pixel p0 with principal point c (Q16), after coord_setup. */
+static void coord_start(pixel_coord *pc, uint32_t p0, int64_t c)
+{
+    const int64_t n0 = (int64_t)p0 * 65536 + 32768 - c, n = n0 * ((int64_t)1 << 29);
+    const uint64_t qa = cn_udiv_frac(cn_abs64(n0), pc->f, 29), ra = cn_abs64(n) - qa * pc->f;
+    /* floor(n / f) and its remainder from |n|'s */
+    pc->q = n >= 0 ? (int64_t)qa : -(int64_t)qa - (ra != 0);
+    pc->r = n >= 0 || ra == 0 ? ra : pc->f - ra;
+}
+
+static int64_t coord_value(const pixel_coord *pc)
+{
+    /* |N| / f floored: q for N >= 0; for N < 0, -q - 1 when r > 0, else -q */
+    if (pc->q >= 0)
+        return (pc->q + 1) >> 1;
+    const int64_t qa = -pc->q - (pc->r != 0);
+    return -((qa + 1) >> 1);
+}
+
+static void coord_next(pixel_coord *pc)
+{
+    pc->q += (int64_t)pc->step_q;
+    pc->r += pc->step_r;
+    if (pc->r >= pc->f) {
+        pc->r -= pc->f;
+        pc->q++;
+    }
 }
 
 /* ---- sampling ---- */
 
 /* Fine samples from the coarse weights (docs/rendering.md): quantile j = (2j + 1) / (2 nf)
  * of the pdf (w_i + eps) / sum, compared in integers as (2j + 1) W >= 2 nf U_i. */
-static void sample_fine(int64_t *t, unsigned nf, const uint32_t *w, unsigned nc, int64_t near,
-                        int64_t step)
+static void sample_fine(int64_t *t, uint16_t *bin, unsigned nf, const uint32_t *w, unsigned nc,
+                        int64_t near, int64_t step)
 {
     uint64_t total = 0;
     for (unsigned i = 0; i < nc; i++)
@@ -505,6 +575,7 @@ static void sample_fine(int64_t *t, unsigned nf, const uint32_t *w, unsigned nc,
         const uint64_t num = target - two_nf * below, den = two_nf * ((uint64_t)w[i] + PDF_EPS_Q30);
         const uint64_t f = num >= den ? (uint64_t)1 << 24 : cn_udiv_frac(num, den, 24);
         t[j] = near + (int64_t)i * step + cn_mul_exp(step, (int32_t)f, -24);
+        bin[j] = (uint16_t)i; /* near + i step <= t[j] <= near + (i + 1) step */
     }
 }
 
@@ -517,10 +588,12 @@ typedef struct march {
 
 /* The occupancy grid's integer cell mapping (docs/bitstream.md, GRID), set up per tile. */
 typedef struct gridmap {
-    const uint8_t *bits; /* NULL: no grid, or ignored */
+    const uint8_t *bits;    /* NULL: no grid, or ignored */
+    const uint8_t *summary; /* its summary (cn_state.grid_summary) */
     uint32_t g;
-    int64_t lo[3];       /* box minimum, Q32 */
-    uint64_t r[3];       /* floor(g 2^32 / w), w the box's width in Q16 */
+    uint32_t n[9], off[9];  /* level k's cells per axis and its first bit (k >= 1: in summary) */
+    int64_t lo[3], hi[3];   /* box minimum and maximum, Q32 */
+    uint64_t r[3];          /* floor(g 2^32 / w), w the box's width in Q16 */
 } gridmap;
 
 static void gridmap_init(const cnerf_decoder *dec, int skip, gridmap *gm)
@@ -528,9 +601,17 @@ static void gridmap_init(const cnerf_decoder *dec, int skip, gridmap *gm)
     const cn_state *ds = cn_cstate_of(dec);
     const cnerf_info *I = &dec->info;
     gm->bits = skip && I->grid_g ? ds->grid : (const uint8_t *)0;
+    gm->summary = ds->grid_summary;
     gm->g = I->grid_g;
+    gm->n[0] = gm->g;
+    gm->off[0] = 0;
+    for (unsigned k = 1; k < 9u; k++) { /* g <= 128: level 7 has one cell */
+        gm->n[k] = (gm->n[k - 1u] + 1u) >> 1;
+        gm->off[k] = k == 1u ? 0u : gm->off[k - 1u] + gm->n[k - 1u] * gm->n[k - 1u] * gm->n[k - 1u];
+    }
     for (unsigned a = 0; a < 3; a++) {
         gm->lo[a] = (int64_t)I->aabb_q16[a] * 65536;
+        gm->hi[a] = (int64_t)I->aabb_q16[a + 3] * 65536;
         /* 0 < w < 2^32 by the header checks */
         const uint64_t w = (uint64_t)((int64_t)I->aabb_q16[a + 3] - I->aabb_q16[a]);
         gm->r[a] = gm->bits ? cn_udiv_frac(gm->g, w, 32) : 0u;
@@ -546,6 +627,168 @@ static int occupied(const gridmap *gm, const int64_t p[3])
     for (unsigned a = 0; a < 3; a++)
         c[a] = cn_grid_cell((uint64_t)(p[a] - gm->lo[a]) >> 16, gm->r[a], gm->g);
     return (int)cn_grid_bit(gm->bits, (c[2] * gm->g + c[1]) * gm->g + c[0]);
+}
+
+/* ---- ruling out stretches of a ray ---- */
+
+/* 1 when a cell of the box of cells c0..c1 (inclusive, per axis) may be occupied: at the
+ * first level of the grid and its summary where the box spans at most two cells per axis,
+ * one of those (at most eight) is set. Never 0 for a box holding an occupied cell. */
+static int cells_maybe(const gridmap *gm, const uint32_t c0[3], const uint32_t c1[3])
+{
+    /* the first level k where the box spans at most two cells: from the widest span's bit
+     * length less one (at most one level short of it) */
+    uint32_t span = (c1[0] - c0[0]) | (c1[1] - c0[1]) | (c1[2] - c0[2]);
+    unsigned k = 0;
+    while (span > 1u) {
+        span >>= 1;
+        k++;
+    }
+    k = k ? k - 1u : 0u;
+    while ((c1[0] >> k) - (c0[0] >> k) > 1u || (c1[1] >> k) - (c0[1] >> k) > 1u ||
+           (c1[2] >> k) - (c0[2] >> k) > 1u)
+        k++; /* at most twice; the last level has one cell */
+    const uint8_t *bits = k ? gm->summary : gm->bits;
+    const uint32_t n = gm->n[k], off = gm->off[k];
+    for (uint32_t z = c0[2] >> k; z <= c1[2] >> k; z++)
+        for (uint32_t y = c0[1] >> k; y <= c1[1] >> k; y++)
+            for (uint32_t x = c0[0] >> k; x <= c1[0] >> k; x++)
+                if (cn_grid_bit(bits, off + (z * n + y) * n + x))
+                    return 1;
+    return 0;
+}
+
+/* A ray's positions at the coarse bins' edges e_i = near + i step, i = 0..nc, as mark_bins
+ * bounds them: o + e_i d (what ray_at gives) lies within m of base + i inc on every axis
+ * (Q32): base is exact, inc = round(step d) is within 1/2 of step d, so i inc is within
+ * i / 2 of i step d, plus 1/2 for the rounding of e_i d itself. */
+typedef struct edges {
+    int64_t base[3], inc[3], m;
+} edges;
+
+/* 0 when no position p with mn <= p <= mx (Q32, axis by axis) can have a density: outside
+ * the bounds on some axis, or in cells the grid has empty (the cell of a position is
+ * monotone in it, cn_grid_cell, so those cells lie between the cells of the clipped ends). */
+static int box_maybe(const gridmap *gm, const int64_t mn[3], const int64_t mx[3])
+{
+    uint32_t c0[3], c1[3];
+    for (unsigned i = 0; i < 3; i++) {
+        if (mx[i] < gm->lo[i] || mn[i] > gm->hi[i])
+            return 0;
+        if (!gm->bits)
+            continue;
+        const int64_t a = mn[i] < gm->lo[i] ? gm->lo[i] : mn[i];
+        const int64_t b = mx[i] > gm->hi[i] ? gm->hi[i] : mx[i];
+        c0[i] = cn_grid_cell((uint64_t)(a - gm->lo[i]) >> 16, gm->r[i], gm->g);
+        c1[i] = cn_grid_cell((uint64_t)(b - gm->lo[i]) >> 16, gm->r[i], gm->g);
+    }
+    return gm->bits ? cells_maybe(gm, c0, c1) : 1;
+}
+
+/* 0 when no sample of the bins lo..hi-1 can have a density: its position lies, axis by
+ * axis, between the positions at the stretch's two ends. */
+static int span_maybe(const gridmap *gm, const edges *E, unsigned lo, unsigned hi)
+{
+    int64_t mn[3], mx[3];
+    for (unsigned i = 0; i < 3; i++) {
+        const int64_t a = E->base[i] + (int64_t)lo * E->inc[i];
+        const int64_t b = E->base[i] + (int64_t)hi * E->inc[i];
+        mn[i] = (a < b ? a : b) - E->m;
+        mx[i] = (a < b ? b : a) + E->m;
+    }
+    return box_maybe(gm, mn, mx);
+}
+
+/* The position o + t d (Q32) of ray parameter t (Q32), as the marcher computes it. */
+static void ray_at(const ray *r, int64_t t, int64_t p[3])
+{
+    for (unsigned a = 0; a < 3; a++)
+        p[a] = r->o[a] + cn_mul_exp(t, r->d[a], -28);
+}
+
+/* What mark_bins rules out stretches of: one ray (its edges), or a block of rays (their
+ * origin and the range of each axis of their directions, Q28; block_range). */
+typedef struct stretch {
+    const edges *E;        /* one ray; NULL: the block */
+    const int64_t *o;      /* the block's origin, Q32 */
+    int64_t dl[3], dh[3];  /* the block's directions, widened */
+    int64_t near, step;
+} stretch;
+
+/* The positions of the block's rays at t in [ta, tb] (0 <= ta <= tb) lie within mn..mx:
+ * each axis of o + t d is monotone in t (t >= 0) and in d, so its extremes are at the
+ * corners. */
+static int block_span_maybe(const gridmap *gm, const stretch *S, unsigned lo, unsigned hi)
+{
+    const int64_t ta = S->near + (int64_t)lo * S->step, tb = S->near + (int64_t)hi * S->step;
+    int64_t mn[3], mx[3];
+    for (unsigned a = 0; a < 3; a++) {
+        const int64_t p[4] = {cn_mul_exp(ta, (int32_t)S->dl[a], -28),
+                              cn_mul_exp(ta, (int32_t)S->dh[a], -28),
+                              cn_mul_exp(tb, (int32_t)S->dl[a], -28),
+                              cn_mul_exp(tb, (int32_t)S->dh[a], -28)};
+        int64_t l = p[0], h = p[0];
+        for (unsigned i = 1; i < 4; i++) {
+            l = p[i] < l ? p[i] : l;
+            h = p[i] > h ? p[i] : h;
+        }
+        mn[a] = S->o[a] + l;
+        mx[a] = S->o[a] + h;
+    }
+    return box_maybe(gm, mn, mx);
+}
+
+/* Which of the coarse bins [e_i, e_i+1], e_i = near + i step, i < nc, may hold a sample
+ * with a density: maybe[i] = 1, else 0. Every sample of a stretch of bins lies, axis by
+ * axis, between the positions its ends bound (span_maybe, block_span_maybe): a stretch
+ * ruled out holds no density; the others are halved down to single bins. The coarse sample
+ * of bin i and the fine samples drawn in it (sample_fine) lie in it. `prior` (NULL: none)
+ * counts, before each bin, the bins a block's marking left: a stretch of none of them is
+ * ruled out untested. Not for contracted scenes, whose positions are not affine in t.
+ * Returns the bins marked. */
+static unsigned mark_bins(const gridmap *gm, const stretch *S, unsigned nc,
+                          const uint16_t *prior, uint8_t *maybe)
+{
+    uint16_t stack[2u * 12u]; /* depth <= log2(CNERF_MAX_SAMPLES) + 1 = 11 */
+    unsigned top = 1, marked = 0;
+    stack[0] = 0;
+    stack[1] = (uint16_t)nc;
+    while (top) {
+        top--;
+        const unsigned lo = stack[2u * top], hi = stack[2u * top + 1u];
+        const int none = prior && prior[hi] == prior[lo];
+        if (none || !(S->E ? span_maybe(gm, S->E, lo, hi) : block_span_maybe(gm, S, lo, hi))) {
+            for (unsigned i = lo; i < hi; i++)
+                maybe[i] = 0;
+            continue;
+        }
+        if (hi - lo == 1u) {
+            maybe[lo] = 1;
+            marked++;
+            continue;
+        }
+        const unsigned mid = (lo + hi) >> 1;
+        stack[2u * top] = (uint16_t)mid; /* the far half after the near one */
+        stack[2u * top + 1u] = (uint16_t)hi;
+        stack[2u * top + 2u] = (uint16_t)lo;
+        stack[2u * top + 3u] = (uint16_t)mid;
+        top += 2u;
+    }
+    return marked;
+}
+
+/* mark_bins for one ray (edges: its positions at the bins' edges). */
+static unsigned mark_ray_bins(const gridmap *gm, const ray *r, int64_t near, int64_t step,
+                              unsigned nc, const uint16_t *prior, uint8_t *maybe)
+{
+    edges E;
+    ray_at(r, near, E.base);
+    for (unsigned a = 0; a < 3; a++)
+        E.inc[a] = cn_mul_exp(step, r->d[a], -28);
+    E.m = (int64_t)nc + 1; /* nc / 2 + 1/2, rounded up */
+    stretch S;
+    S.E = &E;
+    return mark_bins(gm, &S, nc, prior, maybe);
 }
 
 /* ---- contracted scenes (docs/rendering.md) ---- */
@@ -594,12 +837,20 @@ static int inside(const cnerf_info *I, const int64_t p[3])
     return 1;
 }
 
+/* What a march may skip: the bins mark_bins ruled out, and each sample's bin. */
+typedef struct bins {
+    const uint8_t *maybe; /* NULL: none ruled out */
+    const uint16_t *of;   /* the bin of sample i; NULL: bin i (the coarse samples) */
+    int count;            /* count the ruled-out samples inside the bounds in stats->in_bounds */
+} bins;
+
 /* Marches one network along the ray. The colour branch runs only for samples that add to the
  * image: with color 0 (the coarse pass before a fine one, whose colour is not shown) never,
- * else only where the weight is positive; either way the image is the same bits. */
+ * else only where the weight is positive; either way the image is the same bits. A sample in
+ * a bin ruled out has no density, as outside the bounds or in an empty cell. */
 static void march_ray(const cnerf_decoder *dec, unsigned net, const scratch *s, const ray *r,
                       const gridmap *gm, const int64_t *t, unsigned n, int64_t far,
-                      uint32_t t_stop, int color, uint32_t *w, march *m,
+                      uint32_t t_stop, int color, uint32_t *w, const bins *b, march *m,
                       cnerf_render_stats *stats)
 {
     const cnerf_info *I = &dec->info;
@@ -613,14 +864,18 @@ static void march_ray(const cnerf_decoder *dec, unsigned net, const scratch *s, 
         if (T < t_stop || T == 0) {
             continue;
         }
+        const int ruled_out = b->maybe && !b->maybe[b->of ? b->of[i] : i];
+        if (ruled_out && !b->count)
+            continue;
         int64_t p[3];
-        for (unsigned a = 0; a < 3; a++)
-            p[a] = r->o[a] + cn_mul_exp(t[i], r->d[a], -28);
+        ray_at(r, t[i], p);
         if (I->coord == CNERF_COORD_CONTRACT)
             contract(I, p);
         if (!inside(I, p))
             continue;
         stats->in_bounds++;
+        if (ruled_out)
+            continue;
         if (!occupied(gm, p))
             continue; /* an empty cell: density 0, like a sample outside the bounds */
         stats->evals++;
@@ -651,6 +906,56 @@ static void march_ray(const cnerf_decoder *dec, unsigned net, const scratch *s, 
             m->rgb[c] += (int64_t)wi * sigmoid_q16(raw[c]);
     }
     m->T = T;
+}
+
+/* The directions of a block of pixels whose image-plane coordinates span u0..u1 and v0..v1
+ * (Q28; u and v are monotone in the pixel), axis by axis, into S: each axis of a ray's
+ * direction is within 1 of the affine function it rounds, whose extremes over the block are
+ * at its corners, so it lies within the corners' directions widened by 2. Not for NDC, whose
+ * directions are not affine in the pixel. */
+static void block_range(const cnerf_camera *c, int64_t u0, int64_t u1, int64_t v0, int64_t v1,
+                        stretch *S)
+{
+    S->E = (const edges *)0;
+    S->o = c->pos;
+    for (unsigned a = 0; a < 3; a++) {
+        const int64_t k[4] = {cam_dir(c, a, u0, v0), cam_dir(c, a, u1, v0),
+                              cam_dir(c, a, u0, v1), cam_dir(c, a, u1, v1)};
+        int64_t dl = k[0], dh = k[0];
+        for (unsigned i = 1; i < 4; i++) {
+            dl = k[i] < dl ? k[i] : dl;
+            dh = k[i] > dh ? k[i] : dh;
+        }
+        S->dl[a] = dl - 2; /* |d| <= 5 2^28 + 2: int32 */
+        S->dh[a] = dh + 2;
+    }
+}
+
+/* The samples of one ray through both networks into m (make_ray gave it). */
+static void render_ray(const cnerf_decoder *dec, const scratch *s, ray *r, const gridmap *gm,
+                       const cnerf_render_opts *o, unsigned nc, unsigned nf, int64_t near,
+                       int64_t step, int64_t far, bins *b, march *m, cnerf_render_stats *stats)
+{
+    const cnerf_info *I = &dec->info;
+    const unsigned net = nf ? 1u : 0u;
+    ray_finish(r);
+    posenc(s->vpe, r->vd, I->l_dir, I->pe_flags & CNERF_PE_INCLUDE_INPUT);
+    march_ray(dec, 0, s, r, gm, s->t_c, nc, far, o->t_stop, net == 0, s->w_c, b, m, stats);
+    if (net == 0)
+        return;
+    sample_fine(s->t_f, s->bin_f, nf, s->w_c, nc, near, step);
+    if (I->coord == CNERF_COORD_CONTRACT)
+        for (unsigned j = 0; j < nf; j++)
+            s->t_f[j] = ray_t(I, s->t_f[j]);
+    unsigned i = 0, j = 0, k = 0;
+    while (i < nc || j < nf) {
+        const int coarse = j == nf || (i < nc && s->t_c[i] <= s->t_f[j]);
+        s->bin_all[k] = coarse ? (uint16_t)i : s->bin_f[j];
+        s->t_all[k++] = coarse ? s->t_c[i++] : s->t_f[j++];
+    }
+    b->of = s->bin_all;
+    march_ray(dec, 1, s, r, gm, s->t_all, nc + nf, far, o->t_stop, 1, (uint32_t *)0, b, m,
+              stats);
 }
 
 static uint8_t to_u8(int64_t rgb_q46, uint32_t T, uint8_t bg)
@@ -712,7 +1017,7 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
     if (opts)
         o = *opts;
     if (o.n_coarse < 1u || o.n_coarse > I->n_coarse || o.n_fine > I->n_fine ||
-        (o.flags & ~CNERF_RENDER_NO_SKIP))
+        (o.flags & ~(CNERF_RENDER_NO_SKIP | CNERF_RENDER_EVERY_SAMPLE)))
         return CNERF_E_ARG;
     if (I->n_nets > 1 && o.n_fine == 0 && !cnerf_net_has_color(I, 0))
         return CNERF_E_ARG; /* the coarse network's image, of a stream without its colour */
@@ -732,7 +1037,6 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
     cnerf_render_stats stats; /* field by field: an initializer may become a memset call */
     stats.rays = stats.evals = stats.in_bounds = stats.macs = 0;
     const unsigned nc = o.n_coarse, nf = I->n_nets > 1 ? o.n_fine : 0;
-    const unsigned net = nf ? 1u : 0u;
     /* The sampling interval [near, far] in Q32; contracted scenes sample s in
      * [0, 2 - 2^-CNERF_CONTRACT_SHIFT] and march at the distances ray_t(s). */
     const int contracted = I->coord == CNERF_COORD_CONTRACT;
@@ -754,35 +1058,75 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
             return CNERF_E_ARG;
     }
 
-    for (uint32_t yy = 0; yy < h; yy++) {
-        uint8_t *row = rgb + (size_t)yy * stride;
-        for (uint32_t xx = 0; xx < w; xx++) {
-            ray r;
-            march m;
-            m.T = 1u << 30;
-            m.rgb[0] = m.rgb[1] = m.rgb[2] = 0;
-            if (make_ray(I, cam, sx, sy, x0 + xx, y0 + yy, &r)) {
-                posenc(s.vpe, r.vd, I->l_dir, I->pe_flags & CNERF_PE_INCLUDE_INPUT);
-                march_ray(dec, 0, &s, &r, &gm, s.t_c, nc, far, o.t_stop, net == 0, s.w_c, &m,
-                          &stats);
-                if (net == 1) {
-                    sample_fine(s.t_f, nf, s.w_c, nc, near, step);
-                    if (contracted)
-                        for (unsigned j = 0; j < nf; j++)
-                            s.t_f[j] = ray_t(I, s.t_f[j]);
-                    unsigned i = 0, j = 0, k = 0;
-                    while (i < nc && j < nf)
-                        s.t_all[k++] = s.t_c[i] <= s.t_f[j] ? s.t_c[i++] : s.t_f[j++];
-                    while (i < nc)
-                        s.t_all[k++] = s.t_c[i++];
-                    while (j < nf)
-                        s.t_all[k++] = s.t_f[j++];
-                    march_ray(dec, 1, &s, &r, &gm, s.t_all, nc + nf, far, o.t_stop, 1,
-                              (uint32_t *)0, &m, &stats);
+    /* The image-plane coordinates of the tile's pixels, one addition per pixel. */
+    pixel_coord pu, pv;
+    coord_setup(&pu, cam->fx);
+    coord_setup(&pv, cam->fy);
+    /* Stretches of rays are ruled out where the positions are affine in t, and their
+     * samples are then counted only when the caller asks for the work done; where the
+     * directions are affine in the pixel too, whole blocks of pixels. */
+    const int count = stats_out != (cnerf_render_stats *)0;
+    const int rule_out = !contracted && !(o.flags & CNERF_RENDER_EVERY_SAMPLE);
+    const int by_block = rule_out && !count && I->coord != CNERF_COORD_NDC;
+    uint8_t bgpx[3];
+    for (unsigned c = 0; c < 3; c++)
+        bgpx[c] = to_u8(0, 1u << 30, I->background[c]);
+    for (uint32_t by = 0; by < h; by += CN_BLOCK) {
+        const uint32_t bh = h - by < CN_BLOCK ? h - by : CN_BLOCK;
+        for (uint32_t bx = 0; bx < w; bx += CN_BLOCK) {
+            const uint32_t bw = w - bx < CN_BLOCK ? w - bx : CN_BLOCK;
+            coord_start(&pv, y0 + by, cam->cy);
+            coord_start(&pu, x0 + bx, cam->cx);
+            const uint16_t *prior = (const uint16_t *)0;
+            if (by_block) {
+                /* the bins that may hold a density for some ray of the block */
+                pixel_coord u1 = pu, v1 = pv;
+                coord_start(&u1, x0 + bx + bw - 1u, cam->cx);
+                coord_start(&v1, y0 + by + bh - 1u, cam->cy);
+                stretch S;
+                block_range(cam, coord_value(&pu), coord_value(&u1), -coord_value(&pv),
+                            -coord_value(&v1), &S);
+                S.near = near;
+                S.step = step;
+                if (!mark_bins(&gm, &S, nc, (const uint16_t *)0, s.maybe)) {
+                    for (uint32_t yy = by; yy < by + bh; yy++)
+                        for (uint32_t xx = bx; xx < bx + bw; xx++)
+                            for (unsigned c = 0; c < 3; c++)
+                                rgb[(size_t)yy * stride + 3u * xx + c] = bgpx[c];
+                    continue;
+                }
+                s.prior[0] = 0;
+                for (unsigned i = 0; i < nc; i++)
+                    s.prior[i + 1u] = (uint16_t)(s.prior[i] + s.maybe[i]);
+                prior = s.prior;
+            }
+            const pixel_coord pu0 = pu; /* every row of the block starts at bx */
+            for (uint32_t yy = by; yy < by + bh; yy++, coord_next(&pv)) {
+                uint8_t *row = rgb + (size_t)yy * stride;
+                const int64_t v = -coord_value(&pv);
+                pu = pu0;
+                for (uint32_t xx = bx; xx < bx + bw; xx++, coord_next(&pu)) {
+                    ray r;
+                    march m;
+                    m.T = 1u << 30;
+                    m.rgb[0] = m.rgb[1] = m.rgb[2] = 0;
+                    bins b;
+                    b.maybe = (const uint8_t *)0;
+                    b.of = (const uint16_t *)0;
+                    b.count = count;
+                    int live = make_ray(I, cam, sx, sy, coord_value(&pu), v, &r);
+                    if (live && rule_out) {
+                        /* a ray none of whose bins may hold a density shows the background */
+                        live = mark_ray_bins(&gm, &r, near, step, nc, prior, s.maybe) != 0 ||
+                               count;
+                        b.maybe = s.maybe;
+                    }
+                    if (live)
+                        render_ray(dec, &s, &r, &gm, &o, nc, nf, near, step, far, &b, &m, &stats);
+                    for (unsigned c = 0; c < 3; c++)
+                        row[3 * xx + c] = to_u8(m.rgb[c], m.T, I->background[c]);
                 }
             }
-            for (unsigned c = 0; c < 3; c++)
-                row[3 * xx + c] = to_u8(m.rgb[c], m.T, I->background[c]);
         }
     }
     if (stats_out) {

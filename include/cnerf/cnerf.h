@@ -177,12 +177,13 @@ size_t cnerf_workspace_size(const cnerf_info *info);
 
 /* Upper bound of cnerf_workspace_size over all streams whose layers are at most
  * `params` latents and `outputs` biases in total, with at most `layers` layers and an
- * occupancy grid of at most `grid` cells per axis (0: streams without a grid);
+ * occupancy grid of at most `grid` cells per axis (0: streams without a grid; the grid takes
+ * its bitmap and a summary of at most as many bits);
  * for static arrays (a compile-time constant when the arguments are). */
 #define CNERF_WORKSPACE_BOUND(params, outputs, layers, grid)                             \
     ((size_t)(params) * 2u + (size_t)(outputs) * 12u + (size_t)(layers) * 32u +            \
      ((size_t)65536u + 1u) * 4u + 16u +                                                    \
-     ((size_t)(grid) * (size_t)(grid) * (size_t)(grid) + 7u) / 8u + 8u)
+     (((size_t)(grid) * (size_t)(grid) * (size_t)(grid) + 7u) / 8u + 8u) * 2u)
 
 /* The bound for streams of several scenes: one scene's latents and the shared shifts. */
 #define CNERF_WORKSPACE_BOUND_SCENES(params, outputs, layers, grid)                      \
@@ -240,13 +241,18 @@ typedef struct cnerf_render_opts {
 /* Ignore the stream's occupancy grid: evaluate the networks at every sample inside the
  * bounds (the image a decoder without grid support would make; for comparisons only). */
 #define CNERF_RENDER_NO_SKIP 1u
+/* Examine every sample: rule out no stretch of a ray before marching it (the same image and
+ * the same work counted, more instructions; for tests of that exactness). */
+#define CNERF_RENDER_EVERY_SAMPLE 2u
 
 /* Work counters of cnerf_render_tile_stats, added to what the caller's struct holds. */
 typedef struct cnerf_render_stats {
     uint64_t rays;      /* rays rendered */
     uint64_t evals;     /* network evaluations, both networks */
     uint64_t in_bounds; /* samples inside the scene bounds and before early termination:
-                           the evaluations at the same sample positions without the grid */
+                           the evaluations at the same sample positions without the grid.
+                           Counting them costs what ruling out empty stretches of rays saves:
+                           time a render without stats */
     uint64_t macs;      /* network multiply-accumulates done (latent times activation; rows
                            whose latents are all zero and colour branches skipped because the
                            sample adds nothing to the image are not counted) */

@@ -828,7 +828,7 @@ static void test_grid(void **state)
     assert_int_equal(cnerf_camera_from_float(&cam, &fc, err, sizeof err), 0);
     cnerf_render_opts o;
     cnerf_render_defaults(&ball.dec.info, &o);
-    o.flags = 2;
+    o.flags = 4;
     uint8_t one[3];
     assert_int_equal(cnerf_render_tile(&ball.dec, &fc, &o, 0, 0, 1, 1, one, 3, ball.scratch,
                                        ball.scratch_size),
@@ -836,6 +836,91 @@ static void test_grid(void **state)
     free_scene(&ball);
     free(px0);
     free_scene(&plain);
+}
+
+/* Ruling out empty stretches of rays (the grid's summary, the bounds) changes nothing: the
+ * same pixels and the same work counted as examining every sample, for grids sparse and
+ * dense, from cameras inside and outside the bounds, near and far, rendered whole and in
+ * tiles (a tile's rows and columns start anywhere). */
+static void test_rule_out_exact(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    tu_small_header(&hdr, 3, 16, 1);
+    hdr.near_q16 = 0; /* cameras inside the bounds see their surroundings */
+    density_e = -15;
+    cn_rng r = cn_rng_seed(45);
+    const int fills[] = {0, 2, 10, 40, 100, -1}; /* percent occupied; -1: the ball */
+    uint64_t ruled = 0, every = 0;
+    for (size_t f = 0; f < sizeof fills / sizeof fills[0]; f++) {
+        if (fills[f] < 0)
+            grid_ball();
+        else
+            for (int i = 0; i < GRID_G * GRID_G * GRID_G; i++)
+                grid_cells[i] = (int)(cn_rng_u64(&r) % 100) < fills[f];
+        scene s;
+        make_scene_edit(&s, &hdr, 3.0, 21 + f, dense_grid);
+        for (int k = 0; k < 12; k++) {
+            const double d = k < 3 ? 0.2 + 0.3 * k : 1.5 + 0.5 * k;
+            double v[3];
+            for (int a = 0; a < 3; a++)
+                v[a] = (double)(cn_rng_u64(&r) % 2001) / 1000.0 - 1.0;
+            const double n = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) + 1e-9;
+            cn_camera cam;
+            look_at(&cam, d * v[0] / n, d * v[1] / n, d * v[2] / n + 1e-3, 19, 14,
+                    k % 3 ? 40 : 100);
+            cnerf_camera fc;
+            char err[256];
+            assert_int_equal(cnerf_camera_from_float(&cam, &fc, err, sizeof err), 0);
+            const size_t nv = (size_t)cam.w * cam.h * 3;
+            uint8_t *px[2];
+            for (int e = 0; e < 2; e++) {
+                cnerf_render_opts o;
+                cnerf_render_defaults(&s.dec.info, &o);
+                o.flags = e ? CNERF_RENDER_EVERY_SAMPLE : 0u;
+                px[e] = malloc(nv);
+                /* tiles of 5 x 4: rows and columns that start mid-image */
+                for (uint32_t y0 = 0; y0 < (uint32_t)cam.h; y0 += 4)
+                    for (uint32_t x0 = 0; x0 < (uint32_t)cam.w; x0 += 5) {
+                        const uint32_t w = x0 + 5 > (uint32_t)cam.w ? (uint32_t)cam.w - x0 : 5;
+                        const uint32_t h = y0 + 4 > (uint32_t)cam.h ? (uint32_t)cam.h - y0 : 4;
+                        assert_int_equal(cnerf_render_tile(&s.dec, &fc, &o, x0, y0, w, h,
+                                                           px[e] + (y0 * (uint32_t)cam.w + x0) * 3,
+                                                           (size_t)cam.w * 3, s.scratch,
+                                                           s.scratch_size),
+                                         CNERF_OK);
+                    }
+            }
+            assert_memory_equal(px[0], px[1], nv);
+            /* the whole frame in one tile: blocks of pixels that a tile does not cut */
+            {
+                cnerf_render_opts o;
+                cnerf_render_defaults(&s.dec.info, &o);
+                uint8_t *whole = malloc(nv);
+                assert_int_equal(cnerf_render_tile(&s.dec, &fc, &o, 0, 0, (uint32_t)cam.w,
+                                                   (uint32_t)cam.h, whole, (size_t)cam.w * 3,
+                                                   s.scratch, s.scratch_size),
+                                 CNERF_OK);
+                assert_memory_equal(whole, px[1], nv);
+                free(whole);
+            }
+            cnerf_render_stats st[2];
+            for (int e = 0; e < 2; e++) {
+                free(px[e]);
+                px[e] = render_counted(&s, &cam, e ? CNERF_RENDER_EVERY_SAMPLE : 0u, &st[e]);
+            }
+            assert_memory_equal(px[0], px[1], nv);
+            assert_true(st[0].evals == st[1].evals && st[0].in_bounds == st[1].in_bounds &&
+                        st[0].macs == st[1].macs);
+            ruled += st[0].evals;
+            every += st[1].in_bounds;
+            free(px[0]);
+            free(px[1]);
+        }
+        free_scene(&s);
+    }
+    printf("ruling out: %llu evaluations of %llu samples in bounds, all identical\n",
+           (unsigned long long)ruled, (unsigned long long)every);
 }
 
 /* The cell of a point: the float reference's exact mapping is the decoder's integer one, on
@@ -1076,6 +1161,7 @@ int main(void)
         cmocka_unit_test(test_ndc),
         cmocka_unit_test(test_contract),
         cmocka_unit_test(test_grid),
+        cmocka_unit_test(test_rule_out_exact),
         cmocka_unit_test(test_macs_counted),
         cmocka_unit_test(test_grid_cell_mapping),
         cmocka_unit_test(test_zero_rows),
