@@ -444,11 +444,6 @@ static uint32_t norm_q28(const int64_t v[3])
     return cn_isqrt64(s);
 }
 
-/* The ray through the pixel whose image-plane coordinates are u, v (Q28: (x + 1/2 - cx) /
- * fx and -(y + 1/2 - cy) / fy, rounded half away from zero); 0 when it cannot be
- * represented (then the pixel shows the background: a zero direction, NDC rays parallel to
- * the image plane or leaving the Q28 range). The unit view direction and |d| come after,
- * from ray_finish, for the rays that meet the scene. */
 /* Axis a of the camera's direction through image-plane point (u, v) (Q28), |d_a| <= 5 2^28:
  * the rounding of a function affine in u and v. */
 static int64_t cam_dir(const cnerf_camera *c, unsigned a, int64_t u, int64_t v)
@@ -458,6 +453,11 @@ static int64_t cam_dir(const cnerf_camera *c, unsigned a, int64_t u, int64_t v)
     return cn_asr64(acc + ((int64_t)1 << 29), 30);
 }
 
+/* The ray through the pixel whose image-plane coordinates are u, v (Q28: (x + 1/2 - cx) /
+ * fx and -(y + 1/2 - cy) / fy, rounded half away from zero); 0 when it cannot be
+ * represented (then the pixel shows the background: a zero direction, NDC rays parallel to
+ * the image plane or leaving the Q28 range). The unit view direction and |d| come after,
+ * from ray_finish, for the rays that meet the scene. */
 static int make_ray(const cnerf_info *I, const cnerf_camera *c, int64_t sx_q28, int64_t sy_q28,
                     int64_t u, int64_t v, ray *r)
 {
@@ -659,9 +659,10 @@ static int cells_maybe(const gridmap *gm, const uint32_t c0[3], const uint32_t c
 }
 
 /* A ray's positions at the coarse bins' edges e_i = near + i step, i = 0..nc, as mark_bins
- * bounds them: o + e_i d (what ray_at gives) lies within m of base + i inc on every axis
- * (Q32): base is exact, inc = round(step d) is within 1/2 of step d, so i inc is within
- * i / 2 of i step d, plus 1/2 for the rounding of e_i d itself. */
+ * bounds them: o + round(e_i d) (what ray_at gives) lies within m of base + i inc on every
+ * axis (Q32): base = o + round(near d) and round(e_i d) are each within 1/2 of their exact
+ * products, and inc = round(step d) within 1/2 of step d, so the two differ by at most
+ * i / 2 + 1 <= nc / 2 + 1. */
 typedef struct edges {
     int64_t base[3], inc[3], m;
 } edges;
@@ -785,7 +786,7 @@ static unsigned mark_ray_bins(const gridmap *gm, const ray *r, int64_t near, int
     ray_at(r, near, E.base);
     for (unsigned a = 0; a < 3; a++)
         E.inc[a] = cn_mul_exp(step, r->d[a], -28);
-    E.m = (int64_t)nc + 1; /* nc / 2 + 1/2, rounded up */
+    E.m = (int64_t)nc / 2 + 1;
     stretch S;
     S.E = &E;
     return mark_bins(gm, &S, nc, prior, maybe);
