@@ -19,7 +19,7 @@ ENTRIES = ["cnerf_peek", "cnerf_open", "cnerf_workspace_size", "cnerf_expand_top
 
 
 def load(build_dir):
-    frames, edges, problems = {}, {}, []
+    frames, edges, problems, where = {}, {}, [], {}
     files = glob.glob(os.path.join(build_dir, "**", "*.ci"), recursive=True)
     for path in files:
         if "cnerf_dec.dir" not in path:
@@ -30,6 +30,11 @@ def load(build_dir):
             s = re.search(r"\\n(\d+) bytes \(([^)]+)\)", label)
             if not s:
                 continue  # external declaration
+            if title in where and where[title] != path:
+                # Two call-graph files define one external function: one of them is left
+                # over from a source file that no longer exists (build from a clean tree).
+                problems.append(f"{title}: defined in both {where[title]} and {path}")
+            where[title] = path
             frames[title] = int(s.group(1))
             if "dynamic" in s.group(2):
                 problems.append(f"{title}: dynamic stack frame ({s.group(2)})")
