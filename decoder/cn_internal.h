@@ -15,13 +15,18 @@
 
 /* ---- the decoder's state: cnerf_decoder's opaque part ---- */
 
+#define CN_FORM_PACKED 0u
+#define CN_FORM_WIDE 1u
+#define CN_FORM_SPARSE 2u
+
 typedef struct cn_state {
     /* Latents widened to int16 and packed for the dot-product kernels (docs/decoder.md):
      * the n_live[l] rows with a non-zero latent, in increasing output order, in blocks of
      * four rows, each block input pair by input pair: k[r][2p], k[r][2p+1] for each row r
      * of the block; the remaining one to three rows row after row; inputs padded to
      * n_pairs[l] pairs with zero; the columns fed by a hidden layer in that layer's stored
-     * row order. cnerf_latent reads one latent by output and input index. */
+     * row order; or, for a layer whose form is CN_FORM_SPARSE, the lists of cn_spdot_fn in
+     * the same place. cnerf_latent reads one latent by output and input index. */
     const int16_t *latent[CNERF_MAX_LAYERS];
     const int32_t *bias[CNERF_MAX_LAYERS];     /* n_out bias mantissas, by output */
     const int32_t *bias_q16[CNERF_MAX_LAYERS]; /* sat32(round(bias 2^16)), by stored row */
@@ -33,11 +38,14 @@ typedef struct cn_state {
     const int16_t *shift[CNERF_MAX_LAYERS];
     uint16_t n_live[CNERF_MAX_LAYERS];
     uint16_t n_pairs[CNERF_MAX_LAYERS]; /* (n_in + 1) / 2 */
-    /* How cnerf_open proved each layer's sums: wide = 1 when a sum of k x_q may leave the
-     * int32 range (then it is formed in int64); a_shift in 1..62 when the rescale of an
-     * int32 sum is one product and one shift with no saturation, else 0. Either way the
-     * values are the same; only the speed differs. shift_wide as wide, for the sums s x_q. */
-    uint8_t wide[CNERF_MAX_LAYERS];
+    /* How cnerf_open stored and proved each layer's sums (form): CN_FORM_WIDE when a sum of
+     * k x_q may leave the int32 range (then it is formed in int64); CN_FORM_SPARSE when the
+     * live rows are stored as lists of their non-zero latents (cn_spdot_fn's layout, in the
+     * packed layer's place) because the chosen kernels sum those faster; else
+     * CN_FORM_PACKED. a_shift in 1..62 when the rescale of an int32 sum is one product and
+     * one shift with no saturation, else 0. Either way the values are the same; only the
+     * speed differs. shift_wide as CN_FORM_WIDE, for the sums s x_q. */
+    uint8_t form[CNERF_MAX_LAYERS];
     uint8_t a_shift[CNERF_MAX_LAYERS];
     uint8_t b_shift[CNERF_MAX_LAYERS]; /* the same for the term b sum x_q (|sum| < 2^26) */
     uint8_t shift_wide[CNERF_MAX_LAYERS];
@@ -46,6 +54,7 @@ typedef struct cn_state {
      * outputs' rescale. */
     void (*dot)(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                 int32_t *acc);
+    void (*spdot)(const uint32_t *e, const int16_t *x, uint32_t n_rows, int32_t *acc);
     int32_t (*requant)(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
     void (*finish)(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
                    const int32_t *bq, int32_t *y, int relu);
@@ -68,6 +77,12 @@ static inline const cn_state *cn_cstate_of(const cnerf_decoder *dec)
 {
     return (const cn_state *)(const void *)dec->opaque.bytes;
 }
+
+struct cn_dot_variant;
+/* cnerf_open_scene with the kernels v (cn_kernels.h) instead of this CPU's fastest: their
+ * costs decide which layers are stored sparse. Tests open a stream with each form. */
+cnerf_status cn_open_with(cnerf_decoder *dec, const uint8_t *buf, size_t len, uint32_t scene,
+                          void *ws, size_t ws_size, const struct cn_dot_variant *v);
 
 /* ---- frequency tables and rANS ---- */
 

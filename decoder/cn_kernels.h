@@ -8,7 +8,9 @@
  *
  * A layer's live latent rows are stored packed (cnerf_decoder.latent): blocks of four rows,
  * each block input pair by input pair, k[r][2p] and k[r][2p+1] for each row r; the
- * remaining one to three rows follow row after row.
+ * remaining one to three rows follow row after row. A layer whose latents are mostly zero
+ * may instead be stored as lists of its non-zero latents (cn_spdot_fn), when that is
+ * cheaper for the chosen kernels (cnerf_open, decoder/open.c).
  * Freestanding: <stdint.h> only.
  */
 #ifndef CNERF_DECODER_KERNELS_H
@@ -42,6 +44,13 @@
 typedef void (*cn_dot_fn)(const int16_t *k, const int16_t *x, uint32_t n_pairs,
                           uint32_t n_rows, int32_t *acc);
 
+/* spdot_s16: the same sums over a sparse layer: for each of the n_rows live rows, one word
+ * holding its count n of non-zero latents, then n words, each 2 i << 16 | (uint16_t)k for
+ * the latent k of input i (i < 2^15: the input's byte offset in x sits in the high half).
+ * The caller proved the int32 bound as for dot_s16 (the same latents, zeros left out). */
+typedef void (*cn_spdot_fn)(const uint32_t *e, const int16_t *x, uint32_t n_rows,
+                            int32_t *acc);
+
 /* requant_s16: a layer's inputs at its scale, for 1 <= s <= 16 (render.c's requant):
  * xq[i] = sat16(floor(x[i] / 2^s + 1/2)) for i < n; returns their sum. */
 typedef int32_t (*cn_requant_fn)(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
@@ -57,6 +66,8 @@ typedef void (*cn_finish_fn)(const int32_t *acc, uint32_t live, int32_t am, unsi
 void cn_dot_s16_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                   int32_t *acc);
 
+void cn_spdot_s16_c(const uint32_t *e, const int16_t *x, uint32_t n_rows, int32_t *acc);
+
 /* The same sums in int64, for layers whose int32 bound does not hold (portable C only). */
 void cn_dot_s16_s64_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                       int64_t *acc);
@@ -69,6 +80,8 @@ void cn_dot_s16_dsp(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32
                     int32_t *acc);
 #endif
 #if defined(CN_HAVE_DSP)
+/* kernels_dsp.c: SMLABB, two non-zero latents in seven instructions */
+void cn_spdot_s16_dsp(const uint32_t *e, const int16_t *x, uint32_t n_rows, int32_t *acc);
 /* kernels_dsp.c: QADD, SSAT and PKHBT, two inputs a step */
 int32_t cn_requant_s16_dsp(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
 /* kernels_dsp.c: SMLAL and two QADDs, two outputs a step */
@@ -110,6 +123,14 @@ typedef struct cn_dot_variant {
     cn_dot_fn fn;
     cn_requant_fn requant;
     cn_finish_fn finish;
+    cn_spdot_fn spdot;
+    /* What the sums cost, in sixteenths of an instruction (or of a cycle where instructions
+     * are not counted): fn per multiply-accumulate over the padded live rows, spdot per
+     * non-zero latent and per live row. cnerf_open stores a layer sparse when spdot costs
+     * less (the workspace is the same either way: the lists fit in the packed layer's
+     * place, or the layer stays packed). docs/decoder.md, "Zero latents", says how they
+     * were measured. */
+    uint16_t mac_cost, nz_cost, row_cost;
 } cn_dot_variant;
 
 #define CN_DOT_MAX_VARIANTS 4u
@@ -125,6 +146,11 @@ cn_dot_variant cn_dot_select(void);
 
 /* Builds whose kernel is fixed at compile time call it directly (a known call graph for
  * the stack bound of firmware builds); the others go through cnerf_decoder.dot. */
+#if defined(CN_HAVE_DSP)
+#define CN_SPDOT_DIRECT cn_spdot_s16_dsp
+#elif !defined(CN_HAVE_AVX2)
+#define CN_SPDOT_DIRECT cn_spdot_s16_c
+#endif
 #if defined(CN_HAVE_MVE)
 #define CN_DOT_DIRECT cn_dot_s16_mve
 #elif defined(CN_HAVE_DSP)

@@ -5,6 +5,26 @@
  */
 #include "cn_kernels.h"
 
+/* The kernels' costs (cn_dot_variant), in sixteenths of the packed sums' cost per
+ * multiply-accumulate on the same core. x86-64 (c, avx2): the medians of check_kernels
+ * --bench. Arm: the instructions of the loops, which QEMU counts (the packed DSP sums: 58
+ * for 64 multiply-accumulates; the lists: 9 for two non-zeros and about 10 a row; Helium: 17
+ * for 16; Advanced SIMD: 8 for 8, its lists as the DSP's). The portable C's ratios are
+ * x86-64's. */
+#define C_MAC 16u
+#define C_NZ 38u
+#define C_ROW 48u
+#define AVX2_MAC 16u
+#define AVX2_NZ 300u
+#define AVX2_ROW 300u
+#define NEON_MAC 16u
+#define NEON_NZ 72u
+#define NEON_ROW 160u
+#define MVE_MAC 17u
+#define DSP_MAC 15u
+#define DSP_NZ 72u
+#define DSP_ROW 160u
+
 void cn_dot_s16_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                   int32_t *acc)
 {
@@ -51,14 +71,40 @@ void cn_dot_s16_s64_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint
     }
 }
 
-/* One entry of the list; returns 1. */
+/* The latent of a list entry: its low half as int16 (without an implementation-defined
+ * conversion; compilers make it one sign extension). */
+static inline int32_t entry_k(uint32_t w)
+{
+    return (int32_t)(w & 0xffffu) - (int32_t)(w & 0x8000u) * 2;
+}
+
+void cn_spdot_s16_c(const uint32_t *e, const int16_t *x, uint32_t n_rows, int32_t *acc)
+{
+    for (uint32_t j = 0; j < n_rows; j++) {
+        uint32_t n = *e++;
+        int32_t a = 0;
+        for (; n >= 2u; n -= 2u, e += 2) {
+            a += entry_k(e[0]) * x[e[0] >> 17];
+            a += entry_k(e[1]) * x[e[1] >> 17];
+        }
+        if (n)
+            a += entry_k(*e) * x[*e >> 17], e++;
+        acc[j] = a;
+    }
+}
+
+/* One entry of the list, with its kernels' costs (sixteenths, cn_dot_variant); returns 1. */
 static uint32_t variant(cn_dot_variant *v, const char *name, cn_dot_fn fn, cn_requant_fn requant,
-                        cn_finish_fn finish)
+                        cn_finish_fn finish, cn_spdot_fn spdot, const uint16_t cost[3])
 {
     v->name = name;
     v->fn = fn;
     v->requant = requant;
     v->finish = finish;
+    v->spdot = spdot;
+    v->mac_cost = cost[0];
+    v->nz_cost = cost[1];
+    v->row_cost = cost[2];
     return 1;
 }
 
@@ -66,20 +112,33 @@ uint32_t cn_dot_variants(cn_dot_variant out[CN_DOT_MAX_VARIANTS])
 {
     const cn_requant_fn c_requant = (cn_requant_fn)0; /* render.c's portable C */
     const cn_finish_fn c_finish = (cn_finish_fn)0;
-    uint32_t n = variant(out, "c", cn_dot_s16_c, c_requant, c_finish);
+    /* The costs {per multiply-accumulate, per non-zero latent, per row}, in sixteenths of
+     * an instruction (Arm, counted under QEMU) or of a nanosecond (x86-64, timed):
+     * docs/decoder.md, "Zero latents". */
+    static const uint16_t c_cost[3] = {C_MAC, C_NZ, C_ROW};
+    uint32_t n = variant(out, "c", cn_dot_s16_c, c_requant, c_finish, cn_spdot_s16_c, c_cost);
 #if defined(CN_HAVE_AVX2)
+    static const uint16_t avx2_cost[3] = {AVX2_MAC, AVX2_NZ, AVX2_ROW};
     if (cn_cpu_has_avx2())
-        n += variant(out + n, "avx2", cn_dot_s16_avx2, cn_requant_s16_avx2, cn_finish_s32_avx2);
+        n += variant(out + n, "avx2", cn_dot_s16_avx2, cn_requant_s16_avx2, cn_finish_s32_avx2,
+                     cn_spdot_s16_c, avx2_cost);
 #endif
     /* Arm: one set, fixed at compile time */
 #if defined(CN_HAVE_MVE) && defined(CN_HAVE_DSP)
-    n += variant(out + n, "mve", cn_dot_s16_mve, cn_requant_s16_dsp, cn_finish_s32_dsp);
+    static const uint16_t mve_cost[3] = {MVE_MAC, DSP_NZ, DSP_ROW}; /* the DSP's lists */
+    n += variant(out + n, "mve", cn_dot_s16_mve, cn_requant_s16_dsp, cn_finish_s32_dsp,
+                 cn_spdot_s16_dsp, mve_cost);
 #elif defined(CN_HAVE_MVE)
-    n += variant(out + n, "mve", cn_dot_s16_mve, c_requant, c_finish);
+    static const uint16_t mve_cost[3] = {MVE_MAC, C_NZ, C_ROW};
+    n += variant(out + n, "mve", cn_dot_s16_mve, c_requant, c_finish, cn_spdot_s16_c, mve_cost);
 #elif defined(CN_HAVE_DSP)
-    n += variant(out + n, "dsp", cn_dot_s16_dsp, cn_requant_s16_dsp, cn_finish_s32_dsp);
+    static const uint16_t dsp_cost[3] = {DSP_MAC, DSP_NZ, DSP_ROW};
+    n += variant(out + n, "dsp", cn_dot_s16_dsp, cn_requant_s16_dsp, cn_finish_s32_dsp,
+                 cn_spdot_s16_dsp, dsp_cost);
 #elif defined(CN_HAVE_NEON)
-    n += variant(out + n, "neon", cn_dot_s16_neon, c_requant, c_finish);
+    static const uint16_t neon_cost[3] = {NEON_MAC, NEON_NZ, NEON_ROW};
+    n += variant(out + n, "neon", cn_dot_s16_neon, c_requant, c_finish, cn_spdot_s16_c,
+                 neon_cost);
 #endif
     return n;
 }

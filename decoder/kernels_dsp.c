@@ -90,6 +90,40 @@ void cn_dot_s16_dsp(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32
 
 #endif /* the sums where there is no Helium */
 
+/* cn_spdot_s16_c's sums: per row its count, then two entries a step (LDRD; the inputs'
+ * byte offsets by LSR from the high halves; two LDRSH; SMLABB of each entry's low half,
+ * its latent, with the input: seven instructions and the loop's two). */
+void cn_spdot_s16_dsp(const uint32_t *e, const int16_t *x, uint32_t n_rows, int32_t *acc)
+{
+    for (uint32_t j = 0; j < n_rows; j++) {
+        const uint32_t n = *e++;
+        int32_t a = 0;
+        if (n >= 2u) {
+            const uint32_t *end = e + (n & ~1u);
+            uint32_t w0, w1, i0, i1;
+            __asm__("1:\n\t"
+                    "ldrd %[w0], %[w1], [%[e]], #8\n\t"
+                    "lsr %[i0], %[w0], #16\n\t"
+                    "lsr %[i1], %[w1], #16\n\t"
+                    "ldrsh %[i0], [%[x], %[i0]]\n\t"
+                    "ldrsh %[i1], [%[x], %[i1]]\n\t"
+                    "smlabb %[a], %[w0], %[i0], %[a]\n\t"
+                    "smlabb %[a], %[w1], %[i1], %[a]\n\t"
+                    "cmp %[e], %[end]\n\t"
+                    "bne 1b"
+                    : [a] "+r"(a), [e] "+r"(e), [w0] "=&r"(w0), [w1] "=&r"(w1), [i0] "=&r"(i0),
+                      [i1] "=&r"(i1)
+                    : [x] "r"(x), [end] "r"(end)
+                    : "cc", "memory");
+        }
+        if (n & 1u) {
+            const uint32_t w = *e++;
+            a = __smlabb((int32_t)w, x[w >> 17], a);
+        }
+        acc[j] = a;
+    }
+}
+
 /* render.c's finish_fast for n < 32, two outputs per step: y[j] = sat32(sat32(((acc[j] a_m
  * + 2^(n-1)) >> n) + t) + bq[j]), then max(0, .) when relu. The 64-bit value starts at
  * 2^(n-1) and SMLAL adds the product; its low word after the shift is the result (|result|

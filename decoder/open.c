@@ -208,6 +208,60 @@ static void pack_rows(const cnerf_layer_info *L, int16_t *lat, const uint16_t *r
         lat[i] = 0;
 }
 
+/* The latent of a list entry (cn_spdot_fn's layout), as kernels.c reads it. */
+static int32_t entry_k(uint32_t w)
+{
+    return (int32_t)(w & 0xffffu) - (int32_t)(w & 0x8000u) * 2;
+}
+
+/* 1 when the live rows of lat (row-major, in the order of rows[]) are better stored as
+ * lists of their non-zero latents for kernels v: the lists cost v less than the packed
+ * rows, and they fit in place. Written row after row from the start of the layer's place,
+ * the lists of rows 0..j take 4 (j + 1 + their non-zeros) bytes; row j + 1 is read from
+ * row slot rows[j + 1] >= j + 1, at byte 2 pad (j + 1) or after: every prefix must end
+ * there, so that no row is overwritten before it is read. The workspace is the same either
+ * way. */
+static int sparse_pays(const cnerf_layer_info *L, const int16_t *lat, const uint16_t *rows,
+                       uint32_t live, const cn_dot_variant *v)
+{
+    const uint32_t pad = in_pad(L);
+    uint64_t words = 0, nz = 0;
+    for (uint32_t j = 0; j < live; j++) {
+        const int16_t *row = lat + (size_t)rows[j] * pad;
+        uint32_t n = 0;
+        for (uint32_t i = 0; i < pad; i++)
+            n += row[i] != 0;
+        nz += n;
+        words += 1u + n;
+        if (2u * words > (uint64_t)(j + 1u) * pad)
+            return 0;
+    }
+    return nz * v->nz_cost + (uint64_t)live * v->row_cost <
+           (uint64_t)live * pad * v->mac_cost;
+}
+
+/* Stores the live rows of lat as lists (cn_spdot_fn's layout) in its place, each row first
+ * copied to tmp (sparse_pays proved that no row is overwritten before it is read). */
+static void sparse_rows(const cnerf_layer_info *L, int16_t *lat, const uint16_t *rows,
+                        uint32_t live, int16_t *tmp)
+{
+    const uint32_t pad = in_pad(L);
+    uint32_t *w = (uint32_t *)(void *)lat;
+    for (uint32_t j = 0; j < live; j++) {
+        const int16_t *row = lat + (size_t)rows[j] * pad;
+        for (uint32_t i = 0; i < pad; i++)
+            tmp[i] = row[i];
+        uint32_t *count = w++;
+        uint32_t n = 0;
+        for (uint32_t i = 0; i < pad; i++)
+            if (tmp[i]) {
+                *w++ = (2u * i) << 16 | ((uint32_t)(int32_t)tmp[i] & 0xffffu);
+                n++;
+            }
+        *count = n;
+    }
+}
+
 /* The layer whose outputs feed layer l's inputs from column *off on (the renderer keeps
  * every layer's outputs in its stored row order, [fixed-point.md]: the consumer's columns
  * follow that order), or -1 when l's inputs are all encodings. */
@@ -280,14 +334,14 @@ static void prove_layer(cnerf_decoder *dec, uint32_t l, uint32_t maxsum, uint32_
 {
     cn_state *ds = cn_state_of(dec);
     const cnerf_layer_info *L = &dec->info.layer[l];
-    ds->wide[l] = maxsum > 65535u;
+    ds->form[l] = maxsum > 65535u ? CN_FORM_WIDE : CN_FORM_PACKED;
     ds->shift_wide[l] = maxshift > 65535u; /* the same bound for the sums s x_q */
     const int n = -((int)L->a_e + 16 - (int)L->f_in);
     const uint64_t am = (uint64_t)(L->a_m < 0 ? -L->a_m : L->a_m); /* < 2^23 */
     const uint64_t bound = ((uint64_t)maxsum << 15) * am;           /* < 2^16 2^15 2^23 */
     ds->a_shift[l] = 0;
     /* A layer with a shift adds its term before the offset and bias: the general path. */
-    if (!ds->wide[l] && !ds->shift[l] && n >= 1 && n <= 62 && (bound >> 30) >> n == 0u)
+    if (ds->form[l] != CN_FORM_WIDE && !ds->shift[l] && n >= 1 && n <= 62 && (bound >> 30) >> n == 0u)
         ds->a_shift[l] = (uint8_t)n;
     /* b sum x_q: |sum x_q| <= 2^15 n_in */
     const int nb = -((int)L->b_e + 16 - (int)L->f_in);
@@ -361,7 +415,7 @@ static uint8_t *lay_out(cnerf_decoder *dec, uint8_t *w)
  * shifts) widened to int16, their columns in the producer's row order, the live rows first
  * and packed for the kernels; the Q16 biases in row order; and the layer's proofs. */
 static cnerf_status open_layer(cnerf_decoder *dec, const uint8_t *buf, uint32_t l,
-                               uint8_t *scratch)
+                               uint8_t *scratch, const cn_dot_variant *v)
 {
     cn_state *ds = cn_state_of(dec);
     const cnerf_layer_info *L = &dec->info.layer[l];
@@ -384,18 +438,24 @@ static cnerf_status open_layer(cnerf_decoder *dec, const uint8_t *buf, uint32_t 
     uint32_t maxsum, maxshift;
     const uint16_t live = order_rows(L, lat, sh, rows, &maxsum, &maxshift);
     ds->n_live[l] = live;
-    pack_rows(L, lat, rows, live, tmp);
-    if (sh)
-        pack_rows(L, sh, rows, live, tmp);
+    prove_layer(dec, l, maxsum, maxshift);
+    /* a layer with a shift, or with int64 sums, stays packed */
+    if (!sh && ds->form[l] == CN_FORM_PACKED && live && sparse_pays(L, lat, rows, live, v)) {
+        sparse_rows(L, lat, rows, live, tmp);
+        ds->form[l] = CN_FORM_SPARSE;
+    } else {
+        pack_rows(L, lat, rows, live, tmp);
+        if (sh)
+            pack_rows(L, sh, rows, live, tmp);
+    }
     int32_t *bq = (int32_t *)(uintptr_t)ds->bias_q16[l];
     for (uint32_t j = 0; j < L->n_out; j++)
         bq[j] = L->bias_bits ? q16_bias(bias[rows[j]], L->bias_e) : 0;
-    prove_layer(dec, l, maxsum, maxshift);
     return CNERF_OK;
 }
 
-cnerf_status cnerf_open_scene(cnerf_decoder *dec, const uint8_t *buf, size_t len,
-                              uint32_t scene, void *ws, size_t ws_size)
+cnerf_status cn_open_with(cnerf_decoder *dec, const uint8_t *buf, size_t len, uint32_t scene,
+                          void *ws, size_t ws_size, const cn_dot_variant *v)
 {
     if (!dec)
         return CNERF_E_NULL;
@@ -421,17 +481,24 @@ cnerf_status cnerf_open_scene(cnerf_decoder *dec, const uint8_t *buf, size_t len
         if (info->grid_g && st == CNERF_OK)
             build_summary(ds->grid, info->grid_g, (uint8_t *)(uintptr_t)ds->grid_summary);
         for (uint32_t l = 0; st == CNERF_OK && l < info->n_layers; l++)
-            st = open_layer(dec, buf, l, scratch);
+            st = open_layer(dec, buf, l, scratch, v);
     }
     if (st == CNERF_OK) {
-        const cn_dot_variant v = cn_dot_select();
-        ds->dot = v.fn;
-        ds->requant = v.requant;
-        ds->finish = v.finish;
+        ds->dot = v->fn;
+        ds->spdot = v->spdot;
+        ds->requant = v->requant;
+        ds->finish = v->finish;
     }
     if (st != CNERF_OK)
         cn_memzero(dec, sizeof *dec);
     return st;
+}
+
+cnerf_status cnerf_open_scene(cnerf_decoder *dec, const uint8_t *buf, size_t len,
+                              uint32_t scene, void *ws, size_t ws_size)
+{
+    const cn_dot_variant v = cn_dot_select();
+    return cn_open_with(dec, buf, len, scene, ws, ws_size, &v);
 }
 
 cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void *ws,
@@ -463,6 +530,15 @@ static int32_t packed_at(const cnerf_decoder *dec, uint32_t l, const int16_t *m,
         c = off; /* the column of input i: its producer's stored row */
         while (ds->rows[p][c - off] != i - off)
             c++;
+    }
+    if (m == ds->latent[l] && ds->form[l] == CN_FORM_SPARSE) {
+        const uint32_t *e = (const uint32_t *)(const void *)m;
+        for (uint32_t r = 0; r < j; r++) /* the lists of the rows stored before */
+            e += 1u + e[0];
+        for (uint32_t k = 1; k <= e[0]; k++)
+            if (e[k] >> 17 == c)
+                return entry_k(e[k]);
+        return 0;
     }
     return m[packed_index(j, c, ds->n_live[l], ds->n_pairs[l])];
 }

@@ -188,7 +188,8 @@ CN_NOINLINE static void finish_fast(const int32_t *acc, uint32_t live, int32_t a
 }
 
 /* y = layer l of x (Q16, n_in values), through the layer's inputs at its scale and the
- * chosen kernel: the rows with a non-zero latent (stored first; stored row j is output
+ * chosen kernel (packed or sparse, as cnerf_open stored the layer; the same sums): the rows
+ * with a non-zero latent (stored first; stored row j is output
  * ds->rows[l][j]) take their sums from the kernel, the others have sum k x = 0 exactly.
  * Outputs go to y in stored row order (y[j]), the next layer's columns being stored in that
  * order too, except for the layers whose outputs leave the network (cn_layer_final), which
@@ -216,7 +217,8 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
     const int final = cn_layer_final(L);
     const int32_t *bq = ds->bias_q16[l];
     const int16_t *k = ds->latent[l];
-    if (ds->wide[l]) {
+    const unsigned form = ds->form[l];
+    if (form == CN_FORM_WIDE) {
         /* sums that may leave int32: four rows at a time in int64 (the same values) */
         for (uint32_t j = 0; j < live; j += 4u) {
             const uint32_t rb = live - j < 4u ? live - j : 4u;
@@ -226,10 +228,17 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
                 y[j + q] = cn_sat32(cn_mul_exp_r(a64[q], L->a_m, L->a_e + e, 1));
         }
     } else if (live) {
-#ifdef CN_DOT_DIRECT
-        CN_DOT_DIRECT(k, xq, pairs, live, acc);
+        if (form == CN_FORM_SPARSE)
+#ifdef CN_SPDOT_DIRECT
+            CN_SPDOT_DIRECT((const uint32_t *)(const void *)k, xq, live, acc);
 #else
-        ds->dot(k, xq, pairs, live, acc);
+            ds->spdot((const uint32_t *)(const void *)k, xq, live, acc);
+#endif
+        else
+#ifdef CN_DOT_DIRECT
+            CN_DOT_DIRECT(k, xq, pairs, live, acc);
+#else
+            ds->dot(k, xq, pairs, live, acc);
 #endif
         if (ds->a_shift[l] && !final) {
 #ifndef CN_DOT_DIRECT
@@ -267,7 +276,7 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
                 y[j] = cn_qadd32(y[j], cn_sat32(cn_mul_exp_r(acc[j], S->g_m, S->g_e + e, 1)));
         }
     }
-    if (ds->wide[l] || !ds->a_shift[l] || final) /* y[j] holds A_j (+ G_j) */
+    if (form == CN_FORM_WIDE || !ds->a_shift[l] || final) /* y[j] holds A_j (+ G_j) */
         for (uint32_t j = 0; j < live; j++)
             y[j] = finish(y[j], t, bq[j], relu);
     for (uint32_t j = live; j < n_out; j++)

@@ -10,6 +10,7 @@
 #include "cn_fixcam.h"
 #include "cn_fixed.h"
 #include "cn_internal.h"
+#include "cn_kernels.h"
 #include "cn_render.h"
 #include "cn_rng.h"
 #include "cn_scales.h"
@@ -1004,6 +1005,101 @@ static void test_zero_rows(void **state)
     free_scene(&s);
 }
 
+/* ---- zero latents: the layers stored sparse ---- */
+
+/* Keeps each latent of layer l with a probability that varies by layer (none to all), and
+ * makes row 0 of every fourth layer whole, which leaves no room for lists stored in place:
+ * that layer must stay packed. */
+static void sparsify(cn_synth *syn, const cnerf_info *I)
+{
+    static const int keep[] = {3, 12, 30, 0, 60, 100, 7};
+    cn_rng r = cn_rng_seed(77);
+    for (unsigned l = 0; l < I->n_layers; l++) {
+        const cnerf_layer_info *L = &I->layer[l];
+        for (uint32_t o = 0; o < L->n_out; o++)
+            for (uint32_t i = 0; i < L->n_in; i++) {
+                int32_t *k = &syn->k[l][(size_t)o * L->n_in + i];
+                if ((int)(cn_rng_u64(&r) % 100) >= keep[l % 7])
+                    *k = 0;
+                if (l % 4 == 1 && o == 0 && *k == 0)
+                    *k = 1 + (int32_t)(i % 5);
+            }
+    }
+}
+
+/* Opens s's stream again with kernels v into c (the rest of s shared). */
+static void reopen(const scene *s, const cn_dot_variant *v, scene *c)
+{
+    *c = *s;
+    const size_t n = cnerf_workspace_size(&s->dec.info);
+    c->ws = aligned_alloc(CNERF_WS_ALIGN, (n + 7) & ~(size_t)7);
+    assert_int_equal(cn_open_with(&c->dec, s->buf.p, s->buf.n, 0, c->ws, n, v), CNERF_OK);
+}
+
+/* A layer stored as lists of its non-zero latents gives the same sums as packed: the same
+ * latents read back, the same pixels and the same work counted, from every view, with the
+ * kernels of this build that store no layer sparse, every layer that fits, or as they
+ * choose. */
+static void test_sparse_exact(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    tu_small_header(&hdr, 4, 24, 1);
+    hdr.l_pos = 3; /* 21 inputs: an odd layer */
+    cn_dot_variant all[CN_DOT_MAX_VARIANTS];
+    const uint32_t nv = cn_dot_variants(all);
+    unsigned sparse_layers = 0, kept_packed = 0;
+    for (uint32_t k = 0; k < nv; k++)
+        for (int mode = 0; mode < 3; mode++) {
+            cn_dot_variant v = all[k];
+            if (mode == 0)
+                v.mac_cost = 0; /* never sparse */
+            else if (mode == 1)
+                v.mac_cost = 1000, v.nz_cost = 0, v.row_cost = 0; /* sparse wherever it fits */
+            scene s, c[2];
+            make_scene_edit(&s, &hdr, 3.0, 31 + k, sparsify);
+            reopen(&s, &v, &c[0]);
+            v = all[k];
+            v.mac_cost = 0;
+            reopen(&s, &v, &c[1]); /* packed */
+            const cnerf_info *I = &s.dec.info;
+            for (unsigned l = 0; l < I->n_layers; l++) {
+                const unsigned form = cn_cstate_of(&c[0].dec)->form[l];
+                assert_true(cn_cstate_of(&c[1].dec)->form[l] != CN_FORM_SPARSE);
+                if (mode == 0)
+                    assert_true(form != CN_FORM_SPARSE);
+                if (mode == 1 && l % 4 == 1)
+                    assert_true(form != CN_FORM_SPARSE); /* row 0 is whole: no room */
+                sparse_layers += form == CN_FORM_SPARSE;
+                kept_packed += mode == 1 && form != CN_FORM_SPARSE;
+                const cnerf_layer_info *L = &I->layer[l];
+                for (uint32_t o = 0; o < L->n_out; o++)
+                    for (uint32_t i = 0; i < L->n_in; i++)
+                        assert_int_equal(cnerf_latent(&c[0].dec, l, o, i),
+                                         cnerf_latent(&c[1].dec, l, o, i));
+            }
+            for (int view = 0; view < 3; view++) {
+                cn_camera cam;
+                look_at(&cam, 2.5 - view, -3.0 + view, 2.0, 17, 13, 40 + 20 * view);
+                cnerf_render_stats st[2];
+                uint8_t *px[2];
+                for (int e = 0; e < 2; e++)
+                    px[e] = render_counted(&c[e], &cam, 0u, &st[e]);
+                assert_memory_equal(px[0], px[1], (size_t)cam.w * cam.h * 3);
+                assert_true(st[0].evals == st[1].evals && st[0].macs == st[1].macs &&
+                            st[0].evals > 0);
+                free(px[0]);
+                free(px[1]);
+            }
+            free(c[0].ws);
+            free(c[1].ws);
+            free_scene(&s);
+        }
+    printf("sparse layers: %u opened sparse, %u left packed where lists would not fit or "
+           "cost more, the same pixels\n", sparse_layers, kept_packed);
+    assert_true(sparse_layers > 0 && kept_packed > 0);
+}
+
 /* ---- several scenes: the shared shift's term ---- */
 
 /* A set of two synthetic scenes of one topology (different bounds and backgrounds) with
@@ -1146,6 +1242,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_mul_exp),
+        cmocka_unit_test(test_sparse_exact),
         cmocka_unit_test(test_div_sqrt),
         cmocka_unit_test(test_matches_float),
         cmocka_unit_test(test_rays_miss),

@@ -2,14 +2,16 @@
  * The decoder's kernels against its portable C, in the manner of dav1d's checkasm: every
  * dot-product kernel this build and CPU have (cn_dot_variants) on random packed layers of
  * every shape up to 13 rows and 71 input pairs and on the extremes (the largest latents a
- * row may hold for int32 sums, saturated inputs), cn_dot_s16_c itself against a plain int64
+ * row may hold for int32 sums, saturated inputs), every set's sums over lists of the non-zero
+ * latents (spdot) on the same layers, cn_dot_s16_c itself against a plain int64
  * sum over the unpacked rows, and the layers' fast rescale and input quantization against
  * the exact arithmetic they stand for. Decoder only, no libc beyond stdio, stdlib and the
  * clock: it also runs under qemu-user for other architectures (scripts/xarch.sh).
  *   check_kernels [--bench] [ITERATIONS]
  * --bench: after the checks, times every kernel against the portable C on the shapes the
- * checks use and prints the medians (checkasm's --bench). Timings are never pass or fail:
- * the exit status is the checks'.
+ * checks use and prints the medians (checkasm's --bench), and each set's costs of packed
+ * sums and lists, as cnerf_open weighs them. Timings are never pass or fail: the exit status
+ * is the checks'.
  */
 #define _POSIX_C_SOURCE 199309L /* clock_gettime under -std=c99 */
 #include <stdio.h>
@@ -71,6 +73,26 @@ static void pack(uint32_t rows, uint32_t pairs)
         }
     for (uint32_t i = 0; i < rows * 2 * pairs; i++)
         kbuf[i] = packed[i];
+}
+
+/* cn_spdot_fn's lists of the non-zero latents of rowmajor's rows (kernels.c's layout, written
+ * here independently): per row its count, then (2 i) << 16 | (uint16_t)k. Returns the
+ * non-zeros. */
+static uint32_t lists[MAX_ROWS * (1 + 2 * MAX_PAIRS)];
+static uint32_t make_lists(uint32_t rows, uint32_t pairs)
+{
+    uint32_t w = 0, nz = 0;
+    for (uint32_t j = 0; j < rows; j++) {
+        const uint32_t at = w++;
+        lists[at] = 0;
+        for (uint32_t i = 0; i < 2 * pairs; i++)
+            if (rowmajor[j][i]) {
+                lists[w++] = (2u * i) << 16 | ((uint32_t)(uint16_t)rowmajor[j][i]);
+                lists[at]++;
+                nz++;
+            }
+    }
+    return nz;
 }
 
 static int fails, passes;
@@ -150,8 +172,8 @@ static void finish_c(const int32_t *acc, uint32_t live, int32_t am, unsigned n, 
     }
 }
 
-enum { OP_DOT, OP_REQUANT, OP_FINISH };
-static const char *const op_name[] = {"dot_s16", "requant_s16", "finish_s32"};
+enum { OP_DOT, OP_REQUANT, OP_FINISH, OP_SPDOT };
+static const char *const op_name[] = {"dot_s16", "requant_s16", "finish_s32", "spdot_s16"};
 
 /* One shape of one operation. */
 typedef struct bench_case {
@@ -175,6 +197,10 @@ static void run(const cn_dot_variant *v, const bench_case *c, long calls)
         cn_dot_fn volatile f = v->fn;
         for (long i = 0; i < calls; i++)
             f(kbuf, xq, c->pairs, c->rows, b_out);
+    } else if (c->op == OP_SPDOT) {
+        cn_spdot_fn volatile f = v->spdot;
+        for (long i = 0; i < calls; i++)
+            f(lists, xq, c->rows, b_out);
     } else if (c->op == OP_REQUANT) {
         cn_requant_fn volatile f = v->requant;
         for (long i = 0; i < calls; i++)
@@ -269,6 +295,38 @@ static void bench(const cn_dot_variant *v, uint32_t nv)
         }
     }
     printf("\n");
+    /* The costs cnerf_open weighs (cn_dot_variant): packed sums per multiply-accumulate and
+     * lists per non-zero latent and per row, from 12 rows of 128 inputs, whole and with
+     * every 8th latent kept. */
+    {
+        static double pk[CN_DOT_MAX_VARIANTS], whole[CN_DOT_MAX_VARIANTS],
+            eighth[CN_DOT_MAX_VARIANTS];
+        fill(12, 64, 0);
+        for (uint32_t j = 0; j < 12; j++)
+            for (uint32_t i = 0; i < 128; i++)
+                rowmajor[j][i] = (int16_t)(rowmajor[j][i] ? rowmajor[j][i] : 1);
+        pack(12, 64);
+        bench_case c = {OP_DOT, 12, 64, 0, 0, 0, 0, 0};
+        bench_one(v, nv, &c, pk);
+        const double nz_whole = make_lists(12, 64);
+        c.op = OP_SPDOT;
+        bench_one(v, nv, &c, whole);
+        for (uint32_t j = 0; j < 12; j++)
+            for (uint32_t i = 0; i < 128; i++)
+                rowmajor[j][i] = (int16_t)(i % 8 ? 0 : rowmajor[j][i]);
+        const double nz_eighth = make_lists(12, 64);
+        bench_one(v, nv, &c, eighth);
+        for (uint32_t k = 0; k < nv; k++) {
+            const double per_nz = (whole[k] - eighth[k]) / (nz_whole - nz_eighth);
+            const double per_row = (eighth[k] - per_nz * nz_eighth) / 12;
+            const double per_mac = pk[k] / (12 * 128);
+            printf("costs %s: %.3f ns per multiply-accumulate packed, %.3f ns per non-zero "
+                   "latent and %.2f ns per row in lists; in sixteenths of the first: 16, "
+                   "%.0f, %.0f (kernels.c: %u, %u, %u)\n", v[k].name, per_mac, per_nz, per_row,
+                   16 * per_nz / per_mac, 16 * per_row / per_mac, v[k].mac_cost, v[k].nz_cost,
+                   v[k].row_cost);
+        }
+    }
     static double ratio[MAX_ROWS * N_PAIRS];
     for (uint32_t k = 1; k < nv; k++) {
         uint32_t count = 0;
@@ -374,6 +432,16 @@ int main(int argc, char **argv)
                         for (uint32_t j = 0; j < rows; j++)
                             ok &= got[j] == want[j];
                         check(ok, "int32 sums", v[k].name, rows, pairs);
+                    }
+                    make_lists(rows, pairs);
+                    for (uint32_t k = 0; k < nv; k++) {
+                        for (uint32_t j = 0; j < rows; j++)
+                            got[j] = 0x5A5A5A5A;
+                        v[k].spdot(lists, xq, rows, got);
+                        ok = 1;
+                        for (uint32_t j = 0; j < rows; j++)
+                            ok &= got[j] == want[j];
+                        check(ok, "int32 sums of the non-zero latents", v[k].name, rows, pairs);
                     }
                 }
     /* The fast rescale against the exact product, wherever cnerf_open takes it: |acc| at most
