@@ -56,10 +56,12 @@ void cn_merge_sorted(float *out, const float *a, unsigned na, const float *b, un
  * at increasing t[0..n): c_i = sigmoid(rgb), sigma_i = ReLU(sigma) (0 where inside[i] == 0),
  * delta_i = t_{i+1} - t_i (last: far - t_{n-1}), times dnorm = |d|;
  * alpha_i = 1 - exp(-sigma_i delta_i), T_i = prod_{j<i} (1 - alpha_j), w_i = T_i alpha_i;
- * C = sum w_i c_i + T_n bg. Writes color and, if w is not NULL, the weights. */
+ * C = sum w_i c_i + T_n bg. Writes color and, if w is not NULL, the weights. With t_stop > 0
+ * the ray ends as the decoder's does (cnerf_render_opts.t_stop): from the first sample whose
+ * T_i is below t_stop on, w_i = 0 and T_n = T_i (training passes 0). */
 void cn_volume_forward(const float *raw, size_t ld, const float *t, const uint8_t *inside,
                        unsigned n, float far, float dnorm, const float bg[3], float color[3],
-                       float *w);
+                       float *w, float t_stop);
 /* Gradient of the loss with respect to raw, given dC = dL/dC (overwrites draw rows). */
 void cn_volume_backward(float *draw, size_t ld, const float *raw, const float *t,
                         const uint8_t *inside, unsigned n, float far, float dnorm,
@@ -92,6 +94,9 @@ typedef struct cn_batch {
      * coarse transmittance falls below sat_eps are treated as empty (t_sat: cap floats). */
     float sat_eps;
     float *t_sat;
+    /* The reference render's early ray termination (cn_volume_forward; 0, as cn_batch_init
+     * leaves it, in training). */
+    float t_stop;
     /* Per-ray background colours (cap x 3, set by the caller), or NULL for the stream's
      * background. Training draws them at random on views with transparency. */
     const float *bg;

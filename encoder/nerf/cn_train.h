@@ -254,5 +254,9 @@ int cn_checkpoint_load_model(const char *path, cn_model *m, long *step, char *er
 void cn_view_camera(const cn_view *v, cn_camera *cam);
 /* Renders a whole view (rgb: w*h*3 floats) with the evaluation rule, `chunk` rays at a time. */
 int cn_render_view(const cn_model *m, const cn_camera *cam, int ndc, float *rgb, size_t chunk);
+/* The same, each ray ending once its transmittance is below t_stop as the decoder's does
+ * (cnerf_render_opts.t_stop / 2^30): the float reference of a fixed-point render. */
+int cn_render_view_stop(const cn_model *m, const cn_camera *cam, int ndc, float *rgb,
+                        size_t chunk, float t_stop);
 
 #endif /* CNERF_ENC_TRAIN_H */

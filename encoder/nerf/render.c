@@ -142,13 +142,18 @@ static inline float sample_s(const float *raw, size_t ld, const float *t, const 
 
 void cn_volume_forward(const float *raw, size_t ld, const float *t, const uint8_t *inside,
                        unsigned n, float far, float dnorm, const float bg[3], float color[3],
-                       float *w)
+                       float *w, float t_stop)
 {
     float C[3] = {0, 0, 0};
     double acc = 0; /* sum of s_j for j < i */
     for (unsigned i = 0; i < n; i++) {
-        float s = sample_s(raw, ld, t, inside, n, i, far, dnorm);
         float T = (float)exp(-acc);
+        if (T < t_stop) { /* the ray ends: no later sample adds anything */
+            for (; w && i < n; i++)
+                w[i] = 0;
+            break;
+        }
+        float s = sample_s(raw, ld, t, inside, n, i, far, dnorm);
         float wi = T * (1.0f - expf(-s));
         acc += s;
         if (w)
@@ -379,7 +384,7 @@ void cn_render_forward(const cn_model *m, cn_batch *b, size_t R, const uint64_t 
     for (size_t r = 0; r < R; r++)
         cn_volume_forward(b->raw[0] + r * nc * 4, 4, b->t_c + r * nc, b->inside[0] + r * nc, nc,
                           far, norm3(b->d + r * 3), b->bg ? b->bg + 3 * r : bg,
-                          b->color[0] + r * 3, b->w_c + r * nc);
+                          b->color[0] + r * 3, b->w_c + r * nc, b->t_stop);
     if (T->n_nets < 2)
         return;
     if (b->sat_eps > 0)
@@ -400,7 +405,7 @@ void cn_render_forward(const cn_model *m, cn_batch *b, size_t R, const uint64_t 
     for (size_t r = 0; r < R; r++)
         cn_volume_forward(b->raw[1] + r * ns * 4, 4, b->t_f + r * ns, b->inside[1] + r * ns, ns,
                           far, norm3(b->d + r * 3), b->bg ? b->bg + 3 * r : bg,
-                          b->color[1] + r * 3, NULL);
+                          b->color[1] + r * 3, NULL, b->t_stop);
 }
 
 void cn_render_backward(cn_model *m, cn_batch *b, size_t R, float *const dcolor[2])

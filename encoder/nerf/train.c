@@ -846,12 +846,14 @@ int cn_checkpoint_load_model(const char *path, cn_model *m, long *step, char *er
 
 /* ---- full views ---- */
 
-int cn_render_view(const cn_model *m, const cn_camera *cam, int ndc, float *rgb, size_t chunk)
+int cn_render_view_stop(const cn_model *m, const cn_camera *cam, int ndc, float *rgb,
+                        size_t chunk, float t_stop)
 {
     cn_batch b;
     if (cn_batch_init(&b, &m->topo, chunk))
         return -1;
     b.occ[0] = b.occ[1] = m->grid;
+    b.t_stop = t_stop;
     const size_t total = (size_t)cam->w * cam->h;
     const unsigned last = m->topo.n_nets - 1;
     for (size_t start = 0; start < total; start += chunk) {
@@ -866,4 +868,9 @@ int cn_render_view(const cn_model *m, const cn_camera *cam, int ndc, float *rgb,
     }
     cn_batch_free(&b);
     return 0;
+}
+
+int cn_render_view(const cn_model *m, const cn_camera *cam, int ndc, float *rgb, size_t chunk)
+{
+    return cn_render_view_stop(m, cam, ndc, rgb, chunk, 0);
 }

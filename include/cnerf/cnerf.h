@@ -253,9 +253,12 @@ typedef struct cnerf_render_stats {
                            the evaluations at the same sample positions without the grid.
                            Counting them costs what ruling out empty stretches of rays saves:
                            time a render without stats */
-    uint64_t macs;      /* network multiply-accumulates done (latent times activation; rows
-                           whose latents are all zero and colour branches skipped because the
-                           sample adds nothing to the image are not counted) */
+    uint64_t macs;      /* network multiply-accumulates (latent times activation) over the
+                           rows that have a non-zero latent, zeros included: the same for every
+                           CPU, whether a layer is summed packed or from lists of its non-zero
+                           latents (docs/decoder.md, Zero latents); rows whose latents are all
+                           zero and colour branches skipped because the sample adds nothing
+                           to the image are not counted */
 } cnerf_render_stats;
 
 /* The stream's sample counts and t_stop = 2^30 / 4096 (an error below 1/4096 per channel). */

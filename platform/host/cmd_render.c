@@ -190,7 +190,9 @@ static int render_view(render_job *j, const cn_camera *cam, const cnerf_camera *
         rc = cli_fail("render", "%s: %s", name, err);
     const double ms = (cli_now() - t0) * 1e3;
     t0 = cli_now();
-    if (rc == 0 && cn_render_view(j->ref, cam, I->coord == CNERF_COORD_NDC, rgb, 4096))
+    /* the float reference ends its rays where the decoder does (t_stop) */
+    if (rc == 0 && cn_render_view_stop(j->ref, cam, I->coord == CNERF_COORD_NDC, rgb, 4096,
+                                       (float)(j->cfg->opts.t_stop / 1073741824.0)))
         rc = cli_fail("render", "out of memory");
     const double ms_ref = (cli_now() - t0) * 1e3;
     if (rc != 0) {

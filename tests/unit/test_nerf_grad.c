@@ -117,7 +117,7 @@ static float vg[3];
 static double volume_loss(void)
 {
     float C[3];
-    cn_volume_forward(vraw, 4, vt, vin, VN, 6.0f, 1.3f, vbg, C, NULL);
+    cn_volume_forward(vraw, 4, vt, vin, VN, 6.0f, 1.3f, vbg, C, NULL, 0);
     return (double)vg[0] * C[0] + (double)vg[1] * C[1] + (double)vg[2] * C[2];
 }
 
@@ -154,7 +154,7 @@ static void test_volume_rendering(void **state)
     }
     /* Weights sum with the background's share to one. */
     float C[3], w[VN];
-    cn_volume_forward(vraw, 4, vt, NULL, VN, 6.0f, 1.0f, vbg, C, w);
+    cn_volume_forward(vraw, 4, vt, NULL, VN, 6.0f, 1.0f, vbg, C, w, 0);
     double sw = 0;
     for (int i = 0; i < VN; i++) {
         assert_true(w[i] >= 0);

@@ -204,8 +204,11 @@ static cmp compare(scene *s, const cn_camera *cam, unsigned tile, uint8_t *out)
                                                (size_t)cam->w * 3, s->scratch, s->scratch_size),
                              CNERF_OK);
         }
-    assert_int_equal(cn_render_view(&s->ref, cam, s->dec.info.coord == CNERF_COORD_NDC, rgb,
-                                    4096), 0);
+    cnerf_render_opts o; /* the float reference ends its rays as the decoder does */
+    cnerf_render_defaults(&s->dec.info, &o);
+    assert_int_equal(cn_render_view_stop(&s->ref, cam, s->dec.info.coord == CNERF_COORD_NDC, rgb,
+                                         4096, (float)(o.t_stop / 1073741824.0)),
+                     0);
     cmp c = {0, 0, 0, 0};
     for (size_t i = 0; i < n; i += 3)
         c.n_scene += memcmp(px + i, s->dec.info.background, 3) != 0;
