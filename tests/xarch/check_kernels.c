@@ -13,11 +13,64 @@
  * sums and lists, as cnerf_open weighs them. Timings are never pass or fail: the exit status
  * is the checks'.
  */
+#if defined(CK_FIRMWARE)
+/* The Cortex-M firmware build (platform/cortex-m, ctests check_kernels_m4 and _m55): no libc;
+ * the checks print through semihosting, with the number of iterations fixed and no bench. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "semihost.h"
+
+/* printf for the checks' lines: %s, %u, %d and %ld only. */
+#define printf ck_printf
+static void ck_printf(const char *fmt, ...)
+{
+    char buf[160];
+    size_t n = 0;
+    va_list ap;
+    va_start(ap, fmt);
+    for (const char *f = fmt; *f && n + 24 < sizeof buf; f++) {
+        if (*f != '%') {
+            buf[n++] = *f;
+            continue;
+        }
+        f++;
+        int neg = 0;
+        uint64_t v = 0;
+        if (*f == 's') {
+            for (const char *a = va_arg(ap, const char *); *a && n + 24 < sizeof buf; a++)
+                buf[n++] = *a;
+            continue;
+        } else if (*f == 'u') {
+            v = va_arg(ap, unsigned);
+        } else if (*f == 'd' || (*f == 'l' && f[1] == 'd')) {
+            const long x = *f == 'd' ? va_arg(ap, int) : va_arg(ap, long);
+            f += *f == 'l';
+            neg = x < 0;
+            v = neg ? 0u - (uint64_t)x : (uint64_t)x;
+        }
+        char d[24];
+        int k = 0;
+        do
+            d[k++] = (char)('0' + v % 10u);
+        while ((v /= 10u) != 0u);
+        if (neg)
+            buf[n++] = '-';
+        while (k > 0)
+            buf[n++] = d[--k];
+    }
+    va_end(ap);
+    buf[n] = 0;
+    sh_puts(buf);
+}
+#else
 #define _POSIX_C_SOURCE 199309L /* clock_gettime under -std=c99 */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#endif
 
 #include "../../common/cn_fixed.h"
 #include "../../decoder/cn_kernels.h"
@@ -135,6 +188,7 @@ static void fill(uint32_t rows, uint32_t pairs, int mode)
     }
 }
 
+#if !defined(CK_FIRMWARE)
 /* ---- --bench ---- */
 
 #define BENCH_RUNS 15        /* timed runs per kernel and shape; the median is printed */
@@ -387,6 +441,14 @@ static void bench(const cn_dot_variant *v, uint32_t nv)
     }
 }
 
+#endif /* the bench */
+
+#if defined(CK_FIRMWARE)
+int main(void)
+{
+    const int do_bench = 0;
+    const long iters = 1;
+#else
 int main(int argc, char **argv)
 {
     int do_bench = 0;
@@ -396,6 +458,7 @@ int main(int argc, char **argv)
         argv++;
     }
     const long iters = argc > 1 ? atol(argv[1]) : 3;
+#endif
     cn_dot_variant v[CN_DOT_MAX_VARIANTS];
     const uint32_t nv = cn_dot_variants(v);
     printf("kernels:");
@@ -518,12 +581,16 @@ int main(int argc, char **argv)
             }
         }
     }
+#if !defined(CK_FIRMWARE)
     if (do_bench) {
         if (fails)
             printf("bench: not run, a check failed\n");
         else
             bench(v, nv);
     }
+#else
+    (void)do_bench;
+#endif
     printf("%d passed, %d failed\n", passes, fails);
     return fails != 0;
 }
