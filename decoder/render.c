@@ -380,7 +380,7 @@ void cnerf_render_defaults(const cnerf_info *info, cnerf_render_opts *opts)
         return;
     opts->n_coarse = info ? info->n_coarse : 0;
     opts->n_fine = info ? info->n_fine : 0;
-    opts->t_stop = 1u << 18; /* 2^30 / 4096 */
+    opts->t_stop = CNERF_T_STOP_DEFAULT;
     opts->flags = 0;
 }
 
