@@ -12,17 +12,23 @@ import os
 import re
 import sys
 
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 ENTRIES = ["cnerf_peek", "cnerf_open", "cnerf_workspace_size", "cnerf_expand_topology",
            "cnerf_latent", "cnerf_crc32", "cnerf_status_str",
            "cnerf_render_scratch_size", "cnerf_render_defaults", "cnerf_render_tile",
            "cnerf_net_has_color"]
 
 
-def load(build_dir):
+def load(build_dir, check_sources=True):
     frames, edges, problems, where = {}, {}, [], {}
     files = glob.glob(os.path.join(build_dir, "**", "*.ci"), recursive=True)
     for path in files:
         if "cnerf_dec.dir" not in path:
+            continue
+        # A call-graph file whose source no longer exists is left over in a reused build
+        # directory: not part of the decoder.
+        source = path.split("cnerf_dec.dir" + os.sep, 1)[1][:-len(".ci")]
+        if check_sources and not os.path.exists(os.path.join(ROOT, source)):
             continue
         text = open(path).read()
         for m in re.finditer(r'node: \{ title: "([^"]+)" label: "([^"]+)"', text):
