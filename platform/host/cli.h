@@ -116,12 +116,17 @@ const char *cli_signal_name(int sig);
  * occupancy grids are rebuilt from the model rather than restored (a version 1 checkpoint,
  * or another --occupancy); returns 0 or 1 (error printed). */
 int cli_resume(const char *cmd, struct cn_trainer *t, const char *path);
-/* Renders every `every`-th of views[0..n) with the evaluation rule, prints PSNR, SSIM and
- * time per view unless `quiet`, writes OUTDIR/<name>.png when outdir is not NULL; returns
- * the number of views (means in the out-parameters) or -1 after printing the error. */
+/* Renders every `every`-th of views[0..n) with the evaluation rule, each ray ending once its
+ * transmittance is below t_stop (0: never; a stream's float reference passes the decoder's
+ * default, CLI_T_STOP), prints PSNR, SSIM and time per view unless `quiet`, writes
+ * OUTDIR/<name>.png when outdir is not NULL; returns the number of views (means in the
+ * out-parameters) or -1 after printing the error. */
 int cli_eval_views(const struct cn_model *m, const struct cn_view *views, int n, int ndc,
-                   long every, const char *outdir, int quiet, double *mean_psnr,
+                   long every, const char *outdir, int quiet, float t_stop, double *mean_psnr,
                    double *mean_ssim, double *secs);
+/* The decoder's default t_stop as a fraction: the float reference of a stream ends its rays
+ * there, as the fixed-point render does. */
+#define CLI_T_STOP ((float)(CNERF_T_STOP_DEFAULT / 1073741824.0))
 
 /* Loads a dataset with the shared options and holds out val_views of its training views
  * for validation (cn_dataset_hold_out; -1: the default rule, which every command applies

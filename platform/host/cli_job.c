@@ -184,7 +184,7 @@ static double eval_now(cn_trainer *t, long every, double trained)
     double psnr, ssim, secs;
     cn_model_materialize(&t->model); /* the kernels of the latest step's parameters */
     const int n = cli_eval_views(&t->model, t->ds->test, t->ds->n_test, t->ds->ndc, every, NULL,
-                                 1, &psnr, &ssim, &secs);
+                                 1, 0, &psnr, &ssim, &secs);
     if (n < 0)
         return -1;
     if (n > 0)

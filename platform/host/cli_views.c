@@ -29,8 +29,8 @@ int cli_write_png(const char *path, const float *rgb, int w, int h, char *err, s
 }
 
 int cli_eval_views(const cn_model *m, const cn_view *views, int n, int ndc, long every,
-                   const char *outdir, int quiet, double *mean_psnr, double *mean_ssim,
-                   double *secs)
+                   const char *outdir, int quiet, float t_stop, double *mean_psnr,
+                   double *mean_ssim, double *secs)
 {
     double sp = 0, ss = 0, st = 0;
     int count = 0;
@@ -49,7 +49,7 @@ int cli_eval_views(const cn_model *m, const cn_view *views, int n, int ndc, long
         cn_camera cam;
         cn_view_camera(v, &cam);
         const double t0 = cli_now();
-        if (!rgb || cn_render_view(m, &cam, ndc, rgb, 4096)) {
+        if (!rgb || cn_render_view_stop(m, &cam, ndc, rgb, 4096, t_stop)) {
             free(rgb);
             return cli_fail("eval", "out of memory rendering %s", v->name), -1;
         }

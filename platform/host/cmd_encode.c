@@ -481,7 +481,8 @@ static int write_and_report(encode_args *A, cn_trainer *t, const cn_dataset *ds,
                est, (unsigned long long)tot.payload, 100.0 * ((double)tot.payload / est - 1));
         double psnr = 0, ssim = 0, secs = 0;
         printf("float reference render of %s, test views:\n", A->out);
-        int n = cli_eval_views(&ref, ds->test, ds->n_test, ds->ndc, A->every, NULL, 0, &psnr, &ssim, &secs);
+        int n = cli_eval_views(&ref, ds->test, ds->n_test, ds->ndc, A->every, NULL, 0,
+                               CLI_T_STOP, &psnr, &ssim, &secs);
         if (n < 0)
             rc = 1;
         else if (n > 0)

@@ -83,7 +83,7 @@ int cmd_eval(int argc, char **argv)
         rc = cli_make_dir("eval", outdir);
     if (rc == 0) {
         double psnr, ssim, secs;
-        int count = cli_eval_views(&m, views, n, ds.ndc, every, outdir, 0, &psnr, &ssim, &secs);
+        int count = cli_eval_views(&m, views, n, ds.ndc, every, outdir, 0, 0, &psnr, &ssim, &secs);
         if (count < 0)
             rc = 1;
         else if (step >= 0)

@@ -186,7 +186,7 @@ static int score_set(const encode_args *A, const cn_dataset *ds, size_t bytes)
                    st.dec->info.shared_bytes);
         double psnr = 0, ssim = 0, secs = 0;
         const int n = cli_eval_views(&ref, ds[m].test, ds[m].n_test, ds[m].ndc, A->every, NULL,
-                                     1, &psnr, &ssim, &secs);
+                                     1, CLI_T_STOP, &psnr, &ssim, &secs);
         if (n < 0)
             rc = 1;
         else {
