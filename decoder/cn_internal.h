@@ -54,7 +54,7 @@ typedef struct cn_state {
      * outputs' rescale. */
     void (*dot)(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                 int32_t *acc);
-    void (*spdot)(const uint32_t *e, const int16_t *x, uint32_t n_rows, int32_t *acc);
+    uint32_t (*spdot)(const uint32_t *e, const int16_t *x, uint32_t n_rows, int32_t *acc);
     int32_t (*requant)(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
     void (*finish)(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
                    const int32_t *bq, int32_t *y, int relu);

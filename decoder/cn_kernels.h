@@ -47,9 +47,10 @@ typedef void (*cn_dot_fn)(const int16_t *k, const int16_t *x, uint32_t n_pairs,
 /* spdot_s16: the same sums over a sparse layer: for each of the n_rows live rows, one word
  * holding its count n of non-zero latents, then n words, each 2 i << 16 | (uint16_t)k for
  * the latent k of input i (i < 2^15: the input's byte offset in x sits in the high half).
- * The caller proved the int32 bound as for dot_s16 (the same latents, zeros left out). */
-typedef void (*cn_spdot_fn)(const uint32_t *e, const int16_t *x, uint32_t n_rows,
-                            int32_t *acc);
+ * The caller proved the int32 bound as for dot_s16 (the same latents, zeros left out).
+ * Returns the non-zero latents multiplied (the rows' counts). */
+typedef uint32_t (*cn_spdot_fn)(const uint32_t *e, const int16_t *x, uint32_t n_rows,
+                                int32_t *acc);
 
 /* requant_s16: a layer's inputs at its scale, for 1 <= s <= 16 (render.c's requant):
  * xq[i] = sat16(floor(x[i] / 2^s + 1/2)) for i < n; returns their sum. */
@@ -66,7 +67,7 @@ typedef void (*cn_finish_fn)(const int32_t *acc, uint32_t live, int32_t am, unsi
 void cn_dot_s16_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                   int32_t *acc);
 
-void cn_spdot_s16_c(const uint32_t *e, const int16_t *x, uint32_t n_rows, int32_t *acc);
+uint32_t cn_spdot_s16_c(const uint32_t *e, const int16_t *x, uint32_t n_rows, int32_t *acc);
 
 /* The same sums in int64, for layers whose int32 bound does not hold (portable C only). */
 void cn_dot_s16_s64_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
@@ -81,7 +82,7 @@ void cn_dot_s16_dsp(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32
 #endif
 #if defined(CN_HAVE_DSP)
 /* kernels_dsp.c: SMLABB, two non-zero latents in seven instructions */
-void cn_spdot_s16_dsp(const uint32_t *e, const int16_t *x, uint32_t n_rows, int32_t *acc);
+uint32_t cn_spdot_s16_dsp(const uint32_t *e, const int16_t *x, uint32_t n_rows, int32_t *acc);
 /* kernels_dsp.c: QADD, SSAT and PKHBT, two inputs a step */
 int32_t cn_requant_s16_dsp(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
 /* kernels_dsp.c: SMLAL and two QADDs, two outputs a step */
@@ -139,6 +140,11 @@ typedef struct cn_dot_variant {
  * one first and the fastest last; returns how many. This is the one place of the CPU
  * dispatch. */
 uint32_t cn_dot_variants(cn_dot_variant out[CN_DOT_MAX_VARIANTS]);
+
+/* The portable C kernels with the costs of the set named `set` ("c", "dsp", "mve", "neon",
+ * "avx2"), whichever this build holds: a device's choice of forms, computed anywhere.
+ * Returns 1, or 0 for an unknown name. */
+int cn_dot_variant_as(const char *set, cn_dot_variant *out);
 
 /* The fastest kernels this build and CPU have (x86-64: AVX2 when the CPU and the OS
  * support it; Arm: chosen at compile time; CNERF_PORTABLE builds: the portable C). */

@@ -78,10 +78,12 @@ static inline int32_t entry_k(uint32_t w)
     return (int32_t)(w & 0xffffu) - (int32_t)(w & 0x8000u) * 2;
 }
 
-void cn_spdot_s16_c(const uint32_t *e, const int16_t *x, uint32_t n_rows, int32_t *acc)
+uint32_t cn_spdot_s16_c(const uint32_t *e, const int16_t *x, uint32_t n_rows, int32_t *acc)
 {
+    uint32_t total = 0;
     for (uint32_t j = 0; j < n_rows; j++) {
         uint32_t n = *e++;
+        total += n;
         int32_t a = 0;
         for (; n >= 2u; n -= 2u, e += 2) {
             a += entry_k(e[0]) * x[e[0] >> 17];
@@ -91,7 +93,16 @@ void cn_spdot_s16_c(const uint32_t *e, const int16_t *x, uint32_t n_rows, int32_
             a += entry_k(*e) * x[*e >> 17], e++;
         acc[j] = a;
     }
+    return total;
 }
+
+/* The costs {per multiply-accumulate, per non-zero latent, per row} of each set, in
+ * sixteenths (above; docs/decoder.md, "Zero latents"). Helium's sets use the DSP's lists. */
+static const uint16_t c_cost[3] = {C_MAC, C_NZ, C_ROW};
+static const uint16_t dsp_cost[3] = {DSP_MAC, DSP_NZ, DSP_ROW};
+static const uint16_t mve_cost[3] = {MVE_MAC, DSP_NZ, DSP_ROW};
+static const uint16_t neon_cost[3] = {NEON_MAC, NEON_NZ, NEON_ROW};
+static const uint16_t avx2_cost[3] = {AVX2_MAC, AVX2_NZ, AVX2_ROW};
 
 /* One entry of the list, with its kernels' costs (sixteenths, cn_dot_variant); returns 1. */
 static uint32_t variant(cn_dot_variant *v, const char *name, cn_dot_fn fn, cn_requant_fn requant,
@@ -112,35 +123,48 @@ uint32_t cn_dot_variants(cn_dot_variant out[CN_DOT_MAX_VARIANTS])
 {
     const cn_requant_fn c_requant = (cn_requant_fn)0; /* render.c's portable C */
     const cn_finish_fn c_finish = (cn_finish_fn)0;
-    /* The costs {per multiply-accumulate, per non-zero latent, per row}, in sixteenths of
-     * an instruction (Arm, counted under QEMU) or of a nanosecond (x86-64, timed):
-     * docs/decoder.md, "Zero latents". */
-    static const uint16_t c_cost[3] = {C_MAC, C_NZ, C_ROW};
     uint32_t n = variant(out, "c", cn_dot_s16_c, c_requant, c_finish, cn_spdot_s16_c, c_cost);
 #if defined(CN_HAVE_AVX2)
-    static const uint16_t avx2_cost[3] = {AVX2_MAC, AVX2_NZ, AVX2_ROW};
     if (cn_cpu_has_avx2())
         n += variant(out + n, "avx2", cn_dot_s16_avx2, cn_requant_s16_avx2, cn_finish_s32_avx2,
                      cn_spdot_s16_c, avx2_cost);
 #endif
     /* Arm: one set, fixed at compile time */
 #if defined(CN_HAVE_MVE) && defined(CN_HAVE_DSP)
-    static const uint16_t mve_cost[3] = {MVE_MAC, DSP_NZ, DSP_ROW}; /* the DSP's lists */
     n += variant(out + n, "mve", cn_dot_s16_mve, cn_requant_s16_dsp, cn_finish_s32_dsp,
                  cn_spdot_s16_dsp, mve_cost);
 #elif defined(CN_HAVE_MVE)
-    static const uint16_t mve_cost[3] = {MVE_MAC, C_NZ, C_ROW};
     n += variant(out + n, "mve", cn_dot_s16_mve, c_requant, c_finish, cn_spdot_s16_c, mve_cost);
 #elif defined(CN_HAVE_DSP)
-    static const uint16_t dsp_cost[3] = {DSP_MAC, DSP_NZ, DSP_ROW};
     n += variant(out + n, "dsp", cn_dot_s16_dsp, cn_requant_s16_dsp, cn_finish_s32_dsp,
                  cn_spdot_s16_dsp, dsp_cost);
 #elif defined(CN_HAVE_NEON)
-    static const uint16_t neon_cost[3] = {NEON_MAC, NEON_NZ, NEON_ROW};
     n += variant(out + n, "neon", cn_dot_s16_neon, c_requant, c_finish, cn_spdot_s16_c,
                  neon_cost);
 #endif
     return n;
+}
+
+/* 1 when the NUL-terminated a and b are equal (no libc here). */
+static int same(const char *a, const char *b)
+{
+    while (*a && *a == *b)
+        a++, b++;
+    return *a == *b;
+}
+
+int cn_dot_variant_as(const char *set, cn_dot_variant *out)
+{
+    static const struct {
+        const char *name;
+        const uint16_t *cost;
+    } sets[] = {{"c", c_cost}, {"dsp", dsp_cost}, {"mve", mve_cost}, {"neon", neon_cost},
+                {"avx2", avx2_cost}};
+    for (uint32_t i = 0; set && i < sizeof sets / sizeof sets[0]; i++)
+        if (same(set, sets[i].name))
+            return (int)variant(out, sets[i].name, cn_dot_s16_c, (cn_requant_fn)0,
+                                (cn_finish_fn)0, cn_spdot_s16_c, sets[i].cost);
+    return 0;
 }
 
 cn_dot_variant cn_dot_select(void)

@@ -93,10 +93,12 @@ void cn_dot_s16_dsp(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32
 /* cn_spdot_s16_c's sums: per row its count, then two entries a step (LDRD; the inputs'
  * byte offsets by LSR from the high halves; two LDRSH; SMLABB of each entry's low half,
  * its latent, with the input: seven instructions and the loop's two). */
-void cn_spdot_s16_dsp(const uint32_t *e, const int16_t *x, uint32_t n_rows, int32_t *acc)
+uint32_t cn_spdot_s16_dsp(const uint32_t *e, const int16_t *x, uint32_t n_rows, int32_t *acc)
 {
+    uint32_t total = 0;
     for (uint32_t j = 0; j < n_rows; j++) {
         const uint32_t n = *e++;
+        total += n;
         int32_t a = 0;
         if (n >= 2u) {
             const uint32_t *end = e + (n & ~1u);
@@ -122,6 +124,7 @@ void cn_spdot_s16_dsp(const uint32_t *e, const int16_t *x, uint32_t n_rows, int3
         }
         acc[j] = a;
     }
+    return total;
 }
 
 /* render.c's finish_fast for n < 32, two outputs per step: y[j] = sat32(sat32(((acc[j] a_m

@@ -196,7 +196,7 @@ CN_NOINLINE static void finish_fast(const int32_t *acc, uint32_t live, int32_t a
  * write y[rows[j]]. The order changes no value: each output is its own exact sum. Returns
  * the multiply-accumulates done. */
 static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, int32_t *y,
-                       int relu, int16_t *xq, int32_t *acc)
+                       int relu, int16_t *xq, int32_t *acc, cnerf_render_stats *st)
 {
     const cn_state *ds = cn_cstate_of(dec);
     const cnerf_layer_info *L = &dec->info.layer[l];
@@ -228,13 +228,14 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
                 y[j + q] = cn_sat32(cn_mul_exp_r(a64[q], L->a_m, L->a_e + e, 1));
         }
     } else if (live) {
-        if (form == CN_FORM_SPARSE)
+        if (form == CN_FORM_SPARSE) {
 #ifdef CN_SPDOT_DIRECT
-            CN_SPDOT_DIRECT((const uint32_t *)(const void *)k, xq, live, acc);
+            st->list_nz += CN_SPDOT_DIRECT((const uint32_t *)(const void *)k, xq, live, acc);
 #else
-            ds->spdot((const uint32_t *)(const void *)k, xq, live, acc);
+            st->list_nz += ds->spdot((const uint32_t *)(const void *)k, xq, live, acc);
 #endif
-        else
+            st->list_macs += live * n_in;
+        } else
 #ifdef CN_DOT_DIRECT
             CN_DOT_DIRECT(k, xq, pairs, live, acc);
 #else
@@ -399,9 +400,9 @@ int cnerf_net_has_color(const cnerf_info *info, unsigned net)
 /* ---- one network at one point: raw (r, g, b, sigma) in Q16 ---- */
 
 /* The trunk and the density: raw[3], and with no view branch raw[0..2] as well (one layer
- * gives all four). Adds the multiply-accumulates to *macs. */
+ * gives all four). Adds the multiply-accumulates to st. */
 static void net_sigma(const cnerf_decoder *dec, unsigned net, const scratch *s, int32_t raw[4],
-                      uint64_t *macs)
+                      cnerf_render_stats *st)
 {
     const cnerf_info *I = &dec->info;
     const cnerf_net_info *N = &I->net[net];
@@ -412,26 +413,26 @@ static void net_sigma(const cnerf_decoder *dec, unsigned net, const scratch *s, 
         const int32_t *in = s->buf[i & 1u];
         const int skip_in = i == 0 || (N->skip != CNERF_NO_SKIP && i == N->skip + 1u);
         m += linear(dec, N->first_layer + i, skip_in ? in : in + P, s->buf[(i + 1u) & 1u] + P, 1,
-                    s->xq, s->acc);
+                    s->xq, s->acc, st);
     }
     const int32_t *h = s->buf[N->depth & 1u] + P;
     const unsigned l = N->first_layer + N->depth;
-    m += linear(dec, l, h, N->view_width ? raw + 3 : raw, 0, s->xq, s->acc);
-    *macs += m;
+    m += linear(dec, l, h, N->view_width ? raw + 3 : raw, 0, s->xq, s->acc, st);
+    st->macs += m;
 }
 
 /* The colour raw[0..2] of a network with a view branch, after net_sigma at the same point
  * (whose trunk output it reads). The caller wrote the ray's PE(d) after the feature. */
 static void net_color(const cnerf_decoder *dec, unsigned net, const scratch *s, int32_t raw[4],
-                      uint64_t *macs)
+                      cnerf_render_stats *st)
 {
     const cnerf_net_info *N = &dec->info.net[net];
     const int32_t *h = s->buf[N->depth & 1u] + dec->info.in_pos;
     const unsigned l = N->first_layer + N->depth;
-    uint32_t m = linear(dec, l + 1, h, s->view_in, 0, s->xq, s->acc);
-    m += linear(dec, l + 2, s->view_in, s->view_h, 1, s->xq, s->acc);
-    m += linear(dec, l + 3, s->view_h, raw, 0, s->xq, s->acc);
-    *macs += m;
+    uint32_t m = linear(dec, l + 1, h, s->view_in, 0, s->xq, s->acc, st);
+    m += linear(dec, l + 2, s->view_in, s->view_h, 1, s->xq, s->acc, st);
+    m += linear(dec, l + 3, s->view_h, raw, 0, s->xq, s->acc, st);
+    st->macs += m;
 }
 
 /* ---- rays ---- */
@@ -893,7 +894,7 @@ static void march_ray(const cnerf_decoder *dec, unsigned net, const scratch *s, 
         for (uint32_t k = 0; k < I->in_pos; k++)
             s->buf[1][k] = s->buf[0][k];
         int32_t raw[4];
-        net_sigma(dec, net, s, raw, &stats->macs);
+        net_sigma(dec, net, s, raw, stats);
         if (raw[3] <= 0)
             continue;
         const int64_t delta = (i + 1 < n ? t[i + 1] : far) - t[i];        /* Q32, >= 0 */
@@ -910,7 +911,7 @@ static void march_ray(const cnerf_decoder *dec, unsigned net, const scratch *s, 
         if (view) {
             for (uint32_t k = 0; k < I->in_dir; k++)
                 s->view_in[I->net[net].width + k] = s->vpe[k];
-            net_color(dec, net, s, raw, &stats->macs);
+            net_color(dec, net, s, raw, stats);
         }
         for (unsigned c = 0; c < 3; c++)
             m->rgb[c] += (int64_t)wi * sigmoid_q16(raw[c]);
@@ -1045,7 +1046,7 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
     gridmap gm;
     gridmap_init(dec, !(o.flags & CNERF_RENDER_NO_SKIP), &gm);
     cnerf_render_stats stats; /* field by field: an initializer may become a memset call */
-    stats.rays = stats.evals = stats.in_bounds = stats.macs = 0;
+    stats.rays = stats.evals = stats.in_bounds = stats.macs = stats.list_macs = stats.list_nz = 0;
     const unsigned nc = o.n_coarse, nf = I->n_nets > 1 ? o.n_fine : 0;
     /* The sampling interval [near, far] in Q32; contracted scenes sample s in
      * [0, 2 - 2^-CNERF_CONTRACT_SHIFT] and march at the distances ray_t(s). */
@@ -1144,6 +1145,8 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
         stats_out->evals += stats.evals;
         stats_out->in_bounds += stats.in_bounds;
         stats_out->macs += stats.macs;
+        stats_out->list_macs += stats.list_macs;
+        stats_out->list_nz += stats.list_nz;
     }
     return CNERF_OK;
 }

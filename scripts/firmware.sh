@@ -200,7 +200,7 @@ with tempfile.TemporaryDirectory() as tmp:
     for p in glob.glob(os.path.join(bdir, "platform", "cortex-m", "CMakeFiles", "cnerf_fw.dir",
                                     "*.ci")):
         shutil.copy(p, stage)
-    f2, e2, p2 = su.load(tmp)
+    f2, e2, p2 = su.load(tmp, check_sources=False)
 frames.update(f2)
 for k, v in e2.items():
     edges.setdefault(k, set()).update(v)
@@ -262,6 +262,9 @@ if ok_cal and ok_cross:
           f"{r['x0']},{r['y0']}; {r['n_coarse']} coarse + {r['n_fine']} fine samples, t_stop "
           f"{r['t_stop']}): {n(round(ins['render'] / rays))} instructions per ray, per-tile "
           f"set-up included")
+    print(f"  work of the tile: rays {rays} evals {r['evals']} in_bounds {r['in_bounds']} "
+          f"macs {r['macs']} list_macs {r['list_macs']} list_nz {r['list_nz']} "
+          f"instructions {ins['render']}")
     grid = f"{r['grid']}^3 grid" if r["grid"] else "no grid"
     use = "ignored (CNERF_RENDER_NO_SKIP)" if r["flags"] & 1 else "used"
     print(f"  network evaluations per ray: {r['evals'] / rays:.2f} ({r['in_bounds'] / rays:.2f} "
@@ -270,6 +273,8 @@ if ok_cal and ok_cross:
         print(f"  network multiply-accumulates per ray: {n(round(r['macs'] / rays))}; "
               f"instructions per MAC: {ins['render'] / r['macs']:.2f} (all of "
               f"cnerf_render_tile over the MACs done)")
+        print(f"  of them in layers summed from lists of their non-zero latents: "
+              f"{n(round(r['list_macs'] / rays))}, which multiplied {n(round(r['list_nz'] / rays))}")
 else:
     print("firmware.sh: the instruction counts are not valid (is this QEMU 7.2 with "
           "-icount shift=0?); not reported", file=sys.stderr)

@@ -259,6 +259,10 @@ typedef struct cnerf_render_stats {
                            latents (docs/decoder.md, Zero latents); rows whose latents are all
                            zero and colour branches skipped because the sample adds nothing
                            to the image are not counted */
+    uint64_t list_macs; /* of macs, those of the layers that cnerf_open stored as lists of
+                           their non-zero latents for this CPU's kernels */
+    uint64_t list_nz;   /* the multiplications those layers did: their non-zero latents (the
+                           rest of list_macs multiplied zeros and was not done) */
 } cnerf_render_stats;
 
 /* The default early ray termination, round(0.01 2^30): a ray ends once 1% of its light is

@@ -22,6 +22,15 @@ cnerf_status cnerf_parse_head(const uint8_t *p, uint32_t n, cnerf_info *info);
 cnerf_status cnerf_grid_bitmap(const uint8_t *payload, size_t len, uint32_t g, unsigned prec,
                                const uint16_t *f1, uint8_t *bits, uint32_t *occupied);
 
+/* Opens scene `scene` of buf as a device whose kernel set is `set` would ("dsp": Cortex-M4,
+ * M7, M33; "mve": Cortex-M55; "neon": aarch64; "avx2"; "c": the portable C): each layer
+ * stored packed or as lists of its non-zero latents by that set's costs (docs/decoder.md,
+ * Zero latents), and summed here by the portable C, which gives the same values. Renders of
+ * it count the work that device does (cnerf_render_stats.list_macs and list_nz): what a cost
+ * model of that device needs. CNERF_E_NULL for an unknown set. */
+cnerf_status cnerf_open_as(cnerf_decoder *dec, const uint8_t *buf, size_t len, uint32_t scene,
+                           void *ws, size_t ws_size, const char *set);
+
 #ifdef __cplusplus
 }
 #endif

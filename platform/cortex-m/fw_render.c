@@ -206,7 +206,7 @@ int main(void)
     /* The work done, counted by a second render, untimed: counting the samples inside the
      * bounds costs what the renderer saves by ruling out stretches of rays unseen. */
     cnerf_render_stats work; /* field by field: no memset in this firmware */
-    work.rays = work.evals = work.in_bounds = work.macs = 0;
+    work.rays = work.evals = work.in_bounds = work.macs = work.list_macs = work.list_nz = 0;
     st = cnerf_render_tile_stats(&dec, &camera, &opts, CNERF_FW_TILE_X0, CNERF_FW_TILE_Y0,
                                  CNERF_FW_TILE_W, CNERF_FW_TILE_H, tile, CNERF_FW_TILE_STRIDE,
                                  scratch, sizeof scratch, &work);
@@ -233,6 +233,8 @@ int main(void)
     put_kv("evals", work.evals);
     put_kv("in_bounds", work.in_bounds);
     put_kv("macs", work.macs);
+    put_kv("list_macs", work.list_macs);
+    put_kv("list_nz", work.list_nz);
     put_kv("grid", dec.info.grid_g);
     sh_puts("\nfw clock");
     put_kv("cpu_hz", FW_CPU_HZ);

@@ -42,7 +42,8 @@ static int render_fixed(const cnerf_decoder *dec, const cnerf_camera *cam, const
 #pragma omp parallel
     {
         void *scratch = aligned_alloc(CNERF_WS_ALIGN, (need + 7) & ~(size_t)7);
-        cnerf_render_stats mine = {0, 0, 0, 0};
+        cnerf_render_stats mine;
+        memset(&mine, 0, sizeof mine);
 #pragma omp for schedule(dynamic, 1)
         for (int k = 0; k < tx * ty; k++) {
             const int x0 = k % tx * T, y0 = k / tx * T;
@@ -68,6 +69,8 @@ static int render_fixed(const cnerf_decoder *dec, const cnerf_camera *cam, const
             stats->evals += mine.evals;
             stats->in_bounds += mine.in_bounds;
             stats->macs += mine.macs;
+            stats->list_macs += mine.list_macs;
+            stats->list_nz += mine.list_nz;
         }
     }
     if (bad)
@@ -281,6 +284,10 @@ static int render_totals(const render_job *j, render_tally *t, int with_gt, int 
         printf("network multiply-accumulates per ray: %.0f (%.0f per evaluation)\n",
                (double)s->macs / (double)s->rays,
                s->evals ? (double)s->macs / (double)s->evals : 0.0);
+        if (s->list_macs)
+            printf("of them in layers summed from lists of their non-zero latents on this "
+                   "host: %.0f, which multiplied %.0f\n",
+                   (double)s->list_macs / (double)s->rays, (double)s->list_nz / (double)s->rays);
     }
     if (verify && strcmp(hex, verify))
         return cli_fail("render", "verification failed: the frames' md5 is %s, expected %s",

@@ -11,6 +11,7 @@
 #include "cn_fixed.h"
 #include "cn_internal.h"
 #include "cn_kernels.h"
+#include "cnerf/tools.h"
 #include "cn_render.h"
 #include "cn_rng.h"
 #include "cn_scales.h"
@@ -1052,6 +1053,7 @@ static void test_sparse_exact(void **state)
     cn_dot_variant all[CN_DOT_MAX_VARIANTS];
     const uint32_t nv = cn_dot_variants(all);
     unsigned sparse_layers = 0, kept_packed = 0;
+    uint64_t listed = 0; /* multiply-accumulates of layers in lists */
     for (uint32_t k = 0; k < nv; k++)
         for (int mode = 0; mode < 3; mode++) {
             cn_dot_variant v = all[k];
@@ -1091,6 +1093,10 @@ static void test_sparse_exact(void **state)
                 assert_memory_equal(px[0], px[1], (size_t)cam.w * cam.h * 3);
                 assert_true(st[0].evals == st[1].evals && st[0].macs == st[1].macs &&
                             st[0].evals > 0);
+                /* the packed open does every multiply-accumulate, the lists fewer */
+                assert_true(st[1].list_macs == 0 && st[1].list_nz == 0);
+                assert_true(st[0].list_nz <= st[0].list_macs && st[0].list_macs <= st[0].macs);
+                listed += st[0].list_macs;
                 free(px[0]);
                 free(px[1]);
             }
@@ -1100,7 +1106,54 @@ static void test_sparse_exact(void **state)
         }
     printf("sparse layers: %u opened sparse, %u left packed where lists would not fit or "
            "cost more, the same pixels\n", sparse_layers, kept_packed);
-    assert_true(sparse_layers > 0 && kept_packed > 0);
+    assert_true(sparse_layers > 0 && kept_packed > 0 && listed > 0);
+}
+
+/* cnerf_open_as: a device's forms, computed here: every named set opens the stream with the
+ * layers its costs choose (the same as cn_open_with with that set's costs) and renders the
+ * same pixels; an unknown name is refused and leaves the decoder zeroed. */
+static void test_open_as(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    tu_small_header(&hdr, 4, 24, 1);
+    scene s;
+    make_scene_edit(&s, &hdr, 3.0, 41, sparsify);
+    const size_t n = cnerf_workspace_size(&s.dec.info);
+    static const char *const sets[] = {"c", "dsp", "mve", "neon", "avx2"};
+    cn_camera cam;
+    look_at(&cam, 2.0, -2.5, 1.5, 15, 11, 50);
+    cnerf_render_stats st0;
+    uint8_t *px0 = render_counted(&s, &cam, 0u, &st0);
+    unsigned listed = 0;
+    for (size_t k = 0; k < sizeof sets / sizeof sets[0]; k++) {
+        scene c = s;
+        c.ws = aligned_alloc(CNERF_WS_ALIGN, (n + 7) & ~(size_t)7);
+        assert_int_equal(cnerf_open_as(&c.dec, s.buf.p, s.buf.n, 0, c.ws, n, sets[k]), CNERF_OK);
+        cn_dot_variant v;
+        assert_true(cn_dot_variant_as(sets[k], &v));
+        cnerf_decoder d;
+        void *ws = aligned_alloc(CNERF_WS_ALIGN, (n + 7) & ~(size_t)7);
+        assert_int_equal(cn_open_with(&d, s.buf.p, s.buf.n, 0, ws, n, &v), CNERF_OK);
+        for (unsigned l = 0; l < s.dec.info.n_layers; l++) {
+            assert_int_equal(cn_cstate_of(&c.dec)->form[l], cn_cstate_of(&d)->form[l]);
+            listed += cn_cstate_of(&c.dec)->form[l] == CN_FORM_SPARSE;
+        }
+        cnerf_render_stats st;
+        uint8_t *px = render_counted(&c, &cam, 0u, &st);
+        assert_memory_equal(px, px0, (size_t)cam.w * cam.h * 3);
+        assert_true(st.macs == st0.macs && st.evals == st0.evals);
+        free(px);
+        free(ws);
+        free(c.ws);
+    }
+    assert_true(listed > 0);
+    cnerf_decoder bad;
+    assert_int_equal(cnerf_open_as(&bad, s.buf.p, s.buf.n, 0, s.ws, n, "sse"), CNERF_E_NULL);
+    assert_int_equal(bad.info.n_layers, 0);
+    assert_int_equal(cnerf_open_as(&bad, s.buf.p, s.buf.n, 0, s.ws, n, NULL), CNERF_E_NULL);
+    free(px0);
+    free_scene(&s);
 }
 
 /* ---- several scenes: the shared shift's term ---- */
@@ -1246,6 +1299,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_mul_exp),
         cmocka_unit_test(test_sparse_exact),
+        cmocka_unit_test(test_open_as),
         cmocka_unit_test(test_div_sqrt),
         cmocka_unit_test(test_matches_float),
         cmocka_unit_test(test_rays_miss),
