@@ -196,7 +196,7 @@ CN_NOINLINE static void finish_fast(const int32_t *acc, uint32_t live, int32_t a
  * write y[rows[j]]. The order changes no value: each output is its own exact sum. Returns
  * the multiply-accumulates done. */
 static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, int32_t *y,
-                       int relu, int16_t *xq, int32_t *acc, cnerf_render_stats *st)
+                       int relu, int16_t *xq, int32_t *acc, cnerf_render_stats *work)
 {
     const cn_state *ds = cn_cstate_of(dec);
     const cnerf_layer_info *L = &dec->info.layer[l];
@@ -218,6 +218,19 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
     const int32_t *bq = ds->bias_q16[l];
     const int16_t *k = ds->latent[l];
     const unsigned form = ds->form[l];
+    if (work) { /* the work done, for cost models: only when the caller asked for it */
+        work->layer_values += n_in + n_out;
+        if (form == CN_FORM_WIDE || !ds->a_shift[l] || final)
+            work->exact_rescales += live;
+        if (ds->shift[l])
+            work->exact_rescales += live;
+        if (form == CN_FORM_SPARSE)
+            work->list_macs += live * n_in;
+        if (form == CN_FORM_WIDE)
+            work->wide_macs += live * n_in;
+        if (ds->shift[l] && ds->shift_wide[l])
+            work->wide_macs += live * n_in;
+    }
     if (form == CN_FORM_WIDE) {
         /* sums that may leave int32: four rows at a time in int64 (the same values) */
         for (uint32_t j = 0; j < live; j += 4u) {
@@ -230,11 +243,12 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
     } else if (live) {
         if (form == CN_FORM_SPARSE) {
 #ifdef CN_SPDOT_DIRECT
-            st->list_nz += CN_SPDOT_DIRECT((const uint32_t *)(const void *)k, xq, live, acc);
+            const uint32_t nz = CN_SPDOT_DIRECT((const uint32_t *)(const void *)k, xq, live, acc);
 #else
-            st->list_nz += ds->spdot((const uint32_t *)(const void *)k, xq, live, acc);
+            const uint32_t nz = ds->spdot((const uint32_t *)(const void *)k, xq, live, acc);
 #endif
-            st->list_macs += live * n_in;
+            if (work)
+                work->list_nz += nz;
         } else
 #ifdef CN_DOT_DIRECT
             CN_DOT_DIRECT(k, xq, pairs, live, acc);
@@ -400,9 +414,10 @@ int cnerf_net_has_color(const cnerf_info *info, unsigned net)
 /* ---- one network at one point: raw (r, g, b, sigma) in Q16 ---- */
 
 /* The trunk and the density: raw[3], and with no view branch raw[0..2] as well (one layer
- * gives all four). Adds the multiply-accumulates to st. */
+ * gives all four). Adds the multiply-accumulates to *macs, and the rest of the work to *work
+ * when it is not NULL (the caller asked for the work done). */
 static void net_sigma(const cnerf_decoder *dec, unsigned net, const scratch *s, int32_t raw[4],
-                      cnerf_render_stats *st)
+                      uint64_t *macs, cnerf_render_stats *work)
 {
     const cnerf_info *I = &dec->info;
     const cnerf_net_info *N = &I->net[net];
@@ -413,26 +428,26 @@ static void net_sigma(const cnerf_decoder *dec, unsigned net, const scratch *s, 
         const int32_t *in = s->buf[i & 1u];
         const int skip_in = i == 0 || (N->skip != CNERF_NO_SKIP && i == N->skip + 1u);
         m += linear(dec, N->first_layer + i, skip_in ? in : in + P, s->buf[(i + 1u) & 1u] + P, 1,
-                    s->xq, s->acc, st);
+                    s->xq, s->acc, work);
     }
     const int32_t *h = s->buf[N->depth & 1u] + P;
     const unsigned l = N->first_layer + N->depth;
-    m += linear(dec, l, h, N->view_width ? raw + 3 : raw, 0, s->xq, s->acc, st);
-    st->macs += m;
+    m += linear(dec, l, h, N->view_width ? raw + 3 : raw, 0, s->xq, s->acc, work);
+    *macs += m;
 }
 
 /* The colour raw[0..2] of a network with a view branch, after net_sigma at the same point
  * (whose trunk output it reads). The caller wrote the ray's PE(d) after the feature. */
 static void net_color(const cnerf_decoder *dec, unsigned net, const scratch *s, int32_t raw[4],
-                      cnerf_render_stats *st)
+                      uint64_t *macs, cnerf_render_stats *work)
 {
     const cnerf_net_info *N = &dec->info.net[net];
     const int32_t *h = s->buf[N->depth & 1u] + dec->info.in_pos;
     const unsigned l = N->first_layer + N->depth;
-    uint32_t m = linear(dec, l + 1, h, s->view_in, 0, s->xq, s->acc, st);
-    m += linear(dec, l + 2, s->view_in, s->view_h, 1, s->xq, s->acc, st);
-    m += linear(dec, l + 3, s->view_h, raw, 0, s->xq, s->acc, st);
-    st->macs += m;
+    uint32_t m = linear(dec, l + 1, h, s->view_in, 0, s->xq, s->acc, work);
+    m += linear(dec, l + 2, s->view_in, s->view_h, 1, s->xq, s->acc, work);
+    m += linear(dec, l + 3, s->view_h, raw, 0, s->xq, s->acc, work);
+    *macs += m;
 }
 
 /* ---- rays ---- */
@@ -868,6 +883,8 @@ static void march_ray(const cnerf_decoder *dec, unsigned net, const scratch *s, 
     const int view = I->net[net].view_width != 0;
     int64_t depth = 0; /* optical depth before sample i, Q16, at most MAX_DEPTH_Q16 */
     uint32_t T = 1u << 30;
+    /* the work beyond evaluations and MACs, counted when the caller asked for it */
+    cnerf_render_stats *const work = b->count ? stats : (cnerf_render_stats *)0;
     m->rgb[0] = m->rgb[1] = m->rgb[2] = 0;
     for (unsigned i = 0; i < n; i++) {
         if (w)
@@ -878,6 +895,8 @@ static void march_ray(const cnerf_decoder *dec, unsigned net, const scratch *s, 
         const int ruled_out = b->maybe && !b->maybe[b->of ? b->of[i] : i];
         if (ruled_out && !b->count)
             continue;
+        if (work)
+            work->samples += !ruled_out;
         int64_t p[3];
         ray_at(r, t[i], p);
         if (I->coord == CNERF_COORD_CONTRACT)
@@ -894,7 +913,7 @@ static void march_ray(const cnerf_decoder *dec, unsigned net, const scratch *s, 
         for (uint32_t k = 0; k < I->in_pos; k++)
             s->buf[1][k] = s->buf[0][k];
         int32_t raw[4];
-        net_sigma(dec, net, s, raw, stats);
+        net_sigma(dec, net, s, raw, &stats->macs, work);
         if (raw[3] <= 0)
             continue;
         const int64_t delta = (i + 1 < n ? t[i + 1] : far) - t[i];        /* Q32, >= 0 */
@@ -911,7 +930,7 @@ static void march_ray(const cnerf_decoder *dec, unsigned net, const scratch *s, 
         if (view) {
             for (uint32_t k = 0; k < I->in_dir; k++)
                 s->view_in[I->net[net].width + k] = s->vpe[k];
-            net_color(dec, net, s, raw, stats);
+            net_color(dec, net, s, raw, &stats->macs, work);
         }
         for (unsigned c = 0; c < 3; c++)
             m->rgb[c] += (int64_t)wi * sigmoid_q16(raw[c]);
@@ -1047,6 +1066,7 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
     gridmap_init(dec, !(o.flags & CNERF_RENDER_NO_SKIP), &gm);
     cnerf_render_stats stats; /* field by field: an initializer may become a memset call */
     stats.rays = stats.evals = stats.in_bounds = stats.macs = stats.list_macs = stats.list_nz = 0;
+    stats.samples = stats.layer_values = stats.exact_rescales = stats.wide_macs = 0;
     const unsigned nc = o.n_coarse, nf = I->n_nets > 1 ? o.n_fine : 0;
     /* The sampling interval [near, far] in Q32; contracted scenes sample s in
      * [0, 2 - 2^-CNERF_CONTRACT_SHIFT] and march at the distances ray_t(s). */
@@ -1147,6 +1167,10 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
         stats_out->macs += stats.macs;
         stats_out->list_macs += stats.list_macs;
         stats_out->list_nz += stats.list_nz;
+        stats_out->samples += stats.samples;
+        stats_out->layer_values += stats.layer_values;
+        stats_out->exact_rescales += stats.exact_rescales;
+        stats_out->wide_macs += stats.wide_macs;
     }
     return CNERF_OK;
 }

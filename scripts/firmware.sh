@@ -121,10 +121,11 @@ fi
 
 # ---- the same tile on the host ----
 host=$bdir/render_tile_host
-cc -std=c99 -O2 -Wall -Wextra -Werror -Iinclude decoder/*.c \
-  tests/xarch/render_tile.c -o "$host"
-if ! CNERF_SCENE=${FW_SCENE:-0} "$host" "$stream" "$camera" $x0 $y0 $w $h $knobs \
-    > "$bdir/tile_host.rgb"; then
+cc -std=c99 -O2 -Wall -Wextra -Werror -Iinclude -Iplatform/host -DCNERF_COST_MODEL \
+  decoder/*.c platform/host/cost_model.c tests/xarch/render_tile.c -o "$host"
+if ! CNERF_SCENE=${FW_SCENE:-0} CNERF_CORE=$core "$host" "$stream" "$camera" $x0 $y0 $w $h \
+    $knobs > "$bdir/tile_host.rgb" 2> "$bdir/tile_host.cost"; then
+  cat "$bdir/tile_host.cost" >&2
   echo "firmware.sh: the host render failed" >&2
   exit 1
 fi
@@ -264,7 +265,33 @@ if ok_cal and ok_cross:
           f"set-up included")
     print(f"  work of the tile: rays {rays} evals {r['evals']} in_bounds {r['in_bounds']} "
           f"macs {r['macs']} list_macs {r['list_macs']} list_nz {r['list_nz']} "
-          f"instructions {ins['render']}")
+          f"samples {r['samples']} layer_values {r['layer_values']} "
+          f"exact_rescales {r['exact_rescales']} wide_macs {r['wide_macs']} "
+          f"contract {r['contract']} ndc {r['ndc']} in_pos {r['in_pos']} "
+          f"samples_per_ray {r['samples_per_ray']} instructions {ins['render']}")
+    # The host's count of the same work, with this core's forms (tests/xarch/render_tile.c,
+    # cnerf_open_as), must be the firmware's; the cost model's instructions beside QEMU's.
+    text = open(os.path.join(bdir, "tile_host.cost")).read()
+    hw = re.search(r"host work of the tile: (.*)", text)
+    model = re.search(r"cost model [^:]*: (\d+) instructions", text)
+    if hw:
+        h = dict(zip(hw.group(1).split()[0::2], map(int, hw.group(1).split()[1::2])))
+        fwork = dict(r, rays=rays)
+        diff = [k for k, v in h.items() if fwork.get(k) != v]
+        if diff:
+            print(f"firmware.sh: the host's count of the {core}'s work differs from the "
+                  f"firmware's in {', '.join(diff)}", file=sys.stderr)
+            status = 1
+    if model and ins["render"]:
+        est = int(model.group(1))
+        err = est / ins["render"] - 1
+        print(f"  cost model: {n(est)} instructions for the tile, QEMU {n(ins['render'])} "
+              f"({100 * err:+.1f}%)")
+        tol = os.environ.get("FW_COST_TOLERANCE")
+        if tol and abs(err) > float(tol):
+            print(f"firmware.sh: the cost model is {100 * err:+.1f}% off, beyond "
+                  f"{100 * float(tol):.0f}% (FW_COST_TOLERANCE)", file=sys.stderr)
+            status = 1
     grid = f"{r['grid']}^3 grid" if r["grid"] else "no grid"
     use = "ignored (CNERF_RENDER_NO_SKIP)" if r["flags"] & 1 else "used"
     print(f"  network evaluations per ray: {r['evals'] / rays:.2f} ({r['in_bounds'] / rays:.2f} "

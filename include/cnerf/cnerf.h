@@ -263,6 +263,16 @@ typedef struct cnerf_render_stats {
                            their non-zero latents for this CPU's kernels */
     uint64_t list_nz;   /* the multiplications those layers did: their non-zero latents (the
                            rest of list_macs multiplied zeros and was not done) */
+    /* The rest of the work, for cost models (docs/decoder.md, Predicted cost): */
+    uint64_t samples;   /* sample positions computed (rays before they end, in stretches not
+                           ruled out): each one's point, contraction and grid cell */
+    uint64_t layer_values; /* over every layer evaluated, its inputs quantized plus its
+                              outputs formed */
+    uint64_t exact_rescales; /* of those outputs, the ones rescaled by the exact 64-bit product
+                                (the heads, shared shifts, layers whose fast rescale cnerf_open
+                                could not prove) */
+    uint64_t wide_macs; /* of macs, those summed in int64 (layers and shifts whose int32 bound
+                           cnerf_open could not prove) */
 } cnerf_render_stats;
 
 /* The default early ray termination, round(0.01 2^30): a ray ends once 1% of its light is

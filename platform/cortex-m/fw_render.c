@@ -207,6 +207,7 @@ int main(void)
      * bounds costs what the renderer saves by ruling out stretches of rays unseen. */
     cnerf_render_stats work; /* field by field: no memset in this firmware */
     work.rays = work.evals = work.in_bounds = work.macs = work.list_macs = work.list_nz = 0;
+    work.samples = work.layer_values = work.exact_rescales = work.wide_macs = 0;
     st = cnerf_render_tile_stats(&dec, &camera, &opts, CNERF_FW_TILE_X0, CNERF_FW_TILE_Y0,
                                  CNERF_FW_TILE_W, CNERF_FW_TILE_H, tile, CNERF_FW_TILE_STRIDE,
                                  scratch, sizeof scratch, &work);
@@ -235,6 +236,14 @@ int main(void)
     put_kv("macs", work.macs);
     put_kv("list_macs", work.list_macs);
     put_kv("list_nz", work.list_nz);
+    put_kv("samples", work.samples);
+    put_kv("layer_values", work.layer_values);
+    put_kv("exact_rescales", work.exact_rescales);
+    put_kv("wide_macs", work.wide_macs);
+    put_kv("ndc", dec.info.coord == CNERF_COORD_NDC);
+    put_kv("in_pos", dec.info.in_pos);
+    put_kv("samples_per_ray", (uint64_t)opts.n_coarse + (dec.info.n_nets > 1 ? opts.n_fine : 0u));
+    put_kv("contract", dec.info.coord == CNERF_COORD_CONTRACT);
     put_kv("grid", dec.info.grid_g);
     sh_puts("\nfw clock");
     put_kv("cpu_hz", FW_CPU_HZ);

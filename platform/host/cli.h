@@ -124,6 +124,13 @@ int cli_resume(const char *cmd, struct cn_trainer *t, const char *path);
 int cli_eval_views(const struct cn_model *m, const struct cn_view *views, int n, int ndc,
                    long every, const char *outdir, int quiet, float t_stop, double *mean_psnr,
                    double *mean_ssim, double *secs);
+/* An orbit camera: view k of n on a circle of `radius` at `elev` degrees, looking at the
+ * origin with the z axis up (Blender scenes), `size` pixels square with a field of view of
+ * `fov` degrees. */
+struct cn_camera;
+void cli_orbit_camera(int k, int n, double radius, double elev, double fov, int size,
+                      struct cn_camera *c);
+
 /* The decoder's default t_stop as a fraction: the float reference of a stream ends its rays
  * there, as the fixed-point render does. */
 #define CLI_T_STOP ((float)(CNERF_T_STOP_DEFAULT / 1073741824.0))

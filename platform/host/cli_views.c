@@ -139,3 +139,34 @@ int cli_replace_views(const char *cmd, struct cn_view *views, int n, const char 
     }
     return 0;
 }
+
+/* An orbit camera: view k of n on a circle of `radius` at `elev` degrees, looking at the
+ * origin with the z axis up (Blender scenes). */
+void cli_orbit_camera(int k, int n, double radius, double elev, double fov, int size,
+                      cn_camera *c)
+{
+    const double th = 2.0 * M_PI * k / n, ph = elev * M_PI / 180.0;
+    const double pos[3] = {radius * cos(ph) * cos(th), radius * cos(ph) * sin(th),
+                           radius * sin(ph)};
+    double back[3], right[3], up[3];
+    const double r = sqrt(pos[0] * pos[0] + pos[1] * pos[1] + pos[2] * pos[2]);
+    for (int a = 0; a < 3; a++)
+        back[a] = pos[a] / r;
+    /* right = (0, 0, 1) x back, normalised; up = back x right */
+    right[0] = -back[1], right[1] = back[0], right[2] = 0;
+    const double rn = sqrt(right[0] * right[0] + right[1] * right[1]);
+    for (int a = 0; a < 3; a++)
+        right[a] /= rn;
+    up[0] = back[1] * right[2] - back[2] * right[1];
+    up[1] = back[2] * right[0] - back[0] * right[2];
+    up[2] = back[0] * right[1] - back[1] * right[0];
+    for (int a = 0; a < 3; a++) {
+        c->c2w[a][0] = right[a];
+        c->c2w[a][1] = up[a];
+        c->c2w[a][2] = back[a];
+        c->c2w[a][3] = pos[a];
+    }
+    c->w = c->h = size;
+    c->fx = c->fy = 0.5 * size / tan(0.5 * fov * M_PI / 180.0);
+    c->cx = c->cy = 0.5 * size;
+}

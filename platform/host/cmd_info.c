@@ -4,8 +4,11 @@
 #include <string.h>
 
 #include "cli.h"
+#include "cn_fixcam.h"
 #include "cn_report.h"
 #include "cn_file.h"
+#include "cnerf/tools.h"
+#include "cost_model.h"
 
 #define INFO_USAGE                                                                            \
     "usage: cnerf info [--check] [--scene I] FILE.cnrf\n"                                    \
@@ -33,6 +36,57 @@ static cnerf_status open_all(const uint8_t *buf, size_t len, unsigned n_scenes, 
     free(info);
     free(dec);
     return st;
+}
+
+/* The cost model's time for one 100x100 view on each modelled core: the stream opened as the
+ * core would (cnerf_open_as), and the same view rendered once at 25x25 (every fourth ray of
+ * each row and column), counting the work per ray. The view: the first of `cnerf render
+ * --orbit` (radius 4, 30 degrees up, 40 degrees wide) for a 360-degree scene; the reference
+ * camera at the origin for a forward-facing one (NDC). */
+static int print_estimates(const uint8_t *buf, size_t len, uint32_t scene, const cnerf_info *I)
+{
+    cn_camera cam;
+    if (I->coord == CNERF_COORD_NDC) {
+        memset(&cam, 0, sizeof cam);
+        for (int a = 0; a < 3; a++)
+            cam.c2w[a][a] = 1;
+        cam.w = cam.h = 25;
+        cam.fx = cam.fy = 25;
+        cam.cx = cam.cy = 12.5;
+    } else {
+        cli_orbit_camera(0, 1, 4.0, 30.0, 40.0, 25, &cam);
+    }
+    cnerf_camera fc;
+    char err[256];
+    if (cnerf_camera_from_float(&cam, &fc, err, sizeof err))
+        return cli_fail("info", "the estimate's camera: %s", err);
+    const size_t ws_n = cnerf_workspace_size(I), sc_n = cnerf_render_scratch_size(I);
+    void *ws = aligned_alloc(CNERF_WS_ALIGN, (ws_n + 7) & ~(size_t)7);
+    void *sc = aligned_alloc(CNERF_WS_ALIGN, (sc_n + 7) & ~(size_t)7);
+    uint8_t *px = malloc(25 * 25 * 3);
+    cnerf_decoder *dec = malloc(sizeof *dec);
+    int rc = !ws || !sc || !px || !dec ? cli_fail("info", "out of memory") : 0;
+    for (size_t k = 0; rc == 0 && k < cli_n_cores; k++) {
+        const cli_core *c = &cli_cores[k];
+        cnerf_render_opts o;
+        cnerf_render_defaults(I, &o);
+        cnerf_render_stats s;
+        memset(&s, 0, sizeof s);
+        cnerf_status st = cnerf_open_as(dec, buf, len, scene, ws, ws_n, c->set);
+        if (st == CNERF_OK)
+            st = cnerf_render_tile_stats(dec, &fc, &o, 0, 0, 25, 25, px, 75, sc, sc_n, &s);
+        if (st != CNERF_OK) {
+            rc = cli_fail("info", "the estimate's render: %s", cnerf_status_str(st));
+            break;
+        }
+        const double ipr = cli_cost_instructions(c, &s, I, &o, 1) / (double)s.rays;
+        printf("%s at %.0f MHz (cost model, within %.0f%%): %.1f s for a 100x100 view (%s), "
+               "%.0f instructions per ray\n", c->name, c->hz / 1e6, 100 * c->error,
+               ipr * 1e4 / c->hz, I->coord == CNERF_COORD_NDC ? "the reference camera" :
+               "orbit_000", ipr);
+    }
+    free(ws), free(sc), free(px), free(dec);
+    return rc;
 }
 
 int cmd_info(int argc, char **argv)
@@ -87,6 +141,8 @@ int cmd_info(int argc, char **argv)
                       check ? " (every payload decoded)" : "");
     else
         cn_print_info(stdout, argv[1], buf, info);
+    if (rc == 0)
+        rc = print_estimates(buf, len, (uint32_t)scene, info);
     if (rc == 0 && check)
         printf("check: every payload decodes (cnerf_open)\n");
     free(info);

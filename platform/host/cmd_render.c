@@ -9,6 +9,8 @@
 #include <string.h>
 
 #include "cli.h"
+#include "cnerf/tools.h"
+#include "cost_model.h"
 #include "cli_args.h"
 #include "cn_buf.h"
 #include "cn_file.h"
@@ -71,6 +73,10 @@ static int render_fixed(const cnerf_decoder *dec, const cnerf_camera *cam, const
             stats->macs += mine.macs;
             stats->list_macs += mine.list_macs;
             stats->list_nz += mine.list_nz;
+            stats->samples += mine.samples;
+            stats->layer_values += mine.layer_values;
+            stats->exact_rescales += mine.exact_rescales;
+            stats->wide_macs += mine.wide_macs;
         }
     }
     if (bad)
@@ -126,40 +132,15 @@ static void cli_write_camera(cn_buf *f, const cnerf_camera *c, const char *name)
                   (long)c->cy, c->width, c->height, name);
 }
 
-/* An orbit camera: view k of n on a circle of `radius` at `elev` degrees, looking at the
- * origin with the z axis up (Blender scenes). */
-static void orbit_camera(int k, int n, double radius, double elev, double fov, int size,
-                         cn_camera *c)
-{
-    const double th = 2.0 * M_PI * k / n, ph = elev * M_PI / 180.0;
-    const double pos[3] = {radius * cos(ph) * cos(th), radius * cos(ph) * sin(th),
-                           radius * sin(ph)};
-    double back[3], right[3], up[3];
-    const double r = sqrt(pos[0] * pos[0] + pos[1] * pos[1] + pos[2] * pos[2]);
-    for (int a = 0; a < 3; a++)
-        back[a] = pos[a] / r;
-    /* right = (0, 0, 1) x back, normalised; up = back x right */
-    right[0] = -back[1], right[1] = back[0], right[2] = 0;
-    const double rn = sqrt(right[0] * right[0] + right[1] * right[1]);
-    for (int a = 0; a < 3; a++)
-        right[a] /= rn;
-    up[0] = back[1] * right[2] - back[2] * right[1];
-    up[1] = back[2] * right[0] - back[0] * right[2];
-    up[2] = back[0] * right[1] - back[1] * right[0];
-    for (int a = 0; a < 3; a++) {
-        c->c2w[a][0] = right[a];
-        c->c2w[a][1] = up[a];
-        c->c2w[a][2] = back[a];
-        c->c2w[a][3] = pos[a];
-    }
-    c->w = c->h = size;
-    c->fx = c->fy = 0.5 * size / tan(0.5 * fov * M_PI / 180.0);
-    c->cx = c->cy = 0.5 * size;
-}
 
 /* What every view of one render shares, and the totals over the views. */
 typedef struct render_job {
     const cnerf_decoder *dec;
+    /* The same stream opened as each modelled core would (cost_model.h), and the work each
+     * one's renders counted: the estimates of render_totals. */
+    cnerf_decoder core_dec[CLI_MAX_CORES];
+    void *core_ws[CLI_MAX_CORES];
+    cnerf_render_stats core_stats[CLI_MAX_CORES];
     cn_model *ref; /* the float reference of the same file */
     const render_cfg *cfg;
     int use_float;
@@ -192,6 +173,11 @@ static int render_view(render_job *j, const cn_camera *cam, const cnerf_camera *
         render_fixed(j->dec, fc, j->cfg, px, &j->stats, err, sizeof err))
         rc = cli_fail("render", "%s: %s", name, err);
     const double ms = (cli_now() - t0) * 1e3;
+    /* the work each modelled core would do for this view (untimed; the same pixels) */
+    for (size_t k = 0; rc == 0 && !j->use_float && k < cli_n_cores; k++)
+        if (j->core_ws[k] && render_fixed(&j->core_dec[k], fc, j->cfg, refpx, &j->core_stats[k],
+                                          err, sizeof err))
+            rc = cli_fail("render", "%s: %s", name, err);
     t0 = cli_now();
     /* the float reference ends its rays where the decoder does (t_stop) */
     if (rc == 0 && cn_render_view_stop(j->ref, cam, I->coord == CNERF_COORD_NDC, rgb, 4096,
@@ -288,6 +274,18 @@ static int render_totals(const render_job *j, render_tally *t, int with_gt, int 
             printf("of them in layers summed from lists of their non-zero latents on this "
                    "host: %.0f, which multiplied %.0f\n",
                    (double)s->list_macs / (double)s->rays, (double)s->list_nz / (double)s->rays);
+        for (size_t k = 0; k < cli_n_cores; k++) {
+            const cli_core *c = &cli_cores[k];
+            const cnerf_render_stats *w = &j->core_stats[k];
+            if (!w->rays)
+                continue;
+            /* per ray over the views, as if each were rendered in one tile */
+            const double ipr = cli_cost_instructions(c, w, I, &j->cfg->opts, t->count) /
+                               (double)w->rays;
+            printf("%s (cost model, within %.0f%% on the conformance vectors): %.0f "
+                   "instructions per ray, %.1f s for a 100x100 frame at %.0f MHz\n", c->name,
+                   100 * c->error, ipr, ipr * 1e4 / c->hz, c->hz / 1e6);
+        }
     }
     if (verify && strcmp(hex, verify))
         return cli_fail("render", "verification failed: the frames' md5 is %s, expected %s",
@@ -407,6 +405,16 @@ int cmd_render(int argc, char **argv)
 
     render_job job = {.dec = st.dec, .ref = &ref, .cfg = &cfg, .use_float = use_float,
                       .outdir = outdir};
+    /* The stream as each modelled core opens it: the work its estimate is made from. */
+    for (size_t k = 0; rc == 0 && !use_float && k < cli_n_cores; k++) {
+        const size_t need = cnerf_workspace_size(I);
+        job.core_ws[k] = aligned_alloc(CNERF_WS_ALIGN, (need + 7) & ~(size_t)7);
+        if (!job.core_ws[k] ||
+            cnerf_open_as(&job.core_dec[k], st.file, st.len, (uint32_t)scene, job.core_ws[k],
+                          need, cli_cores[k].set) != CNERF_OK)
+            rc = cli_fail("render", "out of memory opening %s as a %s would", pos[0],
+                          cli_cores[k].name);
+    }
     render_tally tally;
     memset(&tally, 0, sizeof tally);
     MD5Init(&tally.all);
@@ -417,7 +425,7 @@ int cmd_render(int argc, char **argv)
             cn_view_camera(&views[i], &cam);
             snprintf(name, sizeof name, "%s", views[i].name);
         } else {
-            orbit_camera(i, n, radius, elev, fov, (int)size, &cam);
+            cli_orbit_camera(i, n, radius, elev, fov, (int)size, &cam);
             snprintf(name, sizeof name, "orbit_%03d", i);
         }
         cnerf_camera fc;
@@ -439,6 +447,8 @@ int cmd_render(int argc, char **argv)
             rc = cli_fail("render", "%s", err);
     }
     cn_buf_free(&cams);
+    for (size_t k = 0; k < cli_n_cores; k++)
+        free(job.core_ws[k]);
     cn_dataset_free(&ds);
     ref.grid = grid;
     cn_model_free(&ref);

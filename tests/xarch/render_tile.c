@@ -3,11 +3,60 @@
  * Linux target; scripts/xarch.sh runs it under qemu-user and compares the MD5s.
  *   render_tile STREAM CAMERA X0 Y0 W H [N_COARSE N_FINE T_STOP [FLAGS]]
  * CAMERA is a text file of 18 integers: rot[9] (Q30), pos[3] (Q32), fx fy cx cy (Q16),
- * width height. */
+ * width height.
+ * Built with CNERF_COST_MODEL and platform/host/cost_model.c (scripts/firmware.sh does), and
+ * CNERF_CORE naming a core of cost_model.c in the environment, it also opens the stream as
+ * that core would (cnerf_open_as), renders the tile again counting the work, and prints the
+ * work and the cost model's instructions to stderr. */
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "cnerf/cnerf.h"
+#if defined(CNERF_COST_MODEL)
+#include "cnerf/tools.h"
+#include "cost_model.h"
+
+/* The work of the tile as core `name` would do it, and the model's instructions. */
+static int cost(const char *name, const uint8_t *buf, size_t len, uint32_t scene,
+                const cnerf_camera *cam, const cnerf_render_opts *o, uint32_t x0, uint32_t y0,
+                uint32_t w, uint32_t h)
+{
+    const cli_core *c = NULL;
+    for (size_t k = 0; k < cli_n_cores; k++)
+        if (strcmp(cli_cores[k].name, name) == 0)
+            c = &cli_cores[k];
+    if (!c) {
+        fprintf(stderr, "render_tile: CNERF_CORE: no cost model of '%s'\n", name);
+        return 1;
+    }
+    static cnerf_decoder d;
+    if (cnerf_peek_scene(buf, len, scene, &d.info) != CNERF_OK)
+        return 1;
+    const size_t ws_n = cnerf_workspace_size(&d.info), sc_n = cnerf_render_scratch_size(&d.info);
+    uint64_t *ws = malloc(ws_n + 8), *sc = malloc(sc_n + 8);
+    uint8_t *px = malloc((size_t)w * h * 3 + 1);
+    cnerf_render_stats s;
+    memset(&s, 0, sizeof s);
+    if (!ws || !sc || !px || cnerf_open_as(&d, buf, len, scene, ws, ws_n, c->set) != CNERF_OK ||
+        cnerf_render_tile_stats(&d, cam, o, x0, y0, w, h, px, (size_t)w * 3, sc, sc_n, &s) !=
+            CNERF_OK)
+        return 1;
+    fprintf(stderr,
+            "host work of the tile: rays %llu evals %llu in_bounds %llu macs %llu list_macs %llu "
+            "list_nz %llu samples %llu layer_values %llu exact_rescales %llu wide_macs %llu\n",
+            (unsigned long long)s.rays, (unsigned long long)s.evals,
+            (unsigned long long)s.in_bounds, (unsigned long long)s.macs,
+            (unsigned long long)s.list_macs, (unsigned long long)s.list_nz,
+            (unsigned long long)s.samples, (unsigned long long)s.layer_values,
+            (unsigned long long)s.exact_rescales, (unsigned long long)s.wide_macs);
+    fprintf(stderr, "cost model %s: %.0f instructions (within %.0f%% on the vectors' tiles)\n",
+            c->name, cli_cost_instructions(c, &s, &d.info, o, 1),
+            100 * c->error);
+    free(ws), free(sc), free(px);
+    return 0;
+}
+#endif
 
 static int fail(const char *msg, cnerf_status st)
 {
@@ -86,5 +135,10 @@ int main(int argc, char **argv)
         return fail("render", st);
     fwrite(px, 1, (size_t)w * h * 3, stdout);
     free(px), free(ws), free(sc);
+#if defined(CNERF_COST_MODEL)
+    const char *core = getenv("CNERF_CORE");
+    if (core && cost(core, buf, len, scene, &cam, &o, x0, y0, w, h))
+        return 1;
+#endif
     return 0;
 }

@@ -1,0 +1,36 @@
+/* The receiver's cost model (cost_model.h). */
+#include "cost_model.h"
+
+/* experiments/cost_model.sh on the Cortex-M4 (-Os, mps2-an386) and the Cortex-M55 (-Os,
+ * mps3-an547) firmware: the coefficients it printed, and its largest error over the 79 tiles
+ * it measured (docs/decoder.md, Predicted cost). The terms are correlated (an evaluation
+ * brings its layers' inputs and outputs with it), so a coefficient is a fit, not the cost of
+ * one operation: some are negative. */
+const cli_core cli_cores[] = {
+    {"Cortex-M4", "dsp", 168e6,
+     {0.8787, 9.0898, 13.6888, 11.1913, 83.4921, -1752.0232, 52.6051, 3598.6595, -2102.8230,
+      -30.1103, 12068.1223, 2014.4587, 7998.0225},
+     0.184},
+    {"Cortex-M55", "mve", 160e6,
+     {1.2777, 8.1435, 12.7724, 10.4024, 84.7750, -1368.5219, 57.2637, 3630.9260, -2202.0700,
+      -9.2634, 12068.5810, 676.3658, 7534.9751},
+     0.166},
+};
+const size_t cli_n_cores = sizeof cli_cores / sizeof cli_cores[0];
+
+double cli_cost_instructions(const cli_core *c, const cnerf_render_stats *s,
+                             const cnerf_info *I, const cnerf_render_opts *o, double tiles)
+{
+    const double rays = (double)s->rays, samples = (double)s->samples;
+    const double per_ray = (double)o->n_coarse + (I->n_nets > 1 ? (double)o->n_fine : 0.0);
+    const double x[CLI_COST_TERMS] = {
+        (double)(s->macs - s->list_macs - s->wide_macs), (double)s->list_nz,
+        (double)s->wide_macs, (double)s->layer_values, (double)s->exact_rescales,
+        (double)s->evals, (double)s->evals * I->in_pos, samples,
+        I->coord == CNERF_COORD_CONTRACT ? samples : 0.0, rays * per_ray,
+        I->coord == CNERF_COORD_NDC ? rays : 0.0, rays, tiles};
+    double ins = 0;
+    for (int i = 0; i < CLI_COST_TERMS; i++)
+        ins += c->coef[i] * x[i];
+    return ins;
+}
