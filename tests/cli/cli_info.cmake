@@ -17,7 +17,9 @@ if(NOT m OR NOT CMAKE_MATCH_1 EQUAL size OR NOT CMAKE_MATCH_2 EQUAL size)
   message(FATAL_ERROR "info totals do not add up to the file size ${size}:\n${out}")
 endif()
 foreach(want "network 0 \\(coarse\\): depth 4, width 64" "network 1 \\(fine\\)" "latent payload"
-        "frequency tables" "bits per parameter")
+        "frequency tables" "bits per parameter"
+        "Cortex-M4 at 168 MHz \\(cost model, within [0-9]+%\\): [0-9.]+ s for a 100x100 view \\(orbit_000\\), [1-9][0-9]* instructions per ray"
+        "Cortex-M55 at 160 MHz")
   if(NOT out MATCHES "${want}")
     message(FATAL_ERROR "info output lacks '${want}':\n${out}")
   endif()
