@@ -49,6 +49,13 @@ typedef void (*cn_dot_fn)(const int16_t *k, const int16_t *x, uint32_t n_pairs,
  * the latent k of input i (i < 2^15: the input's byte offset in x sits in the high half).
  * The caller proved the int32 bound as for dot_s16 (the same latents, zeros left out).
  * Returns the non-zero latents multiplied (the rows' counts). */
+/* The latent of a list entry: its low half as int16 (without an implementation-defined
+ * conversion; compilers make it one sign extension). */
+static inline int32_t cn_entry_k(uint32_t w)
+{
+    return (int32_t)(w & 0xffffu) - (int32_t)(w & 0x8000u) * 2;
+}
+
 typedef uint32_t (*cn_spdot_fn)(const uint32_t *e, const int16_t *x, uint32_t n_rows,
                                 int32_t *acc);
 

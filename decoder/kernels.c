@@ -71,13 +71,6 @@ void cn_dot_s16_s64_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint
     }
 }
 
-/* The latent of a list entry: its low half as int16 (without an implementation-defined
- * conversion; compilers make it one sign extension). */
-static inline int32_t entry_k(uint32_t w)
-{
-    return (int32_t)(w & 0xffffu) - (int32_t)(w & 0x8000u) * 2;
-}
-
 uint32_t cn_spdot_s16_c(const uint32_t *e, const int16_t *x, uint32_t n_rows, int32_t *acc)
 {
     uint32_t total = 0;
@@ -86,11 +79,11 @@ uint32_t cn_spdot_s16_c(const uint32_t *e, const int16_t *x, uint32_t n_rows, in
         total += n;
         int32_t a = 0;
         for (; n >= 2u; n -= 2u, e += 2) {
-            a += entry_k(e[0]) * x[e[0] >> 17];
-            a += entry_k(e[1]) * x[e[1] >> 17];
+            a += cn_entry_k(e[0]) * x[e[0] >> 17];
+            a += cn_entry_k(e[1]) * x[e[1] >> 17];
         }
         if (n)
-            a += entry_k(*e) * x[*e >> 17], e++;
+            a += cn_entry_k(*e) * x[*e >> 17], e++;
         acc[j] = a;
     }
     return total;

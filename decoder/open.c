@@ -208,12 +208,6 @@ static void pack_rows(const cnerf_layer_info *L, int16_t *lat, const uint16_t *r
         lat[i] = 0;
 }
 
-/* The latent of a list entry (cn_spdot_fn's layout), as kernels.c reads it. */
-static int32_t entry_k(uint32_t w)
-{
-    return (int32_t)(w & 0xffffu) - (int32_t)(w & 0x8000u) * 2;
-}
-
 /* 1 when the live rows of lat (row-major, in the order of rows[]) are better stored as
  * lists of their non-zero latents for kernels v: the lists cost v less than the packed
  * rows, and they fit in place. Written row after row from the start of the layer's place,
@@ -537,7 +531,7 @@ static int32_t packed_at(const cnerf_decoder *dec, uint32_t l, const int16_t *m,
             e += 1u + e[0];
         for (uint32_t k = 1; k <= e[0]; k++)
             if (e[k] >> 17 == c)
-                return entry_k(e[k]);
+                return cn_entry_k(e[k]);
         return 0;
     }
     return m[packed_index(j, c, ds->n_live[l], ds->n_pairs[l])];
