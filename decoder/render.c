@@ -568,6 +568,16 @@ static int64_t coord_value(const pixel_coord *pc)
     return -((qa + 1) >> 1);
 }
 
+/* *d = *s, field by field: a structure assignment may become a memcpy call (Armv6-M). */
+static void coord_copy(pixel_coord *d, const pixel_coord *s)
+{
+    d->q = s->q;
+    d->r = s->r;
+    d->f = s->f;
+    d->step_q = s->step_q;
+    d->step_r = s->step_r;
+}
+
 static void coord_next(pixel_coord *pc)
 {
     pc->q += (int64_t)pc->step_q;
@@ -1111,7 +1121,9 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
             const uint16_t *prior = (const uint16_t *)0;
             if (by_block) {
                 /* the bins that may hold a density for some ray of the block */
-                pixel_coord u1 = pu, v1 = pv;
+                pixel_coord u1, v1;
+                coord_copy(&u1, &pu);
+                coord_copy(&v1, &pv);
                 coord_start(&u1, x0 + bx + bw - 1u, cam->cx);
                 coord_start(&v1, y0 + by + bh - 1u, cam->cy);
                 stretch S;
@@ -1131,11 +1143,12 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
                     s.prior[i + 1u] = (uint16_t)(s.prior[i] + s.maybe[i]);
                 prior = s.prior;
             }
-            const pixel_coord pu0 = pu; /* every row of the block starts at bx */
+            pixel_coord pu0; /* every row of the block starts at bx */
+            coord_copy(&pu0, &pu);
             for (uint32_t yy = by; yy < by + bh; yy++, coord_next(&pv)) {
                 uint8_t *row = rgb + (size_t)yy * stride;
                 const int64_t v = -coord_value(&pv);
-                pu = pu0;
+                coord_copy(&pu, &pu0);
                 for (uint32_t xx = bx; xx < bx + bw; xx++, coord_next(&pu)) {
                     ray r;
                     march m;

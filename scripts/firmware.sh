@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The decoder as bare-metal firmware on an emulated Cortex-M4 (QEMU's mps2-an386 board) or
-# Cortex-M55 (QEMU's mps3-an547 board, FW_BOARD=an547): builds platform/cortex-m's
+# another core (FW_CORE below: M0+, M7, M33, M55): builds platform/cortex-m's
 # cnerf_fw.elf with STREAM, CAMERA, the tile and the knobs embedded, runs it under
 # qemu-system-arm with semihosting, renders the same tile on the host with
 # tests/xarch/render_tile.c, prints both MD5s and exits 0 only if they are equal.
@@ -12,10 +12,19 @@
 # CAMERA is the text file tests/xarch/render_tile.c reads (18 integers); T_STOP is Q30, as
 # there; FLAGS is cnerf_render_opts.flags (1: CNERF_RENDER_NO_SKIP, ignore the stream's
 # occupancy grid). Environment:
-#   FW_BOARD       an386 (default): MPS2 AN386, Cortex-M4, -mcpu=cortex-m4 -mfloat-abi=soft;
-#                  an547: MPS3 AN547, Cortex-M55, -mcpu=cortex-m55 -mfloat-abi=softfp (FPU
-#                  and MVE usable, the soft-float calling convention)
-#   FW_BUILD_DIR   build directory, one per board (build-fw, build-fw-an547)
+#   FW_CORE        the core and its board under QEMU:
+#                  m4 (default): MPS2 AN386, Cortex-M4, -mcpu=cortex-m4 -mfloat-abi=soft;
+#                  m7: MPS2 AN500, Cortex-M7, -mcpu=cortex-m7 -mfloat-abi=soft;
+#                  m33: MPS2 AN505, Cortex-M33, -mcpu=cortex-m33 -mfloat-abi=soft;
+#                  m55: MPS3 AN547, Cortex-M55, -mcpu=cortex-m55 -mfloat-abi=softfp (FPU
+#                  and MVE usable, the soft-float calling convention);
+#                  m0plus: Cortex-M0+ code (-mcpu=cortex-m0plus, Armv6-M, libgcc's integer
+#                  helpers) on the AN386, whose Cortex-M4 runs it: QEMU has no M0-class
+#                  board with the RAM a stream needs. Its instructions are the M0+'s
+#                  instructions, not its cycles
+#   FW_BOARD       the older name of the choice: an386 is m4, an547 is m55
+#   FW_BUILD_DIR   build directory, one per core (build-fw, build-fw-m7, build-fw-m33,
+#                  build-fw-an547, build-fw-m0plus)
 #   FW_BUILD_TYPE  MinSizeRel (default): -Os, the configuration scripts/build-m4.sh measures
 #                  and docs/decoder.md states (code size, stack), and the one a flash-bound
 #                  part would ship; Release (-O3) has 2.5x the code for ~12% fewer
@@ -34,14 +43,25 @@ if [ $# -ne 3 ] && [ $# -ne 6 ] && [ $# -ne 7 ]; then
   sed -n '2,29p' "$0" >&2
   exit 2
 fi
-board=${FW_BOARD:-an386}
-case $board in
-  # core, QEMU machine, toolchain file, default build directory, second counter
-  an386) core=Cortex-M4 machine=mps2-an386 toolchain=cmake/toolchains/arm-none-eabi.cmake
-         bdir_default=build-fw timer2="APB timer0" ;;
-  an547) core=Cortex-M55 machine=mps3-an547 toolchain=cmake/toolchains/arm-none-eabi-m55.cmake
-         bdir_default=build-fw-an547 timer2="SSE-300 system counter" ;;
-  *) echo "firmware.sh: FW_BOARD must be an386 or an547, not '$board'" >&2; exit 2 ;;
+case ${FW_CORE:-${FW_BOARD:-m4}} in
+  # core, its kernel set, board, QEMU machine, toolchain file, default build directory, second counter
+  m4|an386) core=Cortex-M4 set=dsp board=an386 machine=mps2-an386
+            toolchain=cmake/toolchains/arm-none-eabi.cmake bdir_default=build-fw
+            timer2="APB timer0" ;;
+  m7) core=Cortex-M7 set=dsp board=an500 machine=mps2-an500
+      toolchain=cmake/toolchains/arm-none-eabi-m7.cmake bdir_default=build-fw-m7
+      timer2="APB timer0" ;;
+  m33) core=Cortex-M33 set=dsp board=an505 machine=mps2-an505
+       toolchain=cmake/toolchains/arm-none-eabi-m33.cmake bdir_default=build-fw-m33
+       timer2="IoT Kit timer0" ;;
+  m55|an547) core=Cortex-M55 set=mve board=an547 machine=mps3-an547
+             toolchain=cmake/toolchains/arm-none-eabi-m55.cmake bdir_default=build-fw-an547
+             timer2="SSE-300 system counter" ;;
+  m0plus) core=Cortex-M0+ set=c board=an386 machine=mps2-an386
+          toolchain=cmake/toolchains/arm-none-eabi-m0plus.cmake bdir_default=build-fw-m0plus
+          timer2="APB timer0" ;;
+  *) echo "firmware.sh: FW_CORE must be m4, m7, m33, m55 or m0plus, not" \
+          "'${FW_CORE:-${FW_BOARD:-}}'" >&2; exit 2 ;;
 esac
 stream=$1 camera=$2 tile=$3
 knobs=""
@@ -121,9 +141,13 @@ fi
 
 # ---- the same tile on the host ----
 host=$bdir/render_tile_host
-cc -std=c99 -O2 -Wall -Wextra -Werror -Iinclude -Iplatform/host -DCNERF_COST_MODEL \
-  decoder/*.c platform/host/cost_model.c tests/xarch/render_tile.c -o "$host"
-if ! CNERF_SCENE=${FW_SCENE:-0} CNERF_CORE=$core "$host" "$stream" "$camera" $x0 $y0 $w $h \
+host_src=(decoder/*.c decoder/*.h common/*.h include/cnerf/*.h platform/host/cost_model.[ch]
+          tests/xarch/render_tile.c)
+if [ ! -x "$host" ] || [ -n "$(find "${host_src[@]}" -newer "$host" 2>/dev/null | head -n 1)" ]; then
+  cc -std=c99 -O2 -Wall -Wextra -Werror -Iinclude -Iplatform/host -DCNERF_COST_MODEL \
+    decoder/*.c platform/host/cost_model.c tests/xarch/render_tile.c -o "$host"
+fi
+if ! CNERF_SCENE=${FW_SCENE:-0} CNERF_CORE=$core CNERF_CORE_SET=$set "$host" "$stream" "$camera" $x0 $y0 $w $h \
     $knobs > "$bdir/tile_host.rgb" 2> "$bdir/tile_host.cost"; then
   cat "$bdir/tile_host.cost" >&2
   echo "firmware.sh: the host render failed" >&2
@@ -206,6 +230,15 @@ frames.update(f2)
 for k, v in e2.items():
     edges.setdefault(k, set()).update(v)
 problems += p2
+# Functions GCC's call graphs do not cover (libgcc's integer helpers on Armv6-M): their
+# frames and calls from the ELF's disassembly.
+missing = {c for k in edges for c in edges[k] if c not in frames}
+if missing:
+    f3, e3, p3 = su.elf_frames(elf, sorted(missing))
+    frames.update(f3)
+    for k, v in e3.items():
+        edges.setdefault(k, set()).update(v)
+    problems += p3
 # Fault_Handler is naked assembly that branches to fw_fault_report: an edge GCC cannot see.
 edges.setdefault("Fault_Handler", set()).add("fw_fault_report")
 # An exception frame + alignment: the basic frame on the M4 (soft float, FPU off); on the M55

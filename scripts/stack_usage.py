@@ -52,6 +52,60 @@ def load(build_dir, check_sources=True):
     return frames, edges, problems
 
 
+def elf_frames(elf, names, objdump="arm-none-eabi-objdump"):
+    """Frames and calls of functions that have no call-graph file (libgcc's integer helpers,
+    which Armv6-M code calls), from the linked ELF's disassembly: a function's frame is the
+    sum of all its pushes and stack reservations (a bound whatever path it takes), its
+    calls every BL and every branch to another function's start (tail calls). Follows the
+    calls it finds. Returns frames, edges, problems."""
+    import subprocess
+    text = subprocess.run([objdump, "-d", elf], capture_output=True, text=True,
+                          check=True).stdout
+    body, cur, at = {}, None, {}
+    for line in text.splitlines():
+        m = re.match(r"^([0-9a-f]+) <([^>]+)>:$", line)
+        if m:
+            cur = m.group(2)
+            body[cur] = []
+            at[int(m.group(1), 16)] = cur
+        elif cur and "\t" in line:
+            body[cur].append(line.split("\t", 2)[-1])
+    # an alias (__aeabi_uidiv of __udivsi3) shares its function's address and body
+    nm = subprocess.run([objdump.replace("objdump", "nm"), elf], capture_output=True,
+                        text=True, check=True).stdout
+    for line in nm.splitlines():
+        f = line.split()
+        if len(f) == 3 and f[2] not in body and int(f[0], 16) & ~1 in at:
+            body[f[2]] = body[at[int(f[0], 16) & ~1]]
+    frames, edges, problems, todo = {}, {}, [], list(names)
+    while todo:
+        fn = todo.pop()
+        if fn in frames:
+            continue
+        if fn not in body:
+            problems.append(f"{fn}: not in {os.path.basename(elf)}")
+            frames[fn] = 0
+            continue
+        size = 0
+        for ins in body[fn]:
+            m = re.match(r"(push|stmdb|vpush)(\.w)?\s+(sp!,\s*)?\{([^}]*)\}", ins)
+            if m:
+                size += 4 * len(m.group(4).split(","))
+                continue
+            m = re.match(r"sub(s|\.w)?\s+sp,\s*(sp,\s*)?#(\d+)", ins)
+            if m:
+                size += int(m.group(3))
+                continue
+            if re.match(r"(sub|mov|add)\S*\s+sp,\s*(sp,\s*)?r", ins) or ins.startswith("blx\tr"):
+                problems.append(f"{fn}: a stack or call it cannot bound ({ins.strip()})")
+            m = re.match(r"(bl|b|b\.n|b\.w)\s+[0-9a-f]+ <([^>+]+)>", ins)
+            if m and m.group(2) != fn:
+                edges.setdefault(fn, set()).add(m.group(2))
+                todo.append(m.group(2))
+        frames[fn] = size
+    return frames, edges, problems
+
+
 def deepest(fn, frames, edges, stack, memo):
     if fn in memo:
         return memo[fn]

@@ -1,6 +1,13 @@
 /* The boards the cnerf firmware runs on, as QEMU 7.2 models them; the build defines one of
  *   CNERF_FW_BOARD_AN386  MPS2 with the AN386 FPGA image: Cortex-M4 (hw/arm/mps2.c,
- *                         machine mps2-an386; memory map in mps2-an386.ld)
+ *                         machine mps2-an386; memory map in mps2-an386.ld). The Cortex-M0+
+ *                         build runs here too: Armv6-M code is a subset of the M4's Armv7E-M
+ *                         (QEMU models no M0-class board with the RAM a stream needs)
+ *   CNERF_FW_BOARD_AN500  MPS2 with the AN500 FPGA image: Cortex-M7 (hw/arm/mps2.c,
+ *                         machine mps2-an500; memory map in mps2-an500.ld)
+ *   CNERF_FW_BOARD_AN505  MPS2 with the AN505 FPGA image: Cortex-M33 on the IoT Kit
+ *                         subsystem (hw/arm/mps2-tz.c and hw/arm/armsse.c, machine
+ *                         mps2-an505; memory map in mps2-an505.ld)
  *   CNERF_FW_BOARD_AN547  MPS3 with the AN547 FPGA image: Cortex-M55 on the SSE-300
  *                         subsystem (hw/arm/mps2-tz.c and hw/arm/armsse.c, machine
  *                         mps3-an547; memory map in mps3-an547.ld)
@@ -20,32 +27,29 @@
 
 #include <stdint.h>
 
-#if defined(CNERF_FW_BOARD_AN386)
+#if defined(CNERF_FW_BOARD_AN386) || defined(CNERF_FW_BOARD_AN500)
 
+/* The MPS2 boards without TrustZone share SYSCLK (25 MHz) and the CMSDK APB timers. */
 #define FW_CPU_HZ 25000000u
 #define FW_IRQS 32
 #define FW_IRQ_HANDLERS FW_HANDLERS_32
 #define FW_ARMV8M 0
 
-/* CMSDK APB timer 0 of the MPS2: a 32-bit down counter on the 25 MHz peripheral clock (the
- * processor's), started from 2^32 - 1 with no interrupt; it does not wrap within a run. */
-#define FW_TIMER2_KEY "timer0"
-#define TIMER0_CTRL (*(volatile uint32_t *)0x40000000u)
-#define TIMER0_VALUE (*(volatile uint32_t *)0x40000004u)
-#define TIMER0_RELOAD (*(volatile uint32_t *)0x40000008u)
+/* CMSDK APB timer 0 of the MPS2, on the 25 MHz peripheral clock (the processor's). */
+#define FW_APB_TIMER0 0x40000000u
 
-static inline void fw_timer2_start(void)
-{
-    TIMER0_CTRL = 0;
-    TIMER0_RELOAD = 0xffffffffu;
-    TIMER0_VALUE = 0xffffffffu;
-    TIMER0_CTRL = 1u; /* enable, no interrupt */
-}
+#elif defined(CNERF_FW_BOARD_AN505)
 
-static inline uint32_t fw_timer2_count(void)
-{
-    return 0xffffffffu - TIMER0_VALUE;
-}
+/* MAINCLK is 20 MHz; it clocks the core, SysTick and the IoT Kit's timers. */
+#define FW_CPU_HZ 20000000u
+/* 32 interrupts of the IoT Kit and the AN505's 92 expansion interrupts (room for 128). */
+#define FW_IRQS 128
+#define FW_IRQ_HANDLERS FW_HANDLERS_32, FW_HANDLERS_32, FW_HANDLERS_32, FW_HANDLERS_32
+#define FW_ARMV8M 1
+
+/* The IoT Kit's CMSDK APB timer 0 through its Secure alias (the firmware runs Secure), on
+ * MAINCLK. */
+#define FW_APB_TIMER0 0x50000000u
 
 #elif defined(CNERF_FW_BOARD_AN547)
 
@@ -76,7 +80,29 @@ static inline uint32_t fw_timer2_count(void)
 }
 
 #else
-#error "define CNERF_FW_BOARD_AN386 or CNERF_FW_BOARD_AN547 (CMake: CNERF_FW_BOARD)"
+#error "define CNERF_FW_BOARD_AN386, _AN500, _AN505 or _AN547 (CMake: CNERF_FW_BOARD)"
+#endif
+
+#if defined(FW_APB_TIMER0)
+/* A CMSDK APB timer as the second counter: a 32-bit down counter, started from 2^32 - 1
+ * with no interrupt; it does not wrap within a run. */
+#define FW_TIMER2_KEY "timer0"
+#define TIMER0_CTRL (*(volatile uint32_t *)FW_APB_TIMER0)
+#define TIMER0_VALUE (*(volatile uint32_t *)(FW_APB_TIMER0 + 4u))
+#define TIMER0_RELOAD (*(volatile uint32_t *)(FW_APB_TIMER0 + 8u))
+
+static inline void fw_timer2_start(void)
+{
+    TIMER0_CTRL = 0;
+    TIMER0_RELOAD = 0xffffffffu;
+    TIMER0_VALUE = 0xffffffffu;
+    TIMER0_CTRL = 1u; /* enable, no interrupt */
+}
+
+static inline uint32_t fw_timer2_count(void)
+{
+    return 0xffffffffu - TIMER0_VALUE;
+}
 #endif
 
 #endif

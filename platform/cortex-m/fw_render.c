@@ -101,7 +101,9 @@ static uint64_t ticks_now(void)
 /* Exactly 2 n instructions in the loop (subs, bne), n >= 1. */
 __attribute__((noinline)) static void spin(uint32_t n)
 {
-    __asm__ volatile("1:\n\t"
+    /* GCC hands inline assembly to the assembler in divided syntax on Armv6-M */
+    __asm__ volatile(".syntax unified\n"
+                     "1:\n\t"
                      "subs %0, %0, #1\n\t"
                      "bne 1b\n\t"
                      : "+r"(n)

@@ -1,6 +1,6 @@
-/* Start-up code for the cnerf firmware on a Cortex-M4 (MPS2 AN386, see mps2-an386.ld) or a
- * Cortex-M55 (MPS3 AN547, see mps3-an547.ld; fw_board.h says which): the vector table,
- * Reset_Handler (on the M55 first enables CP10/CP11, then copies .data, zeroes .bss, paints
+/* Start-up code for the cnerf firmware on the boards of fw_board.h (Cortex-M0+, M4, M7, M33,
+ * M55): the vector table,
+ * Reset_Handler (on Armv8-M first enables CP10/CP11, then copies .data, zeroes .bss, paints
  * the stack, enables the configurable faults, runs main and exits over semihosting with its
  * status) and one handler for every exception the firmware does not expect, which reports
  * the exception and the stacked registers over semihosting and exits with status 3.
@@ -113,12 +113,30 @@ uint32_t fw_stack_high_water(void)
 /* Finds the stacked exception frame (MSP or PSP, by bit 2 of EXC_RETURN) and reports. */
 __attribute__((naked)) void Fault_Handler(void)
 {
+#if defined(__ARM_ARCH_6M__)
+    /* Armv6-M: no IT blocks, and B reaches only +-2 KB (GCC hands inline assembly to the
+     * assembler in divided syntax there) */
+    __asm__ volatile(".syntax unified\n\t"
+                     "movs r0, #4\n\t"
+                     "mov r1, lr\n\t"
+                     "tst r0, r1\n\t"
+                     "bne 1f\n\t"
+                     "mrs r0, msp\n\t"
+                     "b 2f\n"
+                     "1:\n\t"
+                     "mrs r0, psp\n"
+                     "2:\n\t"
+                     "ldr r2, =fw_fault_report\n\t"
+                     "bx r2\n\t"
+                     ".ltorg\n\t");
+#else
     __asm__ volatile("tst lr, #4\n\t"
                      "ite eq\n\t"
                      "mrseq r0, msp\n\t"
                      "mrsne r0, psp\n\t"
                      "mov r1, lr\n\t"
                      "b fw_fault_report\n\t");
+#endif
 }
 
 void fw_fault_report(const uint32_t *frame, uint32_t exc_return)

@@ -7,7 +7,8 @@
  * Built with CNERF_COST_MODEL and platform/host/cost_model.c (scripts/firmware.sh does), and
  * CNERF_CORE naming a core of cost_model.c in the environment, it also opens the stream as
  * that core would (cnerf_open_as), renders the tile again counting the work, and prints the
- * work and the cost model's instructions to stderr. */
+ * work and the cost model's instructions to stderr. A core the model has no fit for is
+ * named with its kernel set in CNERF_CORE_SET ("dsp", "c"): the work only. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -26,8 +27,10 @@ static int cost(const char *name, const uint8_t *buf, size_t len, uint32_t scene
     for (size_t k = 0; k < cli_n_cores; k++)
         if (strcmp(cli_cores[k].name, name) == 0)
             c = &cli_cores[k];
-    if (!c) {
-        fprintf(stderr, "render_tile: CNERF_CORE: no cost model of '%s'\n", name);
+    const char *set = c ? c->set : getenv("CNERF_CORE_SET");
+    if (!set) {
+        fprintf(stderr, "render_tile: CNERF_CORE: no cost model of '%s', and no "
+                        "CNERF_CORE_SET\n", name);
         return 1;
     }
     static cnerf_decoder d;
@@ -38,7 +41,7 @@ static int cost(const char *name, const uint8_t *buf, size_t len, uint32_t scene
     uint8_t *px = malloc((size_t)w * h * 3 + 1);
     cnerf_render_stats s;
     memset(&s, 0, sizeof s);
-    if (!ws || !sc || !px || cnerf_open_as(&d, buf, len, scene, ws, ws_n, c->set) != CNERF_OK ||
+    if (!ws || !sc || !px || cnerf_open_as(&d, buf, len, scene, ws, ws_n, set) != CNERF_OK ||
         cnerf_render_tile_stats(&d, cam, o, x0, y0, w, h, px, (size_t)w * 3, sc, sc_n, &s) !=
             CNERF_OK)
         return 1;
@@ -50,9 +53,9 @@ static int cost(const char *name, const uint8_t *buf, size_t len, uint32_t scene
             (unsigned long long)s.list_macs, (unsigned long long)s.list_nz,
             (unsigned long long)s.samples, (unsigned long long)s.layer_values,
             (unsigned long long)s.exact_rescales, (unsigned long long)s.wide_macs);
-    fprintf(stderr, "cost model %s: %.0f instructions (within %.0f%% on the vectors' tiles)\n",
-            c->name, cli_cost_instructions(c, &s, &d.info, o, 1),
-            100 * c->error);
+    if (c)
+        fprintf(stderr, "cost model %s: %.0f instructions (within %.0f%% on the vectors' tiles)\n",
+                c->name, cli_cost_instructions(c, &s, &d.info, o, 1), 100 * c->error);
     free(ws), free(sc), free(px);
     return 0;
 }

@@ -1,0 +1,52 @@
+#!/usr/bin/env bash
+# Every core's figures on the same tiles, as one table: the decoder as firmware
+# (scripts/firmware.sh, -Os) on the Cortex-M0+, M4, M7, M33 and M55 under QEMU, rendering the
+# first tile of vector 001 and the tile (16, 16) of vector 013, each with the MD5 the vector
+# lists: instructions per ray and per multiply-accumulate, code, RAM and worst-case stack.
+#   scripts/cores.sh             prints the markdown table
+#   scripts/cores.sh --check     fails unless docs/decoder.md holds the table as measured
+# (docs/decoder.md, "Cores"). Each core builds in build-cores/<core> (CORES_BUILD: another
+# directory than build-cores).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+check=0
+[ "${1:-}" = "--check" ] && check=1
+bd=${CORES_BUILD:-build-cores}
+table=$(mktemp)
+trap 'rm -f "$table"' EXIT
+# tile: vector, line of its .md5
+tiles=("001-lego-encode-tiny 1" "013-lego-encode-grid 6")
+{
+  echo "| core (QEMU board) | code (bytes) | stack, worst case (bytes) | vector 001, tile (0, 0): instructions per ray | per MAC | vector 013, tile (16, 16): instructions per ray | per MAC |"
+  echo "|---|---|---|---|---|---|---|"
+  for core in m0plus m4 m7 m33 m55; do
+    row="" code="" stack=""
+    for t in "${tiles[@]}"; do
+      read -r vec line <<< "$t"
+      read -r cam x0 y0 w h nc nf ts md5 < <(sed -n "${line}p" "vectors/valid/$vec.md5")
+      mkdir -p "$bd"
+      grep -E "[[:space:]]$cam\$" "vectors/valid/$vec.cam" > "$bd/$core.cam"
+      out=$(FW_CORE=$core FW_BUILD_DIR=$bd/$core FW_EXPECT_MD5=$md5 FW_TIMEOUT=3000 \
+            scripts/firmware.sh "vectors/valid/$vec.cnrf" "$bd/$core.cam" \
+            "$x0 $y0 $w $h" "$nc" "$nf" "$ts" 2>&1) || { echo "$out" >&2; exit 1; }
+      name=$(sed -n 's/^== cost on the target: \([^,]*\),.*/\1/p' <<< "$out")
+      board=$(sed -n 's/^built .* (\([^,]*\), \([^,]*\),.*/\2/p' <<< "$out")
+      code=$(sed -n 's/^flash [0-9,]* bytes: code \([0-9,]*\) .*/\1/p' <<< "$out")
+      stack=$(sed -n 's/^stack worst case \([0-9,]*\) bytes.*/\1/p' <<< "$out")
+      ipr=$(sed -n 's/.*: \([0-9,]*\) instructions per ray.*/\1/p' <<< "$out")
+      ipm=$(sed -n 's/.*instructions per MAC: \([0-9.]*\) .*/\1/p' <<< "$out")
+      row="$row | $ipr | $ipm"
+    done
+    echo "| $name ($board) | $code | $stack$row |"
+  done
+} > "$table"
+if [ $check = 0 ]; then
+  cat "$table"
+  exit 0
+fi
+stale=0
+while IFS= read -r l; do
+  grep -qxF -- "$l" docs/decoder.md || { echo "docs/decoder.md is stale: it should hold '$l'" >&2; stale=1; }
+done < "$table"
+[ $stale = 0 ] && echo "cores.sh: docs/decoder.md's table of the cores is as measured"
+exit $stale
