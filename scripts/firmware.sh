@@ -33,6 +33,7 @@
 #   FW_TIMEOUT     seconds before QEMU is killed (600)
 #   FW_EXPECT_MD5  if set, the MD5 the tile must also have (a golden value)
 #   FW_SCENE       the scene of a stream of several that the firmware opens (0)
+#   FW_AMALGAMATED 1: the decoder from scripts/amalgamate.sh's single file (cnerf_decoder.c)
 # Instructions are counted with QEMU's -icount shift=0 (one virtual nanosecond per
 # instruction) and the SysTick on the processor clock (25 MHz on the AN386, 32 MHz on the
 # AN547): 40 or 31.25 instructions per tick, validated by the firmware on a loop of known
@@ -110,7 +111,7 @@ log=$bdir/firmware-build.log
 if ! { cmake -S . -B "$bdir" -DCMAKE_TOOLCHAIN_FILE="$toolchain" -DCNERF_FW_BOARD="$board" \
          -DCMAKE_BUILD_TYPE="$btype" -DCNERF_FW_STREAM="$stream" -DCNERF_FW_CAMERA="$camera" \
          -DCNERF_FW_TILE="$x0 $y0 $w $h" -DCNERF_FW_KNOBS="$knobs" -DCNERF_FW_STACK="$stack" \
-         -DCNERF_FW_SCENE="${FW_SCENE:-0}" &&
+         -DCNERF_FW_SCENE="${FW_SCENE:-0}" -DCNERF_AMALGAMATED="${FW_AMALGAMATED:-0}" &&
        cmake --build "$bdir" -j1 --target cnerf_fw; } > "$log" 2>&1; then
   cat "$log" >&2
   echo "firmware.sh: the firmware build failed (log: $log)" >&2
