@@ -12,4 +12,19 @@ extern const uint32_t cn_sin_q30[CN_SIN_STEPS + 1];
 extern const uint32_t cn_exp2_q30[CN_EXP2_STEPS + 1];
 extern const uint32_t cn_sigmoid_q30[CN_SIGMOID_STEPS + 1];
 
+/* |sin(2 pi p / 2^32)| in Q30, from the quarter-wave table with linear interpolation; the
+ * sign is negative when bit 31 of p is set. */
+static inline uint32_t cn_sin_mag_q30(uint32_t p)
+{
+    const uint32_t quad = p >> 30;
+    uint32_t x = p & 0x3FFFFFFFu;
+    if (quad & 1u)
+        x = 0x40000000u - x; /* sin(pi/2 + a) = sin(pi/2 - a) */
+    const uint32_t i = x >> 22, f = x & 0x3FFFFFu;
+    uint32_t v = cn_sin_q30[i];
+    if (i < CN_SIN_STEPS)
+        v += (uint32_t)((((uint64_t)(cn_sin_q30[i + 1] - v)) * f + (1u << 21)) >> 22);
+    return v;
+}
+
 #endif

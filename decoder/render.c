@@ -28,16 +28,8 @@
 /* sin(2 pi p / 2^32) in Q16, from the quarter-wave table with linear interpolation. */
 static int32_t sin_turns(uint32_t p)
 {
-    const uint32_t quad = p >> 30;
-    uint32_t x = p & 0x3FFFFFFFu;
-    if (quad & 1u)
-        x = 0x40000000u - x; /* sin(pi/2 + a) = sin(pi/2 - a) */
-    const uint32_t i = x >> 22, f = x & 0x3FFFFFu;
-    uint32_t v = cn_sin_q30[i];
-    if (i < CN_SIN_STEPS)
-        v += (uint32_t)((((uint64_t)(cn_sin_q30[i + 1] - v)) * f + (1u << 21)) >> 22);
-    const int32_t q16 = (int32_t)((v + (1u << 13)) >> 14);
-    return quad & 2u ? -q16 : q16;
+    const int32_t q16 = (int32_t)((cn_sin_mag_q30(p) + (1u << 13)) >> 14);
+    return p >> 31 ? -q16 : q16;
 }
 
 /* e^(-x) in Q30 for an optical depth x >= 0 in Q16; non-increasing in x, exactly 2^30 at 0. */

@@ -228,6 +228,20 @@ typedef struct cnerf_camera {
     uint16_t width, height;
 } cnerf_camera;
 
+/* A camera at `eye` looking at `target`, turned so that `up` points up in the image (eye,
+ * target and up in Q16 scene units), with the horizontal field of view fov_x_q16 (degrees,
+ * Q16, from CNERF_FOV_MIN_Q16 to CNERF_FOV_MAX_Q16), square pixels and the principal point at
+ * the image's centre, in integers only (the same camera on every core). CNERF_E_ARG for a
+ * camera that cannot be made: eye equal to target, a zero up or one within about a degree
+ * of the view direction, a zero width or height, a field of view out of range. The
+ * renderer also needs the vertical field of view, which follows from the height, within
+ * about 127 degrees (cnerf_render_tile refuses the camera otherwise). */
+#define CNERF_FOV_MIN_Q16 (1 << 16)
+#define CNERF_FOV_MAX_Q16 (120 << 16)
+cnerf_status cnerf_camera_look_at(cnerf_camera *cam, const int32_t eye[3],
+                                  const int32_t target[3], const int32_t up[3],
+                                  int32_t fov_x_q16, uint16_t width, uint16_t height);
+
 /* Speed-versus-error knobs; cnerf_render_defaults gives the quality setting. */
 typedef struct cnerf_render_opts {
     uint16_t n_coarse; /* 1 .. the stream's n_coarse */
