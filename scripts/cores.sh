@@ -72,14 +72,5 @@ names=()
     echo "$line"
   done
 } > "$table"
-if [ $check = 0 ]; then
-  cat "$table"
-  exit 0
-fi
-stale=0
-while IFS= read -r l; do
-  [ -n "$l" ] || continue
-  grep -qxF -- "$l" docs/decoder.md || { echo "docs/decoder.md is stale: it should hold '$l'" >&2; stale=1; }
-done < "$table"
-[ $stale = 0 ] && echo "cores.sh: docs/decoder.md's table of the cores is as measured"
-exit $stale
+. scripts/doc_table.sh
+doc_table "$table" docs/decoder.md $check "table of the cores is"

@@ -1,15 +1,19 @@
-/* cnerf firmware for a Cortex-M4 (MPS2 AN386 under QEMU) or a Cortex-M55 (MPS3 AN547; the
- * board is fw_board.h's): decodes the stream embedded in the flash image into a static
- * workspace, renders the embedded tile with the embedded camera and knobs, hashes the tile's
- * pixels (RGB888, w * 3 bytes per row, row by row) with MD5 and prints, over ARM semihosting,
- *   fw ... lines      sizes, the clock, SysTick readings and the stack high-water mark (the
- *                     report)
- *   md5 <32 hex>      the last line
- * then exits with status 0. A decoder error prints `fw: <call>: <status name>` and exits 1; a
- * static buffer smaller than the stream needs exits 2; a fault exits 3 (startup.c).
+/* cnerf firmware for a Cortex-M0+, M4, M7, M33 or M55 (the board is fw_board.h's): runs a
+ * batch of render jobs embedded at build time, one after another. Each decodes its stream
+ * (in the flash image) into the one static workspace, renders its tile with its camera and
+ * knobs, hashes the tile's pixels (RGB888, w * 3 bytes per row, row by row) with MD5 and
+ * prints, over ARM semihosting,
+ *   fw job / fw render / fw ticks lines   the job's sizes, its work and its SysTick readings
+ *   md5 <32 hex>                          the job's tile
+ * then, after the last job, the report's fw lines (buffers, the clock, the calibration, the
+ * cross-check of the counters over the whole run, the stack high-water mark), and exits with
+ * status 0. A decoder error prints `fw: job N: <call>: <status name>` and exits 1; a static
+ * buffer smaller than a stream needs exits 2; a fault exits 3 (startup.c).
  *
- * The stream, camera, tile and knobs come from cnerf_fw_embed.h, which fw_embed.c writes at
- * build time.
+ * The streams and jobs come from cnerf_fw_embed.h, which fw_embed.c writes at build time
+ * (buffers sized for the largest job). CNERF_FW_WORK 1 (CMake's CNERF_FW_WORK): each tile is
+ * rendered a second time, untimed, to count its work (cnerf_render_tile_stats); 0 halves the
+ * run of a conformance check that needs only the MD5s.
  *
  * Instructions: SysTick counts the processor clock (CLKSOURCE = 1; FW_CPU_HZ in QEMU: 25 MHz
  * on the AN386, 32 MHz on the AN547) with the 24-bit counter reloading from 2^24 - 1 and an
@@ -30,10 +34,24 @@
 #include <stdint.h>
 
 #include "cnerf/cnerf.h"
-#include "cnerf_fw_embed.h"
 #include "fw_board.h"
 #include "md5.h"
 #include "semihost.h"
+
+/* One render of the batch: its stream (in flash) and scene, the host's cnerf_peek status,
+ * the tile, the row stride of its pixels, the knobs (if any) and the camera. */
+typedef struct {
+    const uint8_t *stream;
+    uint32_t len, scene;
+    int host_peek;
+    uint32_t tile[4]; /* x0 y0 w h */
+    uint32_t stride;  /* w * 3 rounded up to 4 bytes */
+    int have_knobs;
+    cnerf_render_opts knobs;
+    cnerf_camera camera;
+} fw_job;
+
+#include "cnerf_fw_embed.h"
 
 #define FW_EXIT_DECODER 1
 #define FW_EXIT_BUFFERS 2
@@ -45,8 +63,7 @@ extern uint32_t __stack_limit[], __stack_top[]; /* fw-sections.ld */
 static cnerf_decoder dec;
 static uint64_t ws[(CNERF_FW_WS_BYTES + 7u) / 8u];
 static uint64_t scratch[(CNERF_FW_SCRATCH_BYTES + 7u) / 8u];
-static uint8_t tile[CNERF_FW_TILE_STRIDE * CNERF_FW_TILE_H + 1u];
-static const cnerf_camera camera = CNERF_FW_CAMERA_INIT;
+static uint8_t tile[CNERF_FW_TILE_BYTES + 1u];
 
 /* ---- instruction counting: SysTick on the processor clock, wraps counted ---- */
 
@@ -128,9 +145,11 @@ static void put_kv(const char *key, uint64_t v)
     sh_putu64(v);
 }
 
-static int fail(const char *call, cnerf_status st)
+static int fail(uint32_t job, const char *call, cnerf_status st)
 {
-    sh_puts("fw: ");
+    sh_puts("fw: job ");
+    sh_putu64(job);
+    sh_puts(": ");
     sh_puts(call);
     sh_puts(": ");
     sh_puts(cnerf_status_str(st));
@@ -149,90 +168,86 @@ static int too_small(const char *what, size_t need, size_t have)
     return FW_EXIT_BUFFERS;
 }
 
-int main(void)
+/* Job j: opens its stream, renders its tile (timed), hashes the pixels, renders it again
+ * untimed to count the work, and prints its `fw job`, `fw render`, `fw ticks` and `md5`
+ * lines. Returns 0 or the exit status. *ws_max and *sc_max gather the largest needs. */
+static int run_job(uint32_t j, size_t *ws_max, size_t *sc_max)
 {
-    const size_t len = CNERF_FW_STREAM_BYTES;
-    ticks_start();
-
-    /* Calibration: two loop lengths; their difference is 2 * (N2 - N1) instructions. */
-    const uint32_t n1 = 100000u, n2 = 2100000u;
-    const uint64_t c1 = ticks_of_spin(n1), c2 = ticks_of_spin(n2);
-    const uint64_t c0 = ticks_now(), c00 = ticks_now(); /* cost of one reading */
-
-    const uint32_t timer2_start = fw_timer2_count();
+    const fw_job *job = &cnerf_fw_jobs[j];
     const uint64_t t0 = ticks_now();
-    cnerf_status st = cnerf_peek_scene(cnerf_fw_stream, len, CNERF_FW_SCENE, &dec.info);
+    cnerf_status st = cnerf_peek_scene(job->stream, job->len, job->scene, &dec.info);
     const uint64_t t1 = ticks_now();
     if (st != CNERF_OK)
-        return fail("cnerf_peek", st);
+        return fail(j, "cnerf_peek", st);
     const size_t ws_need = cnerf_workspace_size(&dec.info);
     const size_t sc_need = cnerf_render_scratch_size(&dec.info);
     if (ws_need > sizeof ws)
         return too_small("workspace", ws_need, sizeof ws);
     if (sc_need > sizeof scratch)
         return too_small("render scratch", sc_need, sizeof scratch);
+    *ws_max = ws_need > *ws_max ? ws_need : *ws_max;
+    *sc_max = sc_need > *sc_max ? sc_need : *sc_max;
 
     const uint64_t t2 = ticks_now();
-    st = cnerf_open_scene(&dec, cnerf_fw_stream, len, CNERF_FW_SCENE, ws, sizeof ws);
+    st = cnerf_open_scene(&dec, job->stream, job->len, job->scene, ws, sizeof ws);
     const uint64_t t3 = ticks_now();
     if (st != CNERF_OK)
-        return fail("cnerf_open", st);
+        return fail(j, "cnerf_open", st);
 
     cnerf_render_opts opts;
     cnerf_render_defaults(&dec.info, &opts);
-#if CNERF_FW_HAVE_KNOBS
-    {
-        static const cnerf_render_opts knobs = CNERF_FW_KNOBS_INIT;
-        opts = knobs;
+    if (job->have_knobs) { /* field by field: no memcpy in this firmware */
+        opts.n_coarse = job->knobs.n_coarse;
+        opts.n_fine = job->knobs.n_fine;
+        opts.t_stop = job->knobs.t_stop;
+        opts.flags = job->knobs.flags;
     }
-#endif
+    const uint32_t x0 = job->tile[0], y0 = job->tile[1], w = job->tile[2], h = job->tile[3];
     const uint64_t t4 = ticks_now();
-    st = cnerf_render_tile(&dec, &camera, &opts, CNERF_FW_TILE_X0, CNERF_FW_TILE_Y0,
-                           CNERF_FW_TILE_W, CNERF_FW_TILE_H, tile, CNERF_FW_TILE_STRIDE, scratch,
+    st = cnerf_render_tile(&dec, &job->camera, &opts, x0, y0, w, h, tile, job->stride, scratch,
                            sizeof scratch);
     const uint64_t t5 = ticks_now();
     if (st != CNERF_OK)
-        return fail("cnerf_render_tile", st);
+        return fail(j, "cnerf_render_tile", st);
 
     /* The visible pixels only: w * 3 bytes of each row, not the stride's padding. */
     fw_md5 md5;
     uint8_t digest[16];
     char hex[33];
     fw_md5_init(&md5);
-    for (uint32_t y = 0; y < CNERF_FW_TILE_H; y++)
-        fw_md5_update(&md5, tile + (size_t)y * CNERF_FW_TILE_STRIDE, CNERF_FW_TILE_W * 3u);
+    for (uint32_t y = 0; y < h; y++)
+        fw_md5_update(&md5, tile + (size_t)y * job->stride, w * 3u);
     fw_md5_final(&md5, digest);
     fw_md5_hex(digest, hex);
     const uint64_t t6 = ticks_now();
-    const uint32_t timer2_end = fw_timer2_count();
+#if CNERF_FW_WORK
     /* The work done, counted by a second render, untimed: counting the samples inside the
      * bounds costs what the renderer saves by ruling out stretches of rays unseen. */
     cnerf_render_stats work; /* field by field: no memset in this firmware */
     work.rays = work.evals = work.in_bounds = work.macs = work.list_macs = work.list_nz = 0;
     work.samples = work.layer_values = work.exact_rescales = work.wide_macs = 0;
-    st = cnerf_render_tile_stats(&dec, &camera, &opts, CNERF_FW_TILE_X0, CNERF_FW_TILE_Y0,
-                                 CNERF_FW_TILE_W, CNERF_FW_TILE_H, tile, CNERF_FW_TILE_STRIDE,
+    st = cnerf_render_tile_stats(&dec, &job->camera, &opts, x0, y0, w, h, tile, job->stride,
                                  scratch, sizeof scratch, &work);
     if (st != CNERF_OK)
-        return fail("cnerf_render_tile_stats", st);
+        return fail(j, "cnerf_render_tile_stats", st);
+#endif
 
-    sh_puts("fw buffers");
-    put_kv("stream", len);
+    sh_puts("fw job");
+    put_kv("index", j);
+    put_kv("stream", job->len);
+    put_kv("scene", job->scene);
     put_kv("workspace_need", ws_need);
-    put_kv("workspace", sizeof ws);
     put_kv("scratch_need", sc_need);
-    put_kv("scratch", sizeof scratch);
-    put_kv("tile_buffer", sizeof tile);
-    put_kv("decoder", sizeof dec);
     sh_puts("\nfw render");
-    put_kv("x0", CNERF_FW_TILE_X0);
-    put_kv("y0", CNERF_FW_TILE_Y0);
-    put_kv("w", CNERF_FW_TILE_W);
-    put_kv("h", CNERF_FW_TILE_H);
+    put_kv("x0", x0);
+    put_kv("y0", y0);
+    put_kv("w", w);
+    put_kv("h", h);
     put_kv("n_coarse", opts.n_coarse);
     put_kv("n_fine", opts.n_fine);
     put_kv("t_stop", opts.t_stop);
     put_kv("flags", opts.flags);
+#if CNERF_FW_WORK
     put_kv("evals", work.evals);
     put_kv("in_bounds", work.in_bounds);
     put_kv("macs", work.macs);
@@ -242,31 +257,63 @@ int main(void)
     put_kv("layer_values", work.layer_values);
     put_kv("exact_rescales", work.exact_rescales);
     put_kv("wide_macs", work.wide_macs);
+#endif
     put_kv("ndc", dec.info.coord == CNERF_COORD_NDC);
     put_kv("in_pos", dec.info.in_pos);
     put_kv("samples_per_ray", (uint64_t)opts.n_coarse + (dec.info.n_nets > 1 ? opts.n_fine : 0u));
     put_kv("contract", dec.info.coord == CNERF_COORD_CONTRACT);
     put_kv("grid", dec.info.grid_g);
-    sh_puts("\nfw clock");
-    put_kv("cpu_hz", FW_CPU_HZ);
-    sh_puts("\nfw calib");
-    put_kv("insns", 2u * (uint64_t)(n2 - n1));
-    put_kv("ticks", c2 - c1);
-    put_kv("reading_ticks", c00 - c0);
     sh_puts("\nfw ticks");
     put_kv("peek", t1 - t0);
     put_kv("open", t3 - t2);
     put_kv("render", t5 - t4);
     put_kv("md5", t6 - t5);
-    sh_puts("\nfw crosscheck");
-    put_kv("systick", t6 - t0);
-    put_kv(FW_TIMER2_KEY, timer2_end - timer2_start);
-    sh_puts("\nfw stack");
-    put_kv("high_water", fw_stack_high_water());
-    put_kv("size", (uint64_t)((uintptr_t)__stack_top - (uintptr_t)__stack_limit));
     sh_puts("\nmd5 ");
     sh_puts(hex);
     sh_puts("\n");
     return 0;
 }
 
+int main(void)
+{
+    ticks_start();
+
+    /* Calibration: two loop lengths; their difference is 2 * (N2 - N1) instructions. */
+    const uint32_t n1 = 100000u, n2 = 2100000u;
+    const uint64_t c1 = ticks_of_spin(n1), c2 = ticks_of_spin(n2);
+    const uint64_t c0 = ticks_now(), c00 = ticks_now(); /* cost of one reading */
+
+    const uint32_t timer2_start = fw_timer2_count();
+    const uint64_t t0 = ticks_now();
+    size_t ws_max = 0, sc_max = 0;
+    for (uint32_t j = 0; j < CNERF_FW_JOBS; j++) {
+        const int rc = run_job(j, &ws_max, &sc_max);
+        if (rc)
+            return rc;
+    }
+    const uint64_t t1 = ticks_now();
+    const uint32_t timer2_end = fw_timer2_count();
+
+    sh_puts("fw buffers");
+    put_kv("stream", CNERF_FW_STREAM_BYTES);
+    put_kv("workspace_need", ws_max);
+    put_kv("workspace", sizeof ws);
+    put_kv("scratch_need", sc_max);
+    put_kv("scratch", sizeof scratch);
+    put_kv("tile_buffer", sizeof tile);
+    put_kv("decoder", sizeof dec);
+    sh_puts("\nfw clock");
+    put_kv("cpu_hz", FW_CPU_HZ);
+    sh_puts("\nfw calib");
+    put_kv("insns", 2u * (uint64_t)(n2 - n1));
+    put_kv("ticks", c2 - c1);
+    put_kv("reading_ticks", c00 - c0);
+    sh_puts("\nfw crosscheck");
+    put_kv("systick", t1 - t0);
+    put_kv(FW_TIMER2_KEY, timer2_end - timer2_start);
+    sh_puts("\nfw stack");
+    put_kv("high_water", fw_stack_high_water());
+    put_kv("size", (uint64_t)((uintptr_t)__stack_top - (uintptr_t)__stack_limit));
+    sh_puts("\n");
+    return 0;
+}
