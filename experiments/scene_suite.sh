@@ -33,8 +33,9 @@ for r in rows:
     by.setdefault((r['scene'], r['iters']), []).append(r)
 def f(r):
     if r is None: return '–'
-    if r['status'] != 'ok': return r['status']
-    return '%s dB' % r['test_psnr'] + ('' if r['bytes'] in ('', '0') else ', %s B' % r['bytes'])
+    if r['status'] not in ('ok', 'missed-size'): return r['status']
+    return '%s dB' % r['test_psnr'] + ('' if r['bytes'] in ('', '0') else ', %s B' % r['bytes']) + \
+        (' (short of the size)' if r['status'] == 'missed-size' else '')
 sizes = sorted({int(r['target']) for r in rows if r['target'] not in ('', '0')})
 print('| scene | iters | float tiny | float small | ' +
       ' | '.join('%d B: default (preset) | tiny | small' % s for s in sizes) + ' |')
