@@ -216,9 +216,17 @@ for job, fj in zip(jobs, fw_jobs):
         if tol and abs(err) > float(tol):
             problem(f"{job['name']}: the cost model is {100 * err:+.1f}% off, beyond "
                     f"{100 * float(tol):.0f}% (FW_COST_TOLERANCE)")
+    work = (f"rays {rays} evals {r['evals']} in_bounds {r['in_bounds']} macs {r['macs']} "
+            f"list_macs {r['list_macs']} list_nz {r['list_nz']} samples {r['samples']} "
+            f"layer_values {r['layer_values']} exact_rescales {r['exact_rescales']} "
+            f"wide_macs {r['wide_macs']} contract {r['contract']} ndc {r['ndc']} "
+            f"in_pos {r['in_pos']} samples_per_ray {r['samples_per_ray']} "
+            f"instructions {ins['render']}") if "evals" in r else ""
     if not single:
         print(f"{job['name']}: {fj['md5']}, {n(per_ray)} instructions per ray"
               f"{'; ' + cost if cost else ''}")
+        if work:
+            print(f"  work of the tile: {work}")
         continue
     print(f"  cnerf_peek {n(ins['peek'])}, cnerf_open {n(ins['open'])}, md5 of the tile "
           f"{n(ins['md5'])}")
@@ -229,12 +237,7 @@ for job, fj in zip(jobs, fw_jobs):
         if cost:
             print("  " + cost)
         continue
-    print(f"  work of the tile: rays {rays} evals {r['evals']} in_bounds {r['in_bounds']} "
-          f"macs {r['macs']} list_macs {r['list_macs']} list_nz {r['list_nz']} "
-          f"samples {r['samples']} layer_values {r['layer_values']} "
-          f"exact_rescales {r['exact_rescales']} wide_macs {r['wide_macs']} "
-          f"contract {r['contract']} ndc {r['ndc']} in_pos {r['in_pos']} "
-          f"samples_per_ray {r['samples_per_ray']} instructions {ins['render']}")
+    print(f"  work of the tile: {work}")
     if cost:
         print("  " + cost)
     grid = f"{r['grid']}^3 grid" if r["grid"] else "no grid"

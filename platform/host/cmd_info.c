@@ -67,15 +67,19 @@ static int print_estimates(const uint8_t *buf, size_t len, uint32_t scene, const
     uint8_t *px = malloc(25 * 25 * 3);
     cnerf_decoder *dec = malloc(sizeof *dec);
     int rc = !ws || !sc || !px || !dec ? cli_fail("info", "out of memory") : 0;
+    cnerf_render_stats work[CLI_MAX_CORES]; /* per kernel set (cli_core_same_work) */
     for (size_t k = 0; rc == 0 && k < cli_n_cores; k++) {
         const cli_core *c = &cli_cores[k];
         cnerf_render_opts o;
         cnerf_render_defaults(I, &o);
-        cnerf_render_stats s;
-        memset(&s, 0, sizeof s);
-        cnerf_status st = cnerf_open_as(dec, buf, len, scene, ws, ws_n, c->set);
-        if (st == CNERF_OK)
-            st = cnerf_render_tile_stats(dec, &fc, &o, 0, 0, 25, 25, px, 75, sc, sc_n, &s);
+        cnerf_render_stats *s = &work[cli_core_same_work(k)];
+        cnerf_status st = CNERF_OK;
+        if (cli_core_same_work(k) == k) {
+            memset(s, 0, sizeof *s);
+            st = cnerf_open_as(dec, buf, len, scene, ws, ws_n, c->set);
+            if (st == CNERF_OK)
+                st = cnerf_render_tile_stats(dec, &fc, &o, 0, 0, 25, 25, px, 75, sc, sc_n, s);
+        }
         if (st != CNERF_OK) {
             /* without --check, info reads the structure only: a payload that does not
              * decode is --check's to report, and leaves no estimate */
@@ -83,7 +87,7 @@ static int print_estimates(const uint8_t *buf, size_t len, uint32_t scene, const
                    c->name, cnerf_status_str(st));
             break;
         }
-        const double ipr = cli_cost_instructions(c, &s, I, &o, 1) / (double)s.rays;
+        const double ipr = cli_cost_instructions(c, s, I, &o, 1) / (double)s->rays;
         printf("%s at %.0f MHz (cost model, within %.0f%%): %.1f s for a 100x100 view (%s), "
                "%.0f instructions per ray\n", c->name, c->hz / 1e6, 100 * c->error,
                ipr * 1e4 / c->hz, I->coord == CNERF_COORD_NDC ? "the reference camera" :

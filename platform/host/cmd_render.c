@@ -173,7 +173,8 @@ static int render_view(render_job *j, const cn_camera *cam, const cnerf_camera *
         render_fixed(j->dec, fc, j->cfg, px, &j->stats, err, sizeof err))
         rc = cli_fail("render", "%s: %s", name, err);
     const double ms = (cli_now() - t0) * 1e3;
-    /* the work each modelled core would do for this view (untimed; the same pixels) */
+    /* the work each modelled core would do for this view (untimed; the same pixels), once
+     * per kernel set (only the first core of a set has a workspace) */
     for (size_t k = 0; rc == 0 && !j->use_float && k < cli_n_cores; k++)
         if (j->core_ws[k] && render_fixed(&j->core_dec[k], fc, j->cfg, refpx, &j->core_stats[k],
                                           err, sizeof err))
@@ -276,7 +277,7 @@ static int render_totals(const render_job *j, render_tally *t, int with_gt, int 
                    (double)s->list_macs / (double)s->rays, (double)s->list_nz / (double)s->rays);
         for (size_t k = 0; k < cli_n_cores; k++) {
             const cli_core *c = &cli_cores[k];
-            const cnerf_render_stats *w = &j->core_stats[k];
+            const cnerf_render_stats *w = &j->core_stats[cli_core_same_work(k)];
             if (!w->rays)
                 continue;
             /* per ray over the views, as if each were rendered in one tile */
@@ -407,6 +408,8 @@ int cmd_render(int argc, char **argv)
                       .outdir = outdir};
     /* The stream as each modelled core opens it: the work its estimate is made from. */
     for (size_t k = 0; rc == 0 && !use_float && k < cli_n_cores; k++) {
+        if (cli_core_same_work(k) != k)
+            continue; /* counted with an earlier core's set */
         const size_t need = cnerf_workspace_size(I);
         job.core_ws[k] = aligned_alloc(CNERF_WS_ALIGN, (need + 7) & ~(size_t)7);
         if (!job.core_ws[k] ||

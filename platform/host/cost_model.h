@@ -25,9 +25,13 @@ typedef struct cli_core {
 } cli_core;
 
 /* The cores modelled (at most CLI_MAX_CORES), and how many. */
-#define CLI_MAX_CORES 2
+#define CLI_MAX_CORES 5
 extern const cli_core cli_cores[];
 extern const size_t cli_n_cores;
+
+/* The first modelled core with core k's kernel set: cores of one set do the same work
+ * (cnerf_open_as takes the set), so a host counts it once per set. */
+size_t cli_core_same_work(size_t k);
 
 /* The instructions core c would take for the work s (counted with c's forms, cnerf_open_as)
  * of stream I rendered with options o in `tiles` calls of cnerf_render_tile. */

@@ -19,7 +19,8 @@ endif()
 foreach(want "network 0 \\(coarse\\): depth 4, width 64" "network 1 \\(fine\\)" "latent payload"
         "frequency tables" "bits per parameter"
         "Cortex-M4 at 168 MHz \\(cost model, within [0-9]+%\\): [0-9.]+ s for a 100x100 view \\(orbit_000\\), [1-9][0-9]* instructions per ray"
-        "Cortex-M55 at 160 MHz")
+        "Cortex-M55 at 160 MHz" "Cortex-M7 at 480 MHz" "Cortex-M33 at 160 MHz"
+        "Cortex-M0\\+ at 133 MHz \\(cost model, within [0-9]+%\\): [0-9.]+ s")
   if(NOT out MATCHES "${want}")
     message(FATAL_ERROR "info output lacks '${want}':\n${out}")
   endif()

@@ -5,7 +5,7 @@
 # host's. The tiles run in batches (scripts/firmware.sh --jobs): one image, one QEMU run per
 # batch, with as many streams as the board's code memory holds (FW_BATCH_BYTES of streams;
 # 350,000 on the M55's 512 KB ITCM, 3,000,000 on the 4 MB of the others). With TOLERANCE
-# (cost_model_*), the cost model (platform/host/cost_model.c) must also be within it of
+# (all five ctests: 0.20), the cost model (platform/host/cost_model.c) must also be within it of
 # QEMU's count, and the host's count of the core's work (cnerf_open_as) the firmware's.
 #   FW_CORE=m7|m33|m0plus|m4|m55 vectors.sh BUILD_DIR [TOLERANCE]
 set -euo pipefail
