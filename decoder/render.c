@@ -997,6 +997,29 @@ static uint8_t to_u8(int64_t rgb_q46, uint32_t T, uint8_t bg)
     return (uint8_t)(q > 255 ? 255 : q);
 }
 
+/* c in 0..255 rounded to the nearest of the 2^n levels of an n-bit field:
+ * (c (2^n - 1) + 127) / 255, the division by 255 as (x + 1 + (x >> 8)) >> 8, exact for
+ * x < 65535 (here x <= 16,192). */
+static uint32_t to_bits(uint32_t c, uint32_t max)
+{
+    const uint32_t x = c * max + 127u;
+    return (x + 1u + (x >> 8)) >> 8;
+}
+
+/* One pixel into out: RGB888 (fmt 0), or RGB565 low byte first (CNERF_RENDER_RGB565) or
+ * high byte first (CNERF_RENDER_RGB565_BE). */
+static void put_pixel(uint8_t *out, const uint8_t px[3], unsigned fmt)
+{
+    if (!fmt) {
+        out[0] = px[0], out[1] = px[1], out[2] = px[2];
+        return;
+    }
+    const uint32_t v = to_bits(px[0], 31u) << 11 | to_bits(px[1], 63u) << 5 | to_bits(px[2], 31u);
+    const unsigned hi = fmt == CNERF_RENDER_RGB565_BE ? 0u : 1u;
+    out[hi] = (uint8_t)(v >> 8);
+    out[1u - hi] = (uint8_t)v;
+}
+
 static cnerf_status check_camera(const cnerf_info *I, const cnerf_camera *c)
 {
     if (c->fx <= 0 || c->fy <= 0 || c->width == 0 || c->height == 0)
@@ -1049,14 +1072,19 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
     if (opts)
         o = *opts;
     if (o.n_coarse < 1u || o.n_coarse > I->n_coarse || o.n_fine > I->n_fine ||
-        (o.flags & ~(CNERF_RENDER_NO_SKIP | CNERF_RENDER_EVERY_SAMPLE)))
+        (o.flags & ~(CNERF_RENDER_NO_SKIP | CNERF_RENDER_EVERY_SAMPLE | CNERF_RENDER_RGB565 |
+                     CNERF_RENDER_RGB565_BE)) ||
+        ((o.flags & CNERF_RENDER_RGB565) && (o.flags & CNERF_RENDER_RGB565_BE)))
         return CNERF_E_ARG;
     if (I->n_nets > 1 && o.n_fine == 0 && !cnerf_net_has_color(I, 0))
         return CNERF_E_ARG; /* the coarse network's image, of a stream without its colour */
     if (w == 0 || h == 0 || x0 >= cam->width || y0 >= cam->height || w > cam->width - x0 ||
         h > cam->height - y0)
         return CNERF_E_ARG;
-    if (stride / 3u < w)
+    /* the pixel format: 3 bytes (RGB888), or 2 (RGB565) in either byte order */
+    const unsigned fmt = o.flags & (CNERF_RENDER_RGB565 | CNERF_RENDER_RGB565_BE);
+    const unsigned bpp = fmt ? 2u : 3u;
+    if (stride / bpp < w)
         return CNERF_E_BUF_SMALL;
     cnerf_status st = check_camera(I, cam);
     if (st != CNERF_OK)
@@ -1126,8 +1154,7 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
                 if (!mark_bins(&gm, &S, nc, (const uint16_t *)0, s.maybe)) {
                     for (uint32_t yy = by; yy < by + bh; yy++)
                         for (uint32_t xx = bx; xx < bx + bw; xx++)
-                            for (unsigned c = 0; c < 3; c++)
-                                rgb[(size_t)yy * stride + 3u * xx + c] = bgpx[c];
+                            put_pixel(rgb + (size_t)yy * stride + bpp * xx, bgpx, fmt);
                     continue;
                 }
                 s.prior[0] = 0;
@@ -1159,8 +1186,10 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
                     }
                     if (live)
                         render_ray(dec, &s, &r, &gm, &o, nc, nf, near, step, far, &b, &m, &stats);
+                    uint8_t px[3];
                     for (unsigned c = 0; c < 3; c++)
-                        row[3 * xx + c] = to_u8(m.rgb[c], m.T, I->background[c]);
+                        px[c] = to_u8(m.rgb[c], m.T, I->background[c]);
+                    put_pixel(row + bpp * xx, px, fmt);
                 }
             }
         }

@@ -89,7 +89,10 @@ for s in "${streams[@]}"; do
   export CNERF_SCENE=$([ "$(basename "$s")" = scenes.cnrf ] && echo 1 || echo 0)
   for cam in cam_z cam_y cam_oblique; do
     for tile in "0 0 $half $half" "$half 0 $half $half" "0 $half $half $half" "$half $half $half $half" "3 5 1 1"; do
-      for knobs in "" "8 4 0"; do
+      knobs_list=("" "8 4 0")
+      # RGB565 in both byte orders (CNERF_RENDER_RGB565, _BE) on the first stream
+      [ "$s" = "${streams[0]}" ] && knobs_list+=("8 4 0 4" "8 4 0 8")
+      for knobs in "${knobs_list[@]}"; do
         ref=""
         line=""
         for t in "${targets[@]}"; do

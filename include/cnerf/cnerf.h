@@ -258,6 +258,14 @@ typedef struct cnerf_render_opts {
 /* Examine every sample: rule out no stretch of a ray before marching it (the same image and
  * the same work counted, more instructions; for tests of that exactness). */
 #define CNERF_RENDER_EVERY_SAMPLE 2u
+/* Output RGB565 instead of RGB888: 2 bytes per pixel, the 16-bit value
+ * r5 << 11 | g6 << 5 | b5 stored low byte first, where each field is the RGB888 value c
+ * rounded to the nearest of its levels, (c (2^n - 1) + 127) / 255 with n = 5, 6, 5 bits
+ * (docs/rendering.md, Output). The pixels are those of the RGB888 image, converted. */
+#define CNERF_RENDER_RGB565 4u
+/* The same value stored high byte first, as SPI displays take it. Not with
+ * CNERF_RENDER_RGB565 (CNERF_E_ARG). */
+#define CNERF_RENDER_RGB565_BE 8u
 
 /* Work counters of cnerf_render_tile_stats, added to what the caller's struct holds. */
 typedef struct cnerf_render_stats {
@@ -310,8 +318,9 @@ int cnerf_net_has_color(const cnerf_info *info, unsigned net);
 size_t cnerf_render_scratch_size(const cnerf_info *info);
 
 /* Renders the tile x0 <= x < x0 + w, y0 <= y < y0 + h of `cam`'s image into rgb (RGB888,
- * `stride` bytes between rows; the tile's first pixel at rgb[0]). opts NULL = defaults.
- * The result is the same bits on every platform. */
+ * or RGB565 with CNERF_RENDER_RGB565 or _BE in opts->flags; `stride` bytes between rows,
+ * at least w * 3, or w * 2, else CNERF_E_BUF_SMALL; the tile's first pixel at rgb[0]).
+ * opts NULL = defaults. The result is the same bits on every platform. */
 cnerf_status cnerf_render_tile(const cnerf_decoder *dec, const cnerf_camera *cam,
                                const cnerf_render_opts *opts, uint32_t x0, uint32_t y0,
                                uint32_t w, uint32_t h, uint8_t *rgb, size_t stride,

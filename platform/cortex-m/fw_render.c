@@ -1,7 +1,8 @@
 /* cnerf firmware for a Cortex-M0+, M4, M7, M33 or M55 (the board is fw_board.h's): runs a
  * batch of render jobs embedded at build time, one after another. Each decodes its stream
  * (in the flash image) into the one static workspace, renders its tile with its camera and
- * knobs, hashes the tile's pixels (RGB888, w * 3 bytes per row, row by row) with MD5 and
+ * knobs, hashes the tile's pixels (RGB888, w * 3 bytes per row, or RGB565, w * 2, row by
+ * row) with MD5 and
  * prints, over ARM semihosting,
  *   fw job / fw render / fw ticks lines   the job's sizes, its work and its SysTick readings
  *   md5 <32 hex>                          the job's tile
@@ -210,13 +211,16 @@ static int run_job(uint32_t j, size_t *ws_max, size_t *sc_max)
     if (st != CNERF_OK)
         return fail(j, "cnerf_render_tile", st);
 
-    /* The visible pixels only: w * 3 bytes of each row, not the stride's padding. */
+    /* The visible pixels only: w * 3 bytes of each row (w * 2 in RGB565), not the stride's
+     * padding. */
+    const uint32_t row_bytes =
+        w * (opts.flags & (CNERF_RENDER_RGB565 | CNERF_RENDER_RGB565_BE) ? 2u : 3u);
     fw_md5 md5;
     uint8_t digest[16];
     char hex[33];
     fw_md5_init(&md5);
     for (uint32_t y = 0; y < h; y++)
-        fw_md5_update(&md5, tile + (size_t)y * job->stride, w * 3u);
+        fw_md5_update(&md5, tile + (size_t)y * job->stride, row_bytes);
     fw_md5_final(&md5, digest);
     fw_md5_hex(digest, hex);
     const uint64_t t6 = ticks_now();

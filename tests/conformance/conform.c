@@ -152,12 +152,13 @@ static cnerf_status render(const opened *o, const cnerf_camera *cam, const cnerf
     return cnerf_render_tile(o->dec, cam, k, x0, y0, w, h, px, stride, o->scratch, o->scratch_n);
 }
 
-static void md5_tile(const uint8_t *px, uint32_t w, uint32_t h, size_t stride, char hex[33])
+/* The MD5 of a tile's rows, row_bytes of each (w * 3 in RGB888, w * 2 in RGB565). */
+static void md5_tile(const uint8_t *px, size_t row_bytes, uint32_t h, size_t stride, char hex[33])
 {
     MD5_CTX m;
     MD5Init(&m);
     for (uint32_t y = 0; y < h; y++)
-        MD5Update(&m, px + y * stride, (size_t)w * 3);
+        MD5Update(&m, px + y * stride, row_bytes);
     MD5End(&m, hex);
 }
 
@@ -193,7 +194,7 @@ static int cmd_tiles(char **argv, unsigned scene)
                     break;
                 }
                 char hex[33];
-                md5_tile(px, w, h, (size_t)w * 3, hex);
+                md5_tile(px, (size_t)w * 3, h, (size_t)w * 3, hex);
                 printf("%s %u %u %u %u %u %u %u %s\n", cams[c].name, x0, y0, w, h, k.n_coarse,
                        k.n_fine, k.t_stop, hex);
             }
@@ -280,7 +281,7 @@ static unsigned check_scene(const char *dir, const char *name, unsigned scene, c
         cnerf_render_opts k = {(uint16_t)nc, (uint16_t)nf, ts, 0};
         st = cam && px ? render(&o, &cam->c, &k, x0, y0, w, h, px, (size_t)w * 3) : CNERF_E_ARG;
         if (st == CNERF_OK) {
-            md5_tile(px, w, h, (size_t)w * 3, got);
+            md5_tile(px, (size_t)w * 3, h, (size_t)w * 3, got);
             if (strcmp(got, want)) {
                 if (bad < 3)
                     printf("  %s%s tile %s (%u,%u %ux%u, %u+%u, t_stop %u): md5 %s, want %s\n",
@@ -298,6 +299,45 @@ static unsigned check_scene(const char *dir, const char *name, unsigned scene, c
     if (f)
         fclose(f);
     result(tiles > 0 && bad == 0, what, "%d tile MD5s, %d differ", tiles, bad);
+
+    /* Its tiles in RGB565 (valid/RGB565, one line a tile: NAME CAMERA X0 Y0 W H N_COARSE
+     * N_FINE T_STOP FLAGS MD5, the MD5 over rows of w * 2 bytes). */
+    snprintf(path, sizeof path, "%s/valid/RGB565", dir);
+    f = fopen(path, "r");
+    char full[192];
+    snprintf(full, sizeof full, "%s%s", name, sfx);
+    tiles = bad = 0;
+    while (f && fgets(line, sizeof line, f)) {
+        char vname[192], cname[64], want[40], got[33];
+        unsigned x0, y0, w, h, nc, nf, ts, fl;
+        if (sscanf(line, "%191s %63s %u %u %u %u %u %u %u %u %39s", vname, cname, &x0, &y0, &w,
+                   &h, &nc, &nf, &ts, &fl, want) != 11 || strcmp(vname, full))
+            continue;
+        const camera *cam = NULL;
+        for (int c = 0; c < n; c++)
+            if (!strcmp(cams[c].name, cname))
+                cam = &cams[c];
+        uint8_t *px = malloc((size_t)w * h * 2 + 1);
+        cnerf_render_opts k = {(uint16_t)nc, (uint16_t)nf, ts, fl};
+        st = cam && px ? render(&o, &cam->c, &k, x0, y0, w, h, px, (size_t)w * 2) : CNERF_E_ARG;
+        if (st == CNERF_OK) {
+            md5_tile(px, (size_t)w * 2, h, (size_t)w * 2, got);
+            if (strcmp(got, want)) {
+                printf("  %s tile %s (%u,%u %ux%u, flags %u): RGB565 md5 %s, want %s\n", full,
+                       cname, x0, y0, w, h, fl, got, want);
+                bad++;
+            }
+        } else {
+            printf("  %s tile %s, flags %u: %s\n", full, cname, fl, cnerf_status_str(st));
+            bad++;
+        }
+        free(px);
+        tiles++;
+    }
+    if (f)
+        fclose(f);
+    if (tiles)
+        result(bad == 0, what, "%d RGB565 tile MD5s, %d differ", tiles, bad);
 
     /* Whole images against the float reference. */
     snprintf(path, sizeof path, "%s/valid/%s.txt", dir, name);

@@ -36,7 +36,17 @@ for md5 in "$vectors"/*.md5; do
     tiles=$((tiles + 1))
   done < "$md5"
 done
-echo "host: $tiles tiles of the valid vectors, each with its listed MD5"
+# and their tiles in RGB565 (valid/RGB565)
+while read -r name cam x0 y0 w h nc nf ts flags want; do
+  scene=0 stream=$name
+  case $name in *.s[0-9]*) scene=${name##*.s} stream=${name%.s*} ;; esac
+  grep -E "[[:space:]]$cam\$" "$vectors/$name.cam" > "$build/cam.txt"
+  got=$(CNERF_SCENE=$scene "$build/render_tile" "$vectors/$stream.cnrf" "$build/cam.txt" \
+        "$x0" "$y0" "$w" "$h" "$nc" "$nf" "$ts" "$flags" | md5sum | cut -c1-32)
+  [ "$got" = "$want" ] || { echo "FAIL: $name $cam RGB565 flags $flags: $got, listed $want"; exit 1; }
+  tiles=$((tiles + 1))
+done < "$vectors/RGB565"
+echo "host: $tiles tiles of the valid vectors (RGB888 and RGB565), each with its listed MD5"
 v=$vectors/001-lego-encode-tiny
 read -r cam x0 y0 w h nc nf ts want < <(head -n 1 "$v.md5")
 grep -E "[[:space:]]$cam\$" "$v.cam" > "$build/cam.txt"

@@ -33,6 +33,13 @@ for md5 in "$vectors"/*.md5; do
     >> "$build.batch$batch.jobs"
   count=$((count + 1))
 done
+# and vector 001's first tile in RGB565, both byte orders (valid/RGB565)
+while read -r name cam x0 y0 w h nc nf ts flags want; do
+  [ "$name" = 001-lego-encode-tiny ] || continue
+  echo "$name.rgb565.$flags $want $vectors/$name.cnrf 0 $vectors/$name.cam $cam $x0 $y0 $w $h $nc $nf $ts $flags" \
+    >> "$build.batch0.jobs"
+  count=$((count + 1))
+done < "$vectors/RGB565"
 fails=0 ok=0
 for jobs in "$build".batch*.jobs; do
   n=$(wc -l < "$jobs")

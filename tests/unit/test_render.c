@@ -833,7 +833,7 @@ static void test_grid(void **state)
     assert_int_equal(cnerf_camera_from_float(&cam, &fc, err, sizeof err), 0);
     cnerf_render_opts o;
     cnerf_render_defaults(&ball.dec.info, &o);
-    o.flags = 4;
+    o.flags = 16;
     uint8_t one[3];
     assert_int_equal(cnerf_render_tile(&ball.dec, &fc, &o, 0, 0, 1, 1, one, 3, ball.scratch,
                                        ball.scratch_size),
@@ -841,6 +841,78 @@ static void test_grid(void **state)
     free_scene(&ball);
     free(px0);
     free_scene(&plain);
+}
+
+/* RGB565 (docs/rendering.md, Output) is the RGB888 image converted pixel by pixel: each
+ * field the nearest of its levels, round(c (2^n - 1) / 255), computed here in double; the
+ * 16-bit value low byte first (CNERF_RENDER_RGB565) or high byte first (_BE). Checked on
+ * every path that writes a pixel: rays marched, rays and whole blocks of the background
+ * (a ball grid, the view half empty), whole and in tiles, at a stride wider than the row. */
+static void test_rgb565(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    tu_small_header(&hdr, 3, 16, 1);
+    density_e = -15;
+    grid_ball();
+    scene ball;
+    make_scene_edit(&ball, &hdr, 3.0, 21, dense_grid);
+    cn_camera cam;
+    look_at(&cam, 2.5, -3.0, 2.0, 24, 20, 40);
+    const uint32_t w = (uint32_t)cam.w, h = (uint32_t)cam.h;
+    cnerf_render_opts o;
+    cnerf_render_defaults(&ball.dec.info, &o);
+    uint8_t *ref = render_all(&ball, &cam, &o);
+    size_t n_bg = 0;
+    for (size_t i = 0; i < (size_t)w * h; i++)
+        n_bg += !memcmp(ref + 3 * i, ball.dec.info.background, 3);
+    assert_true(n_bg > 0 && n_bg < (size_t)w * h); /* both kinds of pixel */
+    cnerf_camera fc;
+    char err[256];
+    assert_int_equal(cnerf_camera_from_float(&cam, &fc, err, sizeof err), 0);
+    const size_t stride = (size_t)w * 2 + 6;
+    uint8_t *px = malloc(stride * h);
+    for (int be = 0; be < 2; be++) {
+        o.flags = be ? CNERF_RENDER_RGB565_BE : CNERF_RENDER_RGB565;
+        for (uint32_t t = 0; t < 2; t++) { /* whole, then in 7x5 tiles */
+            memset(px, 0xA5, stride * h);
+            const uint32_t tw = t ? 7 : w, th = t ? 5 : h;
+            for (uint32_t y0 = 0; y0 < h; y0 += th)
+                for (uint32_t x0 = 0; x0 < w; x0 += tw) {
+                    const uint32_t cw = w - x0 < tw ? w - x0 : tw, ch = h - y0 < th ? h - y0 : th;
+                    assert_int_equal(cnerf_render_tile(&ball.dec, &fc, &o, x0, y0, cw, ch,
+                                                       px + y0 * stride + 2 * x0, stride,
+                                                       ball.scratch, ball.scratch_size),
+                                     CNERF_OK);
+                }
+            for (uint32_t y = 0; y < h; y++) {
+                for (uint32_t x = 0; x < w; x++) {
+                    const uint8_t *c = ref + 3 * ((size_t)y * w + x);
+                    const unsigned v = (unsigned)floor(c[0] * 31.0 / 255 + 0.5) << 11 |
+                                       (unsigned)floor(c[1] * 63.0 / 255 + 0.5) << 5 |
+                                       (unsigned)floor(c[2] * 31.0 / 255 + 0.5);
+                    const uint8_t *p = px + y * stride + 2 * x;
+                    assert_int_equal(be ? p[0] << 8 | p[1] : p[1] << 8 | p[0], v);
+                }
+                for (size_t k = 2 * (size_t)w; k < stride; k++) /* the stride's padding */
+                    assert_int_equal(px[y * stride + k], 0xA5);
+            }
+        }
+    }
+    /* a row of 2 w - 1 bytes is too small; both byte orders at once are misuse */
+    o.flags = CNERF_RENDER_RGB565;
+    assert_int_equal(cnerf_render_tile(&ball.dec, &fc, &o, 0, 0, w, 1, px, 2 * w - 1,
+                                       ball.scratch, ball.scratch_size),
+                     CNERF_E_BUF_SMALL);
+    assert_int_equal(cnerf_render_tile(&ball.dec, &fc, &o, 0, 0, w, 1, px, 2 * w, ball.scratch,
+                                       ball.scratch_size),
+                     CNERF_OK);
+    o.flags = CNERF_RENDER_RGB565 | CNERF_RENDER_RGB565_BE;
+    assert_int_equal(cnerf_render_tile(&ball.dec, &fc, &o, 0, 0, w, 1, px, 2 * w, ball.scratch,
+                                       ball.scratch_size),
+                     CNERF_E_ARG);
+    free(px), free(ref);
+    free_scene(&ball);
 }
 
 /* Ruling out empty stretches of rays (the grid's summary, the bounds) changes nothing: the
@@ -1298,6 +1370,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_mul_exp),
+        cmocka_unit_test(test_rgb565),
         cmocka_unit_test(test_sparse_exact),
         cmocka_unit_test(test_open_as),
         cmocka_unit_test(test_div_sqrt),

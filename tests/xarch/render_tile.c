@@ -130,13 +130,15 @@ int main(int argc, char **argv)
         o.flags = (uint32_t)strtoul(argv[10], NULL, 10);
     const uint32_t x0 = (uint32_t)atoi(argv[3]), y0 = (uint32_t)atoi(argv[4]);
     const uint32_t w = (uint32_t)atoi(argv[5]), h = (uint32_t)atoi(argv[6]);
-    uint8_t *px = malloc((size_t)w * h * 3 + 1);
+    /* RGB888, or RGB565 in either byte order (FLAGS), rows without padding */
+    const size_t bpp = o.flags & (CNERF_RENDER_RGB565 | CNERF_RENDER_RGB565_BE) ? 2u : 3u;
+    uint8_t *px = malloc((size_t)w * h * bpp + 1);
     if (!px)
         return 1;
-    st = cnerf_render_tile(&dec, &cam, &o, x0, y0, w, h, px, (size_t)w * 3, sc, sc_n);
+    st = cnerf_render_tile(&dec, &cam, &o, x0, y0, w, h, px, (size_t)w * bpp, sc, sc_n);
     if (st != CNERF_OK)
         return fail("render", st);
-    fwrite(px, 1, (size_t)w * h * 3, stdout);
+    fwrite(px, 1, (size_t)w * h * bpp, stdout);
     free(px), free(ws), free(sc);
 #if defined(CNERF_COST_MODEL)
     const char *core = getenv("CNERF_CORE");
