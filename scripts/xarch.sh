@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Bit-exactness across architectures: builds tests/xarch/render_tile.c with the decoder for
-# the host and, with Debian's cross compilers, for aarch64, armhf and s390x (big-endian),
+# Bit-exactness across architectures: builds tests/xarch/render_tile.c (and the look-at
+# vectors' tool, vectors/tools/lookat.c) with the decoder for the host and, with Debian's
+# cross compilers, for aarch64, armhf and s390x (big-endian),
 # runs the foreign builds under qemu-user and checks that every tile's MD5 is the same
 # everywhere. Streams: synthetic 360-degree and NDC models from `cnerf synth` (built in
 # build/ by scripts/test.sh), two of them with occupancy grids, one with narrower layers, and the demo stream
@@ -34,7 +35,16 @@ for t in "${targets[@]}"; do
   static=$([ "$run" = "-" ] && echo "" || echo "-static")
   $cc "${flags[@]}" $static "${dec[@]}" tests/xarch/render_tile.c -o "$work/render_tile.$name"
   $cc "${flags[@]}" $static "${dec[@]}" tests/xarch/check_kernels.c -o "$work/check_kernels.$name"
+  $cc "${flags[@]}" $static "${dec[@]}" vectors/tools/lookat.c -o "$work/lookat.$name"
   echo "built for $name with $cc"
+done
+# The look-at cameras of the vectors (valid/LOOKAT), made on each architecture.
+for t in "${targets[@]}"; do
+  read -r name cc run <<< "$t"
+  if [ "$run" = "-" ]; then "$work/lookat.$name"; else "$run" "$work/lookat.$name"; fi > "$work/lookat.$name.txt"
+  cmp -s "$work/lookat.$name.txt" vectors/valid/LOOKAT ||
+    { echo "xarch.sh: $name's look-at cameras differ from vectors/valid/LOOKAT" >&2; exit 1; }
+  echo "$name: the $(wc -l < vectors/valid/LOOKAT) look-at cases of vectors/valid/LOOKAT, line for line"
 done
 # Each architecture's kernels against its portable C (tests/xarch/check_kernels.c).
 for t in "${targets[@]}"; do

@@ -191,6 +191,7 @@ open("docs/conformance.md", "w").write(doc)
 PY
 
 bash vectors/rgb565.sh # valid/RGB565, the first tiles in RGB565 (and the manifest)
+bash vectors/lookat.sh # valid/LOOKAT, the look-at cameras (and the manifest)
 (cd vectors && find valid invalid -type f | LC_ALL=C sort | xargs sha256sum > MANIFEST.sha256)
 echo "vectors: $(wc -l < vectors/valid/LIST) valid, $(grep -vc '^#' vectors/invalid/expected.txt) invalid; checking" >&2
 $conform check vectors | tail -n 1

@@ -453,6 +453,63 @@ static void check_invalid(const char *dir)
     fclose(f);
 }
 
+/* valid/LOOKAT: cnerf_camera_look_at on each line's inputs must give the line's status and,
+ * when CNERF_OK, its camera's 18 integers (vectors/tools/lookat.c writes the lines). */
+static void check_lookat(const char *dir)
+{
+    char path[4096], line[1024];
+    snprintf(path, sizeof path, "%s/valid/LOOKAT", dir);
+    FILE *f = fopen(path, "r");
+    if (!f) {
+        result(0, "valid/LOOKAT", "%s", strerror(errno));
+        return;
+    }
+    int cases = 0, bad = 0, lineno = 0;
+    while (fgets(line, sizeof line, f)) {
+        lineno++;
+        long long v[30];
+        char status[64];
+        int used = 0, k = 0;
+        const char *p = line;
+        for (; k < 12 && sscanf(p, "%lld%n", &v[k], &used) == 1; k++)
+            p += used;
+        if (k != 12 || sscanf(p, "%63s%n", status, &used) != 1) {
+            printf("  LOOKAT line %d: unreadable\n", lineno);
+            bad++;
+            continue;
+        }
+        p += used;
+        int n = 0;
+        for (; n < 18 && sscanf(p, "%lld%n", &v[12 + n], &used) == 1; n++)
+            p += used;
+        const int32_t eye[3] = {(int32_t)v[0], (int32_t)v[1], (int32_t)v[2]};
+        const int32_t tgt[3] = {(int32_t)v[3], (int32_t)v[4], (int32_t)v[5]};
+        const int32_t up[3] = {(int32_t)v[6], (int32_t)v[7], (int32_t)v[8]};
+        cnerf_camera c;
+        const cnerf_status st = cnerf_camera_look_at(&c, eye, tgt, up, (int32_t)v[9],
+                                                     (uint16_t)v[10], (uint16_t)v[11]);
+        int ok = !strcmp(cnerf_status_str(st), status) && n == (st == CNERF_OK ? 18 : 0);
+        if (ok && st == CNERF_OK) {
+            const long long *w = v + 12;
+            for (int i = 0; i < 9; i++)
+                ok &= c.rot[i] == w[i];
+            for (int i = 0; i < 3; i++)
+                ok &= c.pos[i] == w[9 + i];
+            ok &= c.fx == w[12] && c.fy == w[13] && c.cx == w[14] && c.cy == w[15] &&
+                  c.width == w[16] && c.height == w[17];
+        }
+        if (!ok) {
+            printf("  LOOKAT line %d: %s, the line says %s%s\n", lineno, cnerf_status_str(st),
+                   status, st == CNERF_OK ? " (or another camera)" : "");
+            bad++;
+        }
+        cases++;
+    }
+    fclose(f);
+    result(cases > 0 && bad == 0, "valid/LOOKAT", "%d look-at cameras and refusals, %d differ",
+           cases, bad);
+}
+
 static int cmp_str(const void *a, const void *b)
 {
     return strcmp(*(char *const *)a, *(char *const *)b);
@@ -482,6 +539,7 @@ static int cmd_check(const char *dir)
         fflush(stdout);
         free(names[i]);
     }
+    check_lookat(dir);
     check_invalid(dir);
     printf("%d passed, %d failed\n", passed, failed);
     return failed || passed == 0 ? 1 : 0;
