@@ -236,6 +236,26 @@ static double min_psnr_of(const char *txt)
     return v;
 }
 
+/* The MD5 of the tile x0, y0, w, h of camera `cname` (one of cams[n]) rendered with k: over
+ * rows of w * 3 bytes, or w * 2 when k asks for RGB565. CNERF_E_ARG for an unknown camera. */
+static cnerf_status tile_md5(const opened *o, const camera *cams, int n, const char *cname,
+                             const cnerf_render_opts *k, unsigned x0, unsigned y0, unsigned w,
+                             unsigned h, char got[33])
+{
+    const camera *cam = NULL;
+    for (int c = 0; c < n; c++)
+        if (!strcmp(cams[c].name, cname))
+            cam = &cams[c];
+    const int rgb565 = (k->flags & (CNERF_RENDER_RGB565 | CNERF_RENDER_RGB565_BE)) != 0;
+    const size_t row = (size_t)w * (rgb565 ? 2u : 3u);
+    uint8_t *px = malloc(row * h + 1);
+    const cnerf_status st = cam && px ? render(o, &cam->c, k, x0, y0, w, h, px, row) : CNERF_E_ARG;
+    if (st == CNERF_OK)
+        md5_tile(px, row, h, row, got);
+    free(px);
+    return st;
+}
+
 /* One valid vector: its tiles' MD5s and each camera's PSNR against the float reference. */
 /* Checks scene `scene` of vector NAME with its files NAME<sfx>.*; returns the stream's scene
  * count (0 when it does not open). */
@@ -273,15 +293,9 @@ static unsigned check_scene(const char *dir, const char *name, unsigned scene, c
             bad++;
             continue;
         }
-        const camera *cam = NULL;
-        for (int c = 0; c < n; c++)
-            if (!strcmp(cams[c].name, cname))
-                cam = &cams[c];
-        uint8_t *px = malloc((size_t)w * h * 3 + 1);
-        cnerf_render_opts k = {(uint16_t)nc, (uint16_t)nf, ts, 0};
-        st = cam && px ? render(&o, &cam->c, &k, x0, y0, w, h, px, (size_t)w * 3) : CNERF_E_ARG;
+        const cnerf_render_opts k = {(uint16_t)nc, (uint16_t)nf, ts, 0};
+        st = tile_md5(&o, cams, n, cname, &k, x0, y0, w, h, got);
         if (st == CNERF_OK) {
-            md5_tile(px, (size_t)w * 3, h, (size_t)w * 3, got);
             if (strcmp(got, want)) {
                 if (bad < 3)
                     printf("  %s%s tile %s (%u,%u %ux%u, %u+%u, t_stop %u): md5 %s, want %s\n",
@@ -293,7 +307,6 @@ static unsigned check_scene(const char *dir, const char *name, unsigned scene, c
                    cnerf_status_str(st));
             bad++;
         }
-        free(px);
         tiles++;
     }
     if (f)
@@ -313,15 +326,9 @@ static unsigned check_scene(const char *dir, const char *name, unsigned scene, c
         if (sscanf(line, "%191s %63s %u %u %u %u %u %u %u %u %39s", vname, cname, &x0, &y0, &w,
                    &h, &nc, &nf, &ts, &fl, want) != 11 || strcmp(vname, full))
             continue;
-        const camera *cam = NULL;
-        for (int c = 0; c < n; c++)
-            if (!strcmp(cams[c].name, cname))
-                cam = &cams[c];
-        uint8_t *px = malloc((size_t)w * h * 2 + 1);
-        cnerf_render_opts k = {(uint16_t)nc, (uint16_t)nf, ts, fl};
-        st = cam && px ? render(&o, &cam->c, &k, x0, y0, w, h, px, (size_t)w * 2) : CNERF_E_ARG;
+        const cnerf_render_opts k = {(uint16_t)nc, (uint16_t)nf, ts, fl};
+        st = tile_md5(&o, cams, n, cname, &k, x0, y0, w, h, got);
         if (st == CNERF_OK) {
-            md5_tile(px, (size_t)w * 2, h, (size_t)w * 2, got);
             if (strcmp(got, want)) {
                 printf("  %s tile %s (%u,%u %ux%u, flags %u): RGB565 md5 %s, want %s\n", full,
                        cname, x0, y0, w, h, fl, got, want);
@@ -331,7 +338,6 @@ static unsigned check_scene(const char *dir, const char *name, unsigned scene, c
             printf("  %s tile %s, flags %u: %s\n", full, cname, fl, cnerf_status_str(st));
             bad++;
         }
-        free(px);
         tiles++;
     }
     if (f)
