@@ -71,7 +71,7 @@ void cli_stop_watch(const cli_locks *L);
 void cli_stop_unwatch(void);
 /* Enters a phase: its line says what is saved and what is not if a signal stops the run in
  * it, and how to go on ("while loading the dataset: nothing saved"). `name` is the phase's
- * name for the test hook (CNERF_TEST_STOP_AT=name stops the process there), or NULL. */
+ * name for the test hook (CNERF_TEST_TERM_AT=name sends SIGTERM there), or NULL. */
 void cli_stop_phase(const char *name, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)));
 /* A phase before training: "WHAT: nothing saved (RESUMED is as it was); run the command

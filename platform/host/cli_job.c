@@ -128,13 +128,19 @@ void cli_stop_watch(const cli_locks *L)
     pthread_mutex_unlock(&stop.mu);
 }
 
-/* The phase's test hook: CNERF_TEST_STOP_AT=NAME stops the process (SIGSTOP) as it enters
- * the phase NAME, so that a test can send a signal in exactly that phase. */
+/* The phase's test hook: CNERF_TEST_TERM_AT=NAME sends SIGTERM to the process as it enters
+ * the phase NAME and waits there (up to 10 s) for the watcher to end the run, so that a test
+ * sees exactly that phase's stop. (A signal sent from outside while the process was stopped
+ * there raced the watcher: the calling thread could go on into the next phase first.) */
 static void stop_test_hook(const char *name)
 {
-    const char *at = getenv("CNERF_TEST_STOP_AT");
-    if (at && name && !strcmp(at, name))
-        raise(SIGSTOP);
+    const char *at = getenv("CNERF_TEST_TERM_AT");
+    if (!at || !name || strcmp(at, name) != 0)
+        return;
+    kill(getpid(), SIGTERM); /* to the process: the watcher takes it */
+    const struct timespec ms = {0, 1000000};
+    for (int i = 0; i < 10000; i++)
+        nanosleep(&ms, NULL);
 }
 
 void cli_stop_phase(const char *name, const char *fmt, ...)

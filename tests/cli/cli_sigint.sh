@@ -81,24 +81,16 @@ set -e
 echo "nohup: SIGHUP ignored, SIGTERM stopped the run"
 
 # Outside the training loop too, a stop signal says in one line what was saved, what was not
-# and how to go on, and leaves no lock or temporary file behind. CNERF_TEST_STOP_AT=PHASE
-# stops the process (SIGSTOP) as it enters that phase; the signal is sent there.
-# stop_in CMD PHASE OUT ARGS...: runs cnerf CMD ARGS -o OUT.x, signals SIGTERM in PHASE.
+# and how to go on, and leaves no lock or temporary file behind. CNERF_TEST_TERM_AT=PHASE
+# makes the process send itself SIGTERM as it enters that phase and wait there.
+# stop_in CMD PHASE OUT ARGS...: runs cnerf CMD ARGS -o OUT.x, SIGTERM in PHASE.
 stop_in() {
-  local cmd=$1 phase=$2 o=$3 st
+  local cmd=$1 phase=$2 o=$3
   shift 3
-  CNERF_TEST_STOP_AT=$phase "$cnerf" "$cmd" "$@" -o "$o.x" > "$o.log" 2> "$o.err" &
-  local p=$!
-  for _ in $(seq 1200); do
-    st=$(awk '{print $3}' "/proc/$p/stat" 2> /dev/null || true)
-    [ "$st" = T ] && break
-    kill -0 $p 2> /dev/null || fail "$cmd: exited before the phase $phase: $(tail -3 "$o.err")"
-    sleep 0.1
-  done
-  [ "$st" = T ] || fail "$cmd: never reached the phase $phase"
-  kill -TERM $p
-  kill -CONT $p
-  set +e; wait $p; rc=$?; set -e
+  set +e
+  CNERF_TEST_TERM_AT=$phase "$cnerf" "$cmd" "$@" -o "$o.x" > "$o.log" 2> "$o.err"
+  rc=$?
+  set -e
   [ $rc -eq 143 ] || fail "$cmd: SIGTERM in the phase $phase exited $rc, want 143: $(tail -3 "$o.err")"
   ! ls "$work" | grep -q "^$(basename "$o").x.*\(lock\|tmp\)" ||
     fail "$cmd: SIGTERM in the phase $phase left $(ls "$work" | grep "^$(basename "$o").x.*\(lock\|tmp\)")"
