@@ -22,11 +22,12 @@
 typedef struct cn_state {
     /* Latents widened to int16 and packed for the dot-product kernels (docs/decoder.md):
      * the n_live[l] rows with a non-zero latent, in increasing output order, in blocks of
-     * four rows, each block input pair by input pair: k[r][2p], k[r][2p+1] for each row r
-     * of the block; the remaining one to three rows row after row; inputs padded to
-     * n_pairs[l] pairs with zero; the columns fed by a hidden layer in that layer's stored
-     * row order; or, for a layer whose form is CN_FORM_SPARSE, the lists of cn_spdot_fn in
-     * the same place. cnerf_latent reads one latent by output and input index. */
+     * four rows, each block in layout `layout` (int32 sums) or CN_PAIRS (int64 sums:
+     * cn_packed_index in cn_kernels.h); the remaining one to three rows row after row;
+     * inputs padded to n_pairs[l] pairs with zero; the columns fed by a hidden layer in
+     * that layer's stored row order; or, for a layer whose form is CN_FORM_SPARSE, the
+     * lists of cn_spdot_fn in the same place. cnerf_latent reads one latent by output and
+     * input index. */
     const int16_t *latent[CNERF_MAX_LAYERS];
     const int32_t *bias[CNERF_MAX_LAYERS];     /* n_out bias mantissas, by output */
     const int32_t *bias_q16[CNERF_MAX_LAYERS]; /* sat32(round(bias 2^16)), by stored row */
@@ -49,6 +50,7 @@ typedef struct cn_state {
     uint8_t a_shift[CNERF_MAX_LAYERS];
     uint8_t b_shift[CNERF_MAX_LAYERS]; /* the same for the term b sum x_q (|sum| < 2^26) */
     uint8_t shift_wide[CNERF_MAX_LAYERS];
+    uint8_t layout; /* the chosen kernels' packed layout (cn_dot_variant.layout) */
     /* The kernels cnerf_open chose for this CPU (docs/decoder.md, Kernels): the sums, and,
      * where the CPU has its own (NULL: the portable C), the inputs' quantization and the
      * outputs' rescale. */

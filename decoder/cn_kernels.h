@@ -6,11 +6,14 @@
  * (kernels_dsp.c, kernels_mve.c, kernels_neon.c, kernels_avx2.c), compute the same values and are checked against it
  * (tests/xarch/check_kernels.c). The choice among them is made in one place, kernels.c.
  *
- * A layer's live latent rows are stored packed (cnerf_decoder.latent): blocks of four rows,
- * each block input pair by input pair, k[r][2p] and k[r][2p+1] for each row r; the
- * remaining one to three rows follow row after row. A layer whose latents are mostly zero
- * may instead be stored as lists of its non-zero latents (cn_spdot_fn), when that is
- * cheaper for the chosen kernels (cnerf_open, decoder/open.c).
+ * A layer's live latent rows are stored packed (cnerf_decoder.latent), in one of two
+ * layouts (cn_packed_index), the one the chosen kernels read: blocks of four rows, each
+ * block either input pair by input pair, k[r][2p] and k[r][2p+1] for each row r (layout
+ * CN_PAIRS), or run by run of eight inputs, the run's eight latents of each row r in turn
+ * (CN_RUNS8: Helium's dual multiply-accumulates across a vector); the remaining one to
+ * three rows follow row after row in both. A layer whose latents are mostly zero may
+ * instead be stored as lists of its non-zero latents (cn_spdot_fn), when that is cheaper
+ * for the chosen kernels (cnerf_open, decoder/open.c).
  * Freestanding: <stdint.h> only.
  */
 #ifndef CNERF_DECODER_KERNELS_H
@@ -36,11 +39,40 @@
 #define CN_HAVE_AVX2 1
 #endif
 
+/* ---- the packed layouts ---- */
+
+#define CN_PAIRS 0u /* a block's latents input pair by input pair */
+#define CN_RUNS8 1u /* a block's latents run by run of eight inputs */
+/* Only builds with Helium's kernels pack in CN_RUNS8 (the others leave its code out). */
+#if defined(CN_HAVE_MVE)
+#define CN_RUNS8_BUILT 1
+#else
+#define CN_RUNS8_BUILT 0
+#endif
+
+/* The index of latent k[j][i] of stored row j among `live` packed rows of 2 pairs inputs,
+ * in layout `layout`. A block of four rows holds 8 pairs latents either way; in CN_RUNS8 a
+ * last run of m < 8 inputs holds each row's m latents in turn. The last one to three rows
+ * (a block that is not full) are row after row in both layouts. */
+static inline uint32_t cn_packed_index(uint32_t j, uint32_t i, uint32_t live, uint32_t pairs,
+                                       uint32_t layout)
+{
+    const uint32_t b = j >> 2, q = j & 3u, base = b * 8u * pairs;
+    if ((b + 1u) * 4u > live) /* the last one to three rows: row after row */
+        return base + q * 2u * pairs + i;
+    if (CN_RUNS8_BUILT && layout == CN_RUNS8) {
+        const uint32_t run = i >> 3, left = 2u * pairs - 8u * run;
+        return base + 32u * run + q * (left < 8u ? left : 8u) + (i & 7u);
+    }
+    return base + (i >> 1) * 8u + 2u * q + (i & 1u);
+}
+
 /* ---- the operations ---- */
 
 /* dot_s16: acc[j] = sum_i k[j][i] x[i] over 2 n_pairs int16 inputs for the n_rows packed
- * int16 rows, in int32: the caller has proved that no partial sum leaves the int32 range
- * (cnerf_open), so every order of summation gives the same value. */
+ * int16 rows (in the layout of the kernel's set, cn_dot_variant.layout), in int32: the
+ * caller has proved that no partial sum leaves the int32 range (cnerf_open), so every
+ * order of summation gives the same value. */
 typedef void (*cn_dot_fn)(const int16_t *k, const int16_t *x, uint32_t n_pairs,
                           uint32_t n_rows, int32_t *acc);
 
@@ -76,7 +108,8 @@ void cn_dot_s16_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t
 
 uint32_t cn_spdot_s16_c(const uint32_t *e, const int16_t *x, uint32_t n_rows, int32_t *acc);
 
-/* The same sums in int64, for layers whose int32 bound does not hold (portable C only). */
+/* The same sums in int64, for layers whose int32 bound does not hold (portable C only;
+ * layout CN_PAIRS whatever the chosen set). */
 void cn_dot_s16_s64_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                       int64_t *acc);
 
@@ -97,9 +130,16 @@ void cn_finish_s32_dsp(const int32_t *acc, uint32_t live, int32_t am, unsigned n
                        const int32_t *bq, int32_t *y, int relu);
 #endif
 #if defined(CN_HAVE_MVE)
-/* kernels_mve.c: Helium, vmullbq/vmulltq over a block's input pair */
+/* kernels_mve.c: Helium. The sums in layout CN_RUNS8, VMLADAVA over a run of eight
+ * inputs: one load of the run's inputs and, per row of the block, one load and one
+ * instruction for its eight multiply-accumulates */
 void cn_dot_s16_mve(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                     int32_t *acc);
+/* kernels_mve.c: eight inputs a step (VLD2, VRSHL, VQMOVNB/VQMOVNT, VADDVA) */
+int32_t cn_requant_s16_mve(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
+/* kernels_mve.c: four outputs a step (VMUL, VMULH, shifts, VQADD) */
+void cn_finish_s32_mve(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
+                       const int32_t *bq, int32_t *y, int relu);
 #endif
 #if defined(CN_HAVE_NEON)
 /* kernels_neon.c: vmlal_s16/vmlal_high_s16 over a block's input pair */
@@ -139,6 +179,7 @@ typedef struct cn_dot_variant {
      * place, or the layer stays packed). docs/decoder.md, "Zero latents", says how they
      * were measured. */
     uint16_t mac_cost, nz_cost, row_cost;
+    uint8_t layout; /* the packed layout fn reads: CN_PAIRS or CN_RUNS8 */
 } cn_dot_variant;
 
 #define CN_DOT_MAX_VARIANTS 4u

@@ -8,9 +8,10 @@
 /* The kernels' costs (cn_dot_variant), in sixteenths of the packed sums' cost per
  * multiply-accumulate on the same core. x86-64 (c, avx2): the medians of check_kernels
  * --bench. Arm: the instructions of the loops, which QEMU counts (the packed DSP sums: 58
- * for 64 multiply-accumulates; the lists: 9 for two non-zeros and about 10 a row; Helium: 17
- * for 16; Advanced SIMD: 8 for 8, its lists as the DSP's). The portable C's ratios are
- * x86-64's. */
+ * for 64 multiply-accumulates; the lists: 9 for two non-zeros and about 10 a row; Helium: 10
+ * for 32 and 8 a block of four rows, 6 sixteenths a multiply-accumulate on 64 inputs, its
+ * lists the DSP's; Advanced SIMD: 8 for 8, its lists as the DSP's). The portable C's ratios
+ * are x86-64's. */
 #define C_MAC 16u
 #define C_NZ 38u
 #define C_ROW 48u
@@ -20,7 +21,7 @@
 #define NEON_MAC 16u
 #define NEON_NZ 72u
 #define NEON_ROW 160u
-#define MVE_MAC 17u
+#define MVE_MAC 6u
 #define DSP_MAC 15u
 #define DSP_NZ 72u
 #define DSP_ROW 160u
@@ -99,8 +100,10 @@ static const uint16_t avx2_cost[3] = {AVX2_MAC, AVX2_NZ, AVX2_ROW};
 
 /* One entry of the list, with its kernels' costs (sixteenths, cn_dot_variant); returns 1. */
 static uint32_t variant(cn_dot_variant *v, const char *name, cn_dot_fn fn, cn_requant_fn requant,
-                        cn_finish_fn finish, cn_spdot_fn spdot, const uint16_t cost[3])
+                        cn_finish_fn finish, cn_spdot_fn spdot, const uint16_t cost[3],
+                        uint8_t layout)
 {
+    v->layout = layout;
     v->name = name;
     v->fn = fn;
     v->requant = requant;
@@ -116,24 +119,26 @@ uint32_t cn_dot_variants(cn_dot_variant out[CN_DOT_MAX_VARIANTS])
 {
     const cn_requant_fn c_requant = (cn_requant_fn)0; /* render.c's portable C */
     const cn_finish_fn c_finish = (cn_finish_fn)0;
-    uint32_t n = variant(out, "c", cn_dot_s16_c, c_requant, c_finish, cn_spdot_s16_c, c_cost);
+    uint32_t n =
+        variant(out, "c", cn_dot_s16_c, c_requant, c_finish, cn_spdot_s16_c, c_cost, CN_PAIRS);
 #if defined(CN_HAVE_AVX2)
     if (cn_cpu_has_avx2())
         n += variant(out + n, "avx2", cn_dot_s16_avx2, cn_requant_s16_avx2, cn_finish_s32_avx2,
-                     cn_spdot_s16_c, avx2_cost);
+                     cn_spdot_s16_c, avx2_cost, CN_PAIRS);
 #endif
     /* Arm: one set, fixed at compile time */
 #if defined(CN_HAVE_MVE) && defined(CN_HAVE_DSP)
-    n += variant(out + n, "mve", cn_dot_s16_mve, cn_requant_s16_dsp, cn_finish_s32_dsp,
-                 cn_spdot_s16_dsp, mve_cost);
+    n += variant(out + n, "mve", cn_dot_s16_mve, cn_requant_s16_mve, cn_finish_s32_mve,
+                 cn_spdot_s16_dsp, mve_cost, CN_RUNS8);
 #elif defined(CN_HAVE_MVE)
-    n += variant(out + n, "mve", cn_dot_s16_mve, c_requant, c_finish, cn_spdot_s16_c, mve_cost);
+    n += variant(out + n, "mve", cn_dot_s16_mve, cn_requant_s16_mve, cn_finish_s32_mve,
+                 cn_spdot_s16_c, mve_cost, CN_RUNS8);
 #elif defined(CN_HAVE_DSP)
     n += variant(out + n, "dsp", cn_dot_s16_dsp, cn_requant_s16_dsp, cn_finish_s32_dsp,
-                 cn_spdot_s16_dsp, dsp_cost);
+                 cn_spdot_s16_dsp, dsp_cost, CN_PAIRS);
 #elif defined(CN_HAVE_NEON)
     n += variant(out + n, "neon", cn_dot_s16_neon, c_requant, c_finish, cn_spdot_s16_c,
-                 neon_cost);
+                 neon_cost, CN_PAIRS);
 #endif
     return n;
 }
@@ -156,7 +161,7 @@ int cn_dot_variant_as(const char *set, cn_dot_variant *out)
     for (uint32_t i = 0; set && i < sizeof sets / sizeof sets[0]; i++)
         if (same(set, sets[i].name))
             return (int)variant(out, sets[i].name, cn_dot_s16_c, (cn_requant_fn)0,
-                                (cn_finish_fn)0, cn_spdot_s16_c, sets[i].cost);
+                                (cn_finish_fn)0, cn_spdot_s16_c, sets[i].cost, CN_PAIRS);
     return 0;
 }
 

@@ -137,14 +137,12 @@ static cnerf_status decode_matrix(const uint8_t *buf, const coded *C, int16_t *l
 
 /* ---- the rows' order, the columns' order and the packing for the kernels ---- */
 
-/* The latents' packed layout (cnerf_decoder.latent): the index of k[j][i] of stored row j
- * among n_live live rows of `pairs` input pairs. */
-static size_t packed_index(uint32_t j, uint32_t i, uint32_t live, uint32_t pairs)
+/* The layout of layer l's packed latents (shift 0) or shifts (shift 1): the chosen
+ * kernels' for int32 sums, CN_PAIRS for the int64 ones (cn_dot_s16_s64_c). */
+static uint32_t layout_of(const cn_state *ds, uint32_t l, int shift)
 {
-    const uint32_t b = j >> 2, q = j & 3u;
-    if ((b + 1u) * 4u > live) /* the last one to three rows: row after row */
-        return (size_t)b * 8u * pairs + (size_t)q * 2u * pairs + i;
-    return (size_t)b * 8u * pairs + (size_t)(i >> 1) * 8u + 2u * q + (i & 1u);
+    const int wide = shift ? ds->shift_wide[l] != 0 : ds->form[l] == CN_FORM_WIDE;
+    return wide ? CN_PAIRS : ds->layout;
 }
 
 /* Sum |v| of row o of a padded matrix (<= 1124 * 32767 < 2^26). */
@@ -181,28 +179,34 @@ static uint16_t order_rows(const cnerf_layer_info *L, const int16_t *lat, const 
     return (uint16_t)live;
 }
 
-/* Packs the live rows of lat (in the order of rows[]) into blocks of four, using `tmp`
- * (4 padded rows), and zeroes the rest. A block's rows come from row slots at or after its
- * own (a live row's output index is at least its rank), so writing block b overwrites only
- * slots that were copied to tmp, belong to earlier blocks or hold zeros. */
+/* Packs the live rows of lat (in the order of rows[]) into blocks of four in `layout`
+ * (cn_packed_index), using `tmp` (4 padded rows), and zeroes the rest. A block's rows come
+ * from row slots at or after its own (a live row's output index is at least its rank), so
+ * writing block b overwrites only slots that were copied to tmp, belong to earlier blocks
+ * or hold zeros. */
 static void pack_rows(const cnerf_layer_info *L, int16_t *lat, const uint16_t *rows,
-                      uint32_t live, int16_t *tmp)
+                      uint32_t live, int16_t *tmp, uint32_t layout)
 {
     const uint32_t pad = in_pad(L), n_out = L->n_out;
     for (uint32_t b = 0; 4u * b < live; b++) {
         const uint32_t rb = live - 4u * b < 4u ? live - 4u * b : 4u;
-        int16_t *blk = lat + (size_t)b * 4u * pad;
         for (uint32_t q = 0; q < rb; q++)
             for (uint32_t i = 0; i < pad; i++)
                 tmp[(size_t)q * pad + i] = lat[(size_t)rows[4u * b + q] * pad + i];
-        if (rb < 4u) { /* the last rows, row after row: as they are (packed_index) */
+        int16_t *out = lat + (size_t)b * 4u * pad; /* cn_packed_index's order, written out */
+        if (rb < 4u) { /* the last rows, row after row */
             for (uint32_t i = 0; i < rb * pad; i++)
-                blk[i] = tmp[i];
-            continue;
+                out[i] = tmp[i];
+        } else if (CN_RUNS8_BUILT && layout == CN_RUNS8) { /* run by run, each row's latents of the run */
+            for (uint32_t i0 = 0; i0 < pad; i0 += 8u)
+                for (uint32_t q = 0; q < 4u; q++)
+                    for (uint32_t i = i0; i < i0 + 8u && i < pad; i++)
+                        *out++ = tmp[(size_t)q * pad + i];
+        } else { /* pair by pair: k[q][i] at (i / 2) 8 + 2 q + i % 2 */
+            for (uint32_t i = 0; i < pad; i++)
+                for (uint32_t q = 0; q < 4u; q++)
+                    out[(i >> 1) * 8u + 2u * q + (i & 1u)] = tmp[(size_t)q * pad + i];
         }
-        for (uint32_t i = 0; i < pad; i++) /* pair by pair: k[q][i] at (i / 2) 8 + 2 q + i % 2 */
-            for (uint32_t q = 0; q < 4u; q++)
-                blk[(i >> 1) * 8u + 2u * q + (i & 1u)] = tmp[(size_t)q * pad + i];
     }
     for (size_t i = (size_t)live * pad; i < (size_t)n_out * pad; i++)
         lat[i] = 0;
@@ -438,9 +442,9 @@ static cnerf_status open_layer(cnerf_decoder *dec, const uint8_t *buf, uint32_t 
         sparse_rows(L, lat, rows, live, tmp);
         ds->form[l] = CN_FORM_SPARSE;
     } else {
-        pack_rows(L, lat, rows, live, tmp);
+        pack_rows(L, lat, rows, live, tmp, layout_of(ds, l, 0));
         if (sh)
-            pack_rows(L, sh, rows, live, tmp);
+            pack_rows(L, sh, rows, live, tmp, layout_of(ds, l, 1));
     }
     int32_t *bq = (int32_t *)(uintptr_t)ds->bias_q16[l];
     for (uint32_t j = 0; j < L->n_out; j++)
@@ -466,6 +470,7 @@ cnerf_status cn_open_with(cnerf_decoder *dec, const uint8_t *buf, size_t len, ui
     if (st == CNERF_OK && ws_size < cnerf_workspace_size(info))
         st = CNERF_E_WS_SMALL;
     if (st == CNERF_OK) {
+        ds->layout = v->layout;
         /* the layers' arrays, the grid, and open's scratch last */
         uint8_t *scratch = lay_out(dec, (uint8_t *)ws);
         if (info->grid_g)
@@ -534,7 +539,8 @@ static int32_t packed_at(const cnerf_decoder *dec, uint32_t l, const int16_t *m,
                 return cn_entry_k(e[k]);
         return 0;
     }
-    return m[packed_index(j, c, ds->n_live[l], ds->n_pairs[l])];
+    return m[cn_packed_index(j, c, ds->n_live[l], ds->n_pairs[l],
+                             layout_of(ds, l, m != ds->latent[l]))];
 }
 
 int32_t cnerf_latent(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t i)

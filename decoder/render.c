@@ -134,7 +134,9 @@ CN_NOINLINE static int32_t requant(const int32_t *x, int16_t *xq, uint32_t n, un
         }
         return sum;
     }
-#if defined(CN_HAVE_DSP)
+#if defined(CN_HAVE_MVE)
+    return cn_requant_s16_mve(x, xq, n, s);
+#elif defined(CN_HAVE_DSP)
     return cn_requant_s16_dsp(x, xq, n, s);
 #else
     const int32_t h = (int32_t)1 << (s - 1u);
@@ -162,7 +164,12 @@ CN_NOINLINE static int32_t requant(const int32_t *x, int16_t *xq, uint32_t n, un
 CN_NOINLINE static void finish_fast(const int32_t *acc, uint32_t live, int32_t am, unsigned n,
                                     int32_t t, const int32_t *bq, int32_t *y, int relu)
 {
-#if defined(CN_HAVE_DSP)
+#if defined(CN_HAVE_MVE)
+    if (n < 32u) {
+        cn_finish_s32_mve(acc, live, am, n, t, bq, y, relu);
+        return;
+    }
+#elif defined(CN_HAVE_DSP)
     if (n < 32u) {
         cn_finish_s32_dsp(acc, live, am, n, t, bq, y, relu);
         return;

@@ -111,18 +111,22 @@ static int16_t packed[MAX_ROWS * 2 * MAX_PAIRS + 16];
 static int16_t xq[2 * MAX_PAIRS + 8] __attribute__((aligned(8)));
 static int16_t kbuf[MAX_ROWS * 2 * MAX_PAIRS + 16] __attribute__((aligned(8)));
 
-/* The packed layout of the decoded latents (cn_state.latent in decoder/cn_internal.h: blocks
- * of four rows, pair by pair; the last one to three rows row after row), written here
- * independently of the decoder's. */
-static void pack(uint32_t rows, uint32_t pairs)
+/* The packed layouts of the decoded latents (cn_packed_index in decoder/cn_kernels.h:
+ * blocks of four rows, pair by pair (CN_PAIRS) or run by run of eight inputs, a last run of
+ * m < 8 inputs holding each row's m latents in turn (CN_RUNS8); the last one to three rows
+ * row after row), written here independently of the decoder's, into kbuf. */
+static void pack(uint32_t rows, uint32_t pairs, uint32_t layout)
 {
     for (uint32_t j = 0; j < rows; j++)
         for (uint32_t i = 0; i < 2 * pairs; i++) {
-            const uint32_t b = j / 4, q = j % 4;
-            if ((b + 1) * 4 <= rows)
-                packed[b * 8 * pairs + (i / 2) * 8 + 2 * q + (i & 1)] = rowmajor[j][i];
-            else /* the last one to three rows, row after row */
+            const uint32_t b = j / 4, q = j % 4, run = i / 8;
+            const uint32_t m = 2 * pairs - 8 * run < 8 ? 2 * pairs - 8 * run : 8;
+            if ((b + 1) * 4 > rows) /* the last one to three rows, row after row */
                 packed[b * 8 * pairs + q * 2 * pairs + i] = rowmajor[j][i];
+            else if (layout == CN_RUNS8)
+                packed[b * 8 * pairs + run * 32 + q * m + i % 8] = rowmajor[j][i];
+            else
+                packed[b * 8 * pairs + (i / 2) * 8 + 2 * q + (i & 1)] = rowmajor[j][i];
         }
     for (uint32_t i = 0; i < rows * 2 * pairs; i++)
         kbuf[i] = packed[i];
@@ -266,14 +270,22 @@ static void run(const cn_dot_variant *v, const bench_case *c, long calls)
     }
 }
 
+/* The latents of a dot case in the layout of v's sums, before v's calls are timed. */
+static void layout_for(const cn_dot_variant *v, const bench_case *c)
+{
+    if (c->op == OP_DOT)
+        pack(c->rows, c->pairs, v->layout);
+}
+
 /* The median nanoseconds per call of each set of v[0..nv) (v[0]: the C) on c: the calls a
  * run makes are doubled on the C until a run lasts BENCH_MIN_NS; then the sets take turns,
  * BENCH_RUNS runs each. */
 static void bench_one(const cn_dot_variant *v, uint32_t nv, const bench_case *c, double *ns)
 {
     for (uint32_t k = 0; k < nv; k++)
-        run(&v[k], c, 1); /* warm */
+        layout_for(&v[k], c), run(&v[k], c, 1); /* warm */
     long calls = 1;
+    layout_for(&v[0], c);
     for (;;) {
         const uint64_t t0 = now_ns();
         run(&v[0], c, calls);
@@ -284,6 +296,7 @@ static void bench_one(const cn_dot_variant *v, uint32_t nv, const bench_case *c,
     static uint64_t t[CN_DOT_MAX_VARIANTS + 1][BENCH_RUNS];
     for (int r = 0; r < BENCH_RUNS; r++)
         for (uint32_t k = 0; k < nv; k++) {
+            layout_for(&v[k], c);
             const uint64_t t0 = now_ns();
             run(&v[k], c, calls);
             t[k][r] = now_ns() - t0;
@@ -329,7 +342,6 @@ static void bench(const cn_dot_variant *v, uint32_t nv)
     for (uint32_t rows = 1; rows <= MAX_ROWS; rows++)
         for (uint32_t p = 0; p < np; p++) {
             fill(rows, pairs_at[p], 0);
-            pack(rows, pairs_at[p]);
             bench_case c = {OP_DOT, rows, pairs_at[p], 0, 0, 0, 0, 0};
             bench_one(v, nv, &c, dot_ns[rows - 1][p]);
         }
@@ -359,7 +371,6 @@ static void bench(const cn_dot_variant *v, uint32_t nv)
         for (uint32_t j = 0; j < 12; j++)
             for (uint32_t i = 0; i < 128; i++)
                 rowmajor[j][i] = (int16_t)(rowmajor[j][i] ? rowmajor[j][i] : 1);
-        pack(12, 64);
         bench_case c = {OP_DOT, 12, 64, 0, 0, 0, 0, 0};
         bench_one(v, nv, &c, pk);
         const double nz_whole = make_lists(12, 64);
@@ -472,7 +483,7 @@ int main(int argc, char **argv)
             for (uint32_t rows = 1; rows <= MAX_ROWS; rows++)
                 for (uint32_t pairs = 1; pairs <= MAX_PAIRS; pairs += pairs < 9 ? 1 : 7) {
                     fill(rows, pairs, mode);
-                    pack(rows, pairs);
+                    pack(rows, pairs, CN_PAIRS);
                     int ok = 1;
                     for (uint32_t j = 0; j < rows; j++) {
                         int64_t s = 0;
@@ -490,6 +501,7 @@ int main(int argc, char **argv)
                     for (uint32_t k = 0; k < nv; k++) {
                         for (uint32_t j = 0; j < rows; j++)
                             got[j] = 0x5A5A5A5A;
+                        pack(rows, pairs, v[k].layout);
                         v[k].fn(kbuf, xq, pairs, rows, got);
                         ok = 1;
                         for (uint32_t j = 0; j < rows; j++)
