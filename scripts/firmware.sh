@@ -42,7 +42,9 @@
 #   FW_SCENE       the scene of a stream of several that the firmware opens (0)
 #   FW_AMALGAMATED 1: the decoder from scripts/amalgamate.sh's single file (cnerf_decoder.c)
 #   FW_WORK        0: no second, untimed render of each tile to count its work (evaluations,
-#                  MACs): half the run, for a check that needs only the MD5s; 1 (default)
+#                  MACs): half the run, for a check that needs only the MD5s; first: the
+#                  first job's work only (the check that the host's count, which the cost
+#                  model uses, is the firmware's); 1 (default): every tile's
 # Instructions are counted with QEMU's -icount shift=0 (one virtual nanosecond per
 # instruction) and the SysTick on the processor clock (25 MHz on the AN386, 32 MHz on the
 # AN547): 40 or 31.25 instructions per tick, validated by the firmware on a loop of known
@@ -151,7 +153,8 @@ if cmp -s "$jobs.new" "$jobs"; then rm "$jobs.new"; else mv "$jobs.new" "$jobs";
 # ---- the firmware ----
 if ! { cmake -S . -B "$bdir" -DCMAKE_TOOLCHAIN_FILE="$toolchain" -DCNERF_FW_BOARD="$board" \
          -DCMAKE_BUILD_TYPE="$btype" -DCNERF_FW_JOBS="$jobs" -DCNERF_FW_STACK="$stack" \
-         -DCNERF_AMALGAMATED="${FW_AMALGAMATED:-0}" -DCNERF_FW_WORK="${FW_WORK:-1}" &&
+         -DCNERF_AMALGAMATED="${FW_AMALGAMATED:-0}" -DCNERF_FW_WORK="$([ "${FW_WORK:-1}" = 0 ] && echo OFF || echo ON)" \
+         -DCNERF_FW_WORK_FIRST="$([ "${FW_WORK:-1}" = first ] && echo ON || echo OFF)" &&
        cmake --build "$bdir" -j1 --target cnerf_fw; } > "$log" 2>&1; then
   cat "$log" >&2
   echo "firmware.sh: the firmware build failed (log: $log)" >&2

@@ -53,7 +53,8 @@ fmt() { python3 -c "import sys; print(f'{int(sys.argv[1]):,}')" "$1"; }
   # core, example part, its clock in MHz
   for c in "m0plus:RP2040:133" "m4:STM32F407:168" "m7:STM32H743:480" "m33:STM32U575:160" "m55:Alif Ensemble E3 (high-efficiency core):160"; do
     IFS=: read -r core part mhz <<< "$c"
-    out=$(FW_CORE=$core FW_BUILD_DIR=$bd/$core FW_TIMEOUT=3000 \
+    # FW_WORK=0: one render; the MACs are the host's count of this core's work
+    out=$(FW_CORE=$core FW_BUILD_DIR=$bd/$core FW_TIMEOUT=3000 FW_WORK=0 \
           scripts/firmware.sh "$v.cnrf" "$bd/r_0.cam" "0 0 $w $h" 2>&1) || { echo "$out" >&2; exit 1; }
     name=$(sed -n 's/^== cost on the target: \([^,]*\),.*/\1/p' <<< "$out")
     board=$(sed -n 's/^built .* (\([^,]*\), \([^,]*\),.*/\2/p' <<< "$out")

@@ -200,13 +200,18 @@ for job, fj in zip(jobs, fw_jobs):
     text = fj.get("host_cost", "")
     hwork = re.search(r"host work of the tile: (.*)", text)
     model = re.search(r"cost model [^:]*: (\d+) instructions", text)
-    if hwork and "evals" in r:
+    counted_by = "the firmware"
+    if hwork:
         h = dict(zip(hwork.group(1).split()[0::2], map(int, hwork.group(1).split()[1::2])))
-        fwork = dict(r, rays=rays)
-        diff = [k for k, v in h.items() if fwork.get(k) != v]
-        if diff:
-            problem(f"{job['name']}: the host's count of the {core}'s work differs from the "
-                    f"firmware's in {', '.join(diff)}")
+        if "evals" in r:
+            fwork = dict(r, rays=rays)
+            diff = [k for k, v in h.items() if fwork.get(k) != v]
+            if diff:
+                problem(f"{job['name']}: the host's count of the {core}'s work differs from "
+                        f"the firmware's in {', '.join(diff)}")
+        else:  # FW_WORK=0 or first: the host's count (the same, where both count)
+            r = dict(r, **{k: v for k, v in h.items() if k != "rays"})
+            counted_by = "the host"
     cost = ""
     if model and ins["render"]:
         est = int(model.group(1))
@@ -238,6 +243,8 @@ for job, fj in zip(jobs, fw_jobs):
             print("  " + cost)
         continue
     print(f"  work of the tile: {work}")
+    if counted_by == "the host":
+        print("  (the work counted on the host, with this core's forms: FW_WORK)")
     if cost:
         print("  " + cost)
     grid = f"{r['grid']}^3 grid" if r["grid"] else "no grid"
