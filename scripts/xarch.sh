@@ -93,36 +93,56 @@ rot = [round(m * 2 ** 30) for row in zip(right, up, back) for m in row]
 print(*rot, *(round(v * 2 ** 32) for v in p), f, f, c, c, size, size)
 PY
 
-bad=0 n=0
+# The tiles: stream, scene, camera, tile and knobs, one a line; each architecture renders them
+# all (in parallel, one architecture a core), then their MD5s are compared line by line.
+: > "$work/tiles"
 for s in "${streams[@]}"; do
   # the stream of several scenes: its scene 1
-  export CNERF_SCENE=$([ "$(basename "$s")" = scenes.cnrf ] && echo 1 || echo 0)
+  scene=$([ "$(basename "$s")" = scenes.cnrf ] && echo 1 || echo 0)
   for cam in cam_z cam_y cam_oblique; do
     for tile in "0 0 $half $half" "$half 0 $half $half" "0 $half $half $half" "$half $half $half $half" "3 5 1 1"; do
       knobs_list=("" "8 4 0")
       # RGB565 in both byte orders (CNERF_RENDER_RGB565, _BE) on the first stream
       [ "$s" = "${streams[0]}" ] && knobs_list+=("8 4 0 4" "8 4 0 8")
       for knobs in "${knobs_list[@]}"; do
-        ref=""
-        line=""
-        for t in "${targets[@]}"; do
-          read -r name cc run <<< "$t"
-          exe=$work/render_tile.$name
-          if [ "$run" = "-" ]; then
-            md5=$("$exe" "$s" "$work/$cam" $tile $knobs | md5sum | cut -c1-32)
-          else
-            md5=$("$run" "$exe" "$s" "$work/$cam" $tile $knobs | md5sum | cut -c1-32)
-          fi
-          [ -z "$ref" ] && ref=$md5
-          line+=" $name=${md5:0:8}"
-          [ "$md5" = "$ref" ] || bad=1
-        done
-        n=$((n + 1))
-        echo "$(basename "$s") $cam [$tile] ${knobs:-defaults}:$line"
+        echo "$s|$scene|$cam|$tile|$knobs" >> "$work/tiles"
       done
     done
   done
 done
+render_all() { # NAME RUN: every tile's MD5, a line each, into $work/md5.NAME
+  local name=$1 run=$2 s scene cam tile knobs exe=$work/render_tile.$1
+  while IFS='|' read -r s scene cam tile knobs; do
+    if [ "$run" = "-" ]; then
+      CNERF_SCENE=$scene "$exe" "$s" "$work/$cam" $tile $knobs | md5sum | cut -c1-32
+    else
+      CNERF_SCENE=$scene "$run" "$exe" "$s" "$work/$cam" $tile $knobs | md5sum | cut -c1-32
+    fi
+  done < "$work/tiles" > "$work/md5.$name"
+}
+jobs_max=$(nproc 2>/dev/null || echo 2)
+pids=()
+for t in "${targets[@]}"; do
+  read -r name cc run <<< "$t"
+  render_all "$name" "$run" &
+  pids+=($!)
+  while [ "$(jobs -rp | wc -l)" -ge "$jobs_max" ]; do sleep 0.2; done
+done
+for p in "${pids[@]}"; do wait "$p"; done
+bad=0 n=0
+while IFS='|' read -r s scene cam tile knobs; do
+  n=$((n + 1))
+  ref="" line=""
+  for t in "${targets[@]}"; do
+    read -r name cc run <<< "$t"
+    md5=$(sed -n "${n}p" "$work/md5.$name")
+    [ -n "$md5" ] || { echo "xarch.sh: $name rendered no tile $n" >&2; exit 1; }
+    [ -z "$ref" ] && ref=$md5
+    line+=" $name=${md5:0:8}"
+    [ "$md5" = "$ref" ] || bad=1
+  done
+  echo "$(basename "$s") $cam [$tile] ${knobs:-defaults}:$line"
+done < "$work/tiles"
 if [ $bad -ne 0 ]; then
   echo "xarch.sh: MD5s differ between architectures" >&2
   exit 1
