@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Bit-exactness across architectures: builds tests/xarch/render_tile.c (and the look-at
 # vectors' tool, vectors/tools/lookat.c) with the decoder for the host and, with Debian's
-# cross compilers, for aarch64, armhf and s390x (big-endian),
-# runs the foreign builds under qemu-user and checks that every tile's MD5 is the same
+# cross compilers, for aarch64, armhf and s390x (big-endian), and with clang and wasi-libc
+# for WebAssembly (wasm32-wasi), runs the foreign builds under qemu-user and the wasm32 one
+# under Node (platform/web/wasi_run.mjs), and checks that every tile's MD5 is the same
 # everywhere. Streams: synthetic 360-degree and NDC models from `cnerf synth` (built in
 # build/ by scripts/test.sh), two of them with occupancy grids, one with narrower layers, and the demo stream
 # out/lego.cnrf when it exists.
@@ -13,7 +14,7 @@ size=32
 [ "${1:-}" = "--size" ] && size=$2
 cnerf=build/cnerf
 [ -x $cnerf ] || { echo "xarch.sh: build first (scripts/test.sh)" >&2; exit 1; }
-work=build-xarch
+work=$PWD/build-xarch # absolute: the wasm32 programs see the host's files from /
 rm -rf "$work"
 mkdir -p "$work"
 dec=(decoder/*.c) # the portable C and every instruction set's kernels
@@ -21,10 +22,19 @@ flags=(-std=c99 -O2 -Wall -Wextra -Werror -Iinclude)
 
 # target: name compiler runner
 targets=("x86-64 gcc -")
+# WebAssembly: clang for wasm32-wasi with Debian's wasi-libc and compiler-rt, run by Node
+wasm32-wasi-cc() { clang --target=wasm32-wasi "$@"; }
+node-wasi() { node "$PWD/platform/web/wasi_run.mjs" "$@"; }
 for t in "aarch64 aarch64-linux-gnu-gcc qemu-aarch64" "armhf arm-linux-gnueabihf-gcc qemu-arm" \
-         "s390x s390x-linux-gnu-gcc qemu-s390x"; do
+         "s390x s390x-linux-gnu-gcc qemu-s390x" "wasm32 wasm32-wasi-cc node-wasi"; do
   read -r name cc run <<< "$t"
-  if ! command -v "$cc" > /dev/null || ! command -v "$run" > /dev/null; then
+  if [ "$name" = wasm32 ]; then
+    if ! command -v clang > /dev/null || ! command -v node > /dev/null || ! command -v wasm-ld > /dev/null ||
+       [ ! -f /usr/lib/wasm32-wasi/libc.a ]; then
+      echo "xarch.sh: clang, wasm-ld, node or wasi-libc is missing (apt-get install clang lld nodejs wasi-libc libclang-rt-14-dev-wasm32)" >&2
+      exit 1
+    fi
+  elif ! command -v "$cc" > /dev/null || ! command -v "$run" > /dev/null; then
     echo "xarch.sh: $cc or $run is missing (apt-get install gcc-${name/armhf/arm-linux-gnueabihf} qemu-user)" >&2
     exit 1
   fi
@@ -32,7 +42,7 @@ for t in "aarch64 aarch64-linux-gnu-gcc qemu-aarch64" "armhf arm-linux-gnueabihf
 done
 for t in "${targets[@]}"; do
   read -r name cc run <<< "$t"
-  static=$([ "$run" = "-" ] && echo "" || echo "-static")
+  static=$([ "$run" = "-" ] || [ "$name" = wasm32 ] && echo "" || echo "-static")
   $cc "${flags[@]}" $static "${dec[@]}" tests/xarch/render_tile.c -o "$work/render_tile.$name"
   $cc "${flags[@]}" $static "${dec[@]}" tests/xarch/check_kernels.c -o "$work/check_kernels.$name"
   $cc "${flags[@]}" $static "${dec[@]}" vectors/tools/lookat.c -o "$work/lookat.$name"
@@ -73,7 +83,7 @@ $cnerf synth -o "$work/scenes.cnrf" --preset tiny --seed 9 --scenes 2 > /dev/nul
 $cnerf synth -o "$work/contract.cnrf" --preset tiny --seed 10 --contract > /dev/null
 streams=("$work/tiny.cnrf" "$work/small.cnrf" "$work/ndc.cnrf" "$work/grid.cnrf" "$work/gridndc.cnrf"
          "$work/units.cnrf" "$work/scenes.cnrf" "$work/contract.cnrf")
-[ -f out/lego.cnrf ] && streams+=(out/lego.cnrf)
+[ -f out/lego.cnrf ] && streams+=("$PWD/out/lego.cnrf")
 half=$((size / 2))
 f=$(( size * 65536 * 3 / 2 ))  # focal length 1.5 image widths: about 37 degrees
 c=$(( half * 65536 ))
