@@ -3,8 +3,8 @@
  * as CMSIS-NN names its functions, with the instruction set last: cn_dot_s16_dsp is the dot
  * product of int16 operands (int32 sums) on the Arm DSP extension. The portable C in
  * decoder/ (kernels.c) is the definition; the others, one file per instruction set
- * (kernels_dsp.c, kernels_mve.c, kernels_neon.c, kernels_avx2.c), compute the same values and are checked against it
- * (tests/xarch/check_kernels.c). The choice among them is made in one place, kernels.c.
+ * (kernels_dsp.c, kernels_mve.c, kernels_neon.c, kernels_simd128.c, kernels_avx2.c), compute
+ * the same values and are checked against it (tests/xarch/check_kernels.c). The choice among them is made in one place, kernels.c.
  *
  * A layer's live latent rows are stored packed (cnerf_decoder.latent), in one of two
  * layouts (cn_packed_index), the one the chosen kernels read: blocks of four rows, each
@@ -37,6 +37,9 @@
 #endif
 #if !defined(CNERF_PORTABLE) && defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #define CN_HAVE_AVX2 1
+#endif
+#if !defined(CNERF_PORTABLE) && defined(__wasm_simd128__)
+#define CN_HAVE_SIMD128 1
 #endif
 
 /* ---- the packed layouts ---- */
@@ -147,6 +150,14 @@ void cn_dot_s16_neon(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint3
                      int32_t *acc);
 #endif
 
+/* ---- WebAssembly ---- */
+
+#if defined(CN_HAVE_SIMD128)
+/* kernels_simd128.c: i32x4.dot_i16x8_s over a block's input pair */
+void cn_dot_s16_simd128(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                        int32_t *acc);
+#endif
+
 /* ---- x86-64 ---- */
 
 #if defined(CN_HAVE_AVX2)
@@ -167,7 +178,7 @@ void cn_finish_s32_avx2(const int32_t *acc, uint32_t live, int32_t am, unsigned 
 /* A set of kernels: the sums, and the inputs' quantization and the outputs' rescale that
  * go with them (NULL: render.c's portable C). */
 typedef struct cn_dot_variant {
-    const char *name; /* the instruction set: "c", "dsp", "mve", "neon", "avx2" */
+    const char *name; /* the instruction set: "c", "dsp", "mve", "neon", "simd128", "avx2" */
     cn_dot_fn fn;
     cn_requant_fn requant;
     cn_finish_fn finish;
@@ -211,6 +222,8 @@ cn_dot_variant cn_dot_select(void);
 #define CN_DOT_DIRECT cn_dot_s16_dsp
 #elif defined(CN_HAVE_NEON)
 #define CN_DOT_DIRECT cn_dot_s16_neon
+#elif defined(CN_HAVE_SIMD128)
+#define CN_DOT_DIRECT cn_dot_s16_simd128
 #elif !defined(CN_HAVE_AVX2)
 #define CN_DOT_DIRECT cn_dot_s16_c
 #endif

@@ -1,7 +1,7 @@
 /*
  * The portable dot-product kernels, which define the sums, and the choice among the kernels
- * of kernels_dsp.c, kernels_mve.c, kernels_neon.c and kernels_avx2.c: the one place of the
- * dispatch.
+ * of kernels_dsp.c, kernels_mve.c, kernels_neon.c, kernels_simd128.c and kernels_avx2.c: the
+ * one place of the dispatch.
  */
 #include "cn_kernels.h"
 
@@ -18,6 +18,9 @@
 #define AVX2_MAC 16u
 #define AVX2_NZ 300u
 #define AVX2_ROW 300u
+#define SIMD128_MAC 16u /* check_kernels --bench built for wasm32, under Node 20 on x86-64 */
+#define SIMD128_NZ 153u
+#define SIMD128_ROW 766u
 #define NEON_MAC 16u
 #define NEON_NZ 72u
 #define NEON_ROW 160u
@@ -96,6 +99,7 @@ static const uint16_t c_cost[3] = {C_MAC, C_NZ, C_ROW};
 static const uint16_t dsp_cost[3] = {DSP_MAC, DSP_NZ, DSP_ROW};
 static const uint16_t mve_cost[3] = {MVE_MAC, DSP_NZ, DSP_ROW};
 static const uint16_t neon_cost[3] = {NEON_MAC, NEON_NZ, NEON_ROW};
+static const uint16_t simd128_cost[3] = {SIMD128_MAC, SIMD128_NZ, SIMD128_ROW};
 static const uint16_t avx2_cost[3] = {AVX2_MAC, AVX2_NZ, AVX2_ROW};
 
 /* One entry of the list, with its kernels' costs (sixteenths, cn_dot_variant); returns 1. */
@@ -140,6 +144,10 @@ uint32_t cn_dot_variants(cn_dot_variant out[CN_DOT_MAX_VARIANTS])
     n += variant(out + n, "neon", cn_dot_s16_neon, c_requant, c_finish, cn_spdot_s16_c,
                  neon_cost, CN_PAIRS);
 #endif
+#if defined(CN_HAVE_SIMD128) /* WebAssembly: fixed at compile time (-msimd128) */
+    n += variant(out + n, "simd128", cn_dot_s16_simd128, c_requant, c_finish, cn_spdot_s16_c,
+                 simd128_cost, CN_PAIRS);
+#endif
     return n;
 }
 
@@ -156,8 +164,8 @@ int cn_dot_variant_as(const char *set, cn_dot_variant *out)
     static const struct {
         const char *name;
         const uint16_t *cost;
-    } sets[] = {{"c", c_cost}, {"dsp", dsp_cost}, {"mve", mve_cost}, {"neon", neon_cost},
-                {"avx2", avx2_cost}};
+    } sets[] = {{"c", c_cost},         {"dsp", dsp_cost},   {"mve", mve_cost},
+                {"neon", neon_cost},   {"simd128", simd128_cost}, {"avx2", avx2_cost}};
     for (uint32_t i = 0; set && i < sizeof sets / sizeof sets[0]; i++)
         if (same(set, sets[i].name))
             return (int)variant(out, sets[i].name, cn_dot_s16_c, (cn_requant_fn)0,

@@ -22,8 +22,9 @@ flags=(-std=c99 -O2 -Wall -Wextra -Werror -Iinclude)
 
 # target: name compiler runner
 targets=("x86-64 gcc -")
-# WebAssembly: clang for wasm32-wasi with Debian's wasi-libc and compiler-rt, run by Node
-wasm32-wasi-cc() { clang --target=wasm32-wasi "$@"; }
+# WebAssembly: clang for wasm32-wasi with 128-bit SIMD (the simd128 kernels), Debian's
+# wasi-libc and compiler-rt, run by Node
+wasm32-wasi-cc() { clang --target=wasm32-wasi -msimd128 "$@"; }
 node-wasi() { node "$PWD/platform/web/wasi_run.mjs" "$@"; }
 for t in "aarch64 aarch64-linux-gnu-gcc qemu-aarch64" "armhf arm-linux-gnueabihf-gcc qemu-arm" \
          "s390x s390x-linux-gnu-gcc qemu-s390x" "wasm32 wasm32-wasi-cc node-wasi"; do
