@@ -4,7 +4,8 @@
  * product of int16 operands (int32 sums) on the Arm DSP extension. The portable C in
  * decoder/ (kernels.c) is the definition; the others, one file per instruction set
  * (kernels_dsp.c, kernels_mve.c, kernels_neon.c, kernels_simd128.c, kernels_avx2.c), compute
- * the same values and are checked against it (tests/xarch/check_kernels.c). The choice among them is made in one place, kernels.c.
+ * the same values and are checked against it (tests/xarch/check_kernels.c). The choice
+ * among them is made in one place, kernels.c.
  *
  * A layer's live latent rows are stored packed (cnerf_decoder.latent), in one of two
  * layouts (cn_packed_index), the one the chosen kernels read: blocks of four rows, each

@@ -164,8 +164,8 @@ int cn_dot_variant_as(const char *set, cn_dot_variant *out)
     static const struct {
         const char *name;
         const uint16_t *cost;
-    } sets[] = {{"c", c_cost},         {"dsp", dsp_cost},   {"mve", mve_cost},
-                {"neon", neon_cost},   {"simd128", simd128_cost}, {"avx2", avx2_cost}};
+    } sets[] = {{"c", c_cost},       {"dsp", dsp_cost},         {"mve", mve_cost},
+                {"neon", neon_cost}, {"simd128", simd128_cost}, {"avx2", avx2_cost}};
     for (uint32_t i = 0; set && i < sizeof sets / sizeof sets[0]; i++)
         if (same(set, sets[i].name))
             return (int)variant(out, sets[i].name, cn_dot_s16_c, (cn_requant_fn)0,

@@ -197,7 +197,7 @@ static void pack_rows(const cnerf_layer_info *L, int16_t *lat, const uint16_t *r
         if (rb < 4u) { /* the last rows, row after row */
             for (uint32_t i = 0; i < rb * pad; i++)
                 out[i] = tmp[i];
-        } else if (CN_RUNS8_BUILT && layout == CN_RUNS8) { /* run by run, each row's latents of the run */
+        } else if (CN_RUNS8_BUILT && layout == CN_RUNS8) { /* run by run, row by row */
             for (uint32_t i0 = 0; i0 < pad; i0 += 8u)
                 for (uint32_t q = 0; q < 4u; q++)
                     for (uint32_t i = i0; i < i0 + 8u && i < pad; i++)

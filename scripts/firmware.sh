@@ -151,10 +151,16 @@ printf '%s\n' "$job" | sed '/^$/d' > "$jobs.new"
 if cmp -s "$jobs.new" "$jobs"; then rm "$jobs.new"; else mv "$jobs.new" "$jobs"; fi
 
 # ---- the firmware ----
+case ${FW_WORK:-1} in
+  0) fw_work=OFF fw_work_first=OFF ;;
+  first) fw_work=ON fw_work_first=ON ;;
+  1) fw_work=ON fw_work_first=OFF ;;
+  *) echo "firmware.sh: FW_WORK must be 0, first or 1, not '$FW_WORK'" >&2; exit 2 ;;
+esac
 if ! { cmake -S . -B "$bdir" -DCMAKE_TOOLCHAIN_FILE="$toolchain" -DCNERF_FW_BOARD="$board" \
          -DCMAKE_BUILD_TYPE="$btype" -DCNERF_FW_JOBS="$jobs" -DCNERF_FW_STACK="$stack" \
-         -DCNERF_AMALGAMATED="${FW_AMALGAMATED:-0}" -DCNERF_FW_WORK="$([ "${FW_WORK:-1}" = 0 ] && echo OFF || echo ON)" \
-         -DCNERF_FW_WORK_FIRST="$([ "${FW_WORK:-1}" = first ] && echo ON || echo OFF)" &&
+         -DCNERF_AMALGAMATED="${FW_AMALGAMATED:-0}" -DCNERF_FW_WORK="$fw_work" \
+         -DCNERF_FW_WORK_FIRST="$fw_work_first" &&
        cmake --build "$bdir" -j1 --target cnerf_fw; } > "$log" 2>&1; then
   cat "$log" >&2
   echo "firmware.sh: the firmware build failed (log: $log)" >&2

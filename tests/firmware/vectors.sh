@@ -47,7 +47,9 @@ for jobs in "$build".batch*.jobs; do
   n=$(wc -l < "$jobs")
   # Without TOLERANCE only the MD5s are checked: no second render counting the work (FW_WORK);
   # with it, the first batch's first job's work is counted too
-  if out=$(FW_BUILD_DIR=$build FW_TIMEOUT=3000 FW_COST_TOLERANCE=$tol FW_WORK=$([ -n "$tol" ] && [ "$jobs" = "$build.batch0.jobs" ] && echo first || echo 0) \
+  work=0
+  [ -n "$tol" ] && [ "$jobs" = "$build.batch0.jobs" ] && work=first
+  if out=$(FW_BUILD_DIR=$build FW_TIMEOUT=3000 FW_COST_TOLERANCE=$tol FW_WORK=$work \
              "$root/scripts/firmware.sh" --jobs "$jobs" < /dev/null 2>&1); then
     grep -E '^[0-9]{3}-' <<<"$out" || true
     ok=$((ok + n))
