@@ -6,7 +6,8 @@
 #                                not the host code the sanitizers instrument) and the tests of
 #                                the experiment scripts (label "experiment": they drive the
 #                                train and encode commands that cli_train already runs
-#                                instrumented)
+#                                instrumented) and the web tests (label "web": the
+#                                WebAssembly decoder under Node and Chromium)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=build
@@ -15,7 +16,7 @@ skip=()
 if [ "${1:-}" = "--sanitize" ]; then
   build=build-asan
   opts=(-DCNERF_SANITIZE=ON)
-  skip=(-LE 'firmware|experiment')
+  skip=(-LE 'firmware|experiment|web')
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1
 fi
 jobs=$(nproc 2>/dev/null || echo 2)

@@ -21,6 +21,7 @@ int cmd_encode(int argc, char **argv);
 int cmd_quantize(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 int cmd_views(int argc, char **argv);
+int cmd_html(int argc, char **argv);
 
 /* cnerf train --train-images DIR: replaces the pixels of views[0..n) with DIR/0000.png ...
  * (as `cnerf views` writes them, the same size), dropping their alpha. Returns 0, or 1 with

@@ -59,6 +59,9 @@ static const struct {
      "views DATASET -o DIR [--split train] [--downscale F]\n"
      "                                  a split's views as trained on, as PNGs, and a path\n"
      "                                  through them for a video coder"},
+    {"html", cmd_html,
+     "html scene.cnrf -o scene.html    the viewer, the WebAssembly decoder and the stream in\n"
+     "                                  one file that a browser opens by double-click"},
     {"synth", cmd_synth,
      "synth -o FILE.cnrf [--preset tiny|small|paper] [--seed S] [--spread X]\n"
      "                                  a random model of a preset's topology (tests, demos)"},

@@ -266,6 +266,9 @@ rows=(
   "2|unknown option '--bogus'|train $D -o $work/x.ckpt --bogus"
   "2|need one stream file|info --bogus"
   "2|need a checkpoint and -o FILE|quantize $work/t.ckpt"
+  "2|need a stream and -o FILE|html $work/s.cnrf"
+  "1|is also the input $work/s.cnrf|html $work/s.cnrf -o $work/s.cnrf"
+  "1|the decoder refuses the stream: CNERF_E_MAGIC|html $work/t.ckpt -o $work/h.html"
   "2|--coarse-color takes on (the default: the coarse network's colour is sent) or off|quantize $work/t.ckpt -o $work/q.cnrf --coarse-color none"
   "2|--coarse-weight: expected a number in [0.001, 10]|encode $D -o $work/x.cnrf --lambda 1 --coarse-weight 0"
   "2|--grid takes 16, 32, 64 or 128|encode $D -o $work/x.cnrf --lambda 1 --grid 17"
@@ -537,6 +540,7 @@ matrix=(
   "encode $D -o OUT --lambda 1 ${T2[*]} --force"
   "synth -o OUT --preset tiny"
   "quantize $work/t.ckpt -o OUT"
+  "html $work/s.cnrf -o OUT"
   "render $work/s.cnrf --orbit 1 --size 8 --save-cameras OUT"
   "eval $work/t.ckpt $D -o DIR/r_0.png --downscale 16 --every 200"
   "views $D -o DIR/0000.png --downscale 16"
@@ -545,7 +549,7 @@ matrix=(
 )
 # (for train, encode and views the input is an image of the dataset, linked outside its
 # folder: known as an input only once the dataset is loaded)
-input_of=("$D/train/r_0.png" "$D/train/r_1.png" "" "$work/t.ckpt" "$work/s.cnrf" "$work/t.ckpt"
+input_of=("$D/train/r_0.png" "$D/train/r_1.png" "" "$work/t.ckpt" "$work/s.cnrf" "$work/s.cnrf" "$work/t.ckpt"
           "$D/train/r_2.png" "$work/s.cnrf" "$D/test/r_0.png")
 kinds=(link fifo input)
 [ $have_dev = 1 ] && kinds+=(dev)
