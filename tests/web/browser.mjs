@@ -14,13 +14,12 @@
 //    given mid-render cancels the first;
 //  - SINGLE_HTML opened through file:// renders the scene, with no error.
 // SCREENSHOT, when given, gets a PNG of the viewer with STREAM loaded.
-import { spawn } from 'node:child_process';
 import { createHash } from 'node:crypto';
 import { createServer } from 'node:http';
-import { mkdtempSync, readFileSync, readdirSync, rmSync, writeFileSync, existsSync } from 'node:fs';
-import { tmpdir } from 'node:os';
+import { readFileSync, readdirSync, writeFileSync, existsSync } from 'node:fs';
 import { extname, join, resolve } from 'node:path';
 import { inflateSync } from 'node:zlib';
+import { launch } from './cdp.mjs';
 
 const [, , webdir, vectors, stream, camsPath, pngPath, singleHtml, screenshot] = process.argv;
 if (!singleHtml) {
@@ -28,10 +27,6 @@ if (!singleHtml) {
   process.exit(2);
 }
 const chromium = process.env.CHROMIUM || '/usr/bin/chromium';
-if (!existsSync(chromium)) {
-  console.error(`browser.mjs: ${chromium} is missing (apt-get install chromium)`);
-  process.exit(1);
-}
 let failed = 0, checked = 0;
 const check = (ok, what) => {
   checked++;
@@ -74,84 +69,7 @@ function readPng(path) {
   return { width: w, height: h, rgb: out };
 }
 
-// ---- the DevTools protocol over --remote-debugging-pipe (fd 3 in, fd 4 out, NUL-framed) ----
-const profile = mkdtempSync(join(tmpdir(), 'cnerf-chromium-'));
-const browser = spawn(chromium, ['--headless=new', '--remote-debugging-pipe', '--no-sandbox',
-  '--disable-gpu', '--no-first-run', '--no-default-browser-check', '--disable-extensions',
-  `--user-data-dir=${profile}`, '--allow-file-access-from-files', 'about:blank'],
-{ stdio: ['ignore', 'ignore', 'pipe', 'pipe', 'pipe'] });
-let chromeLog = '';
-browser.stdio[2].on('data', (d) => { chromeLog = (chromeLog + d).slice(-4000); });
-const pending = new Map(), listeners = [];
-let nextId = 1, inbox = '';
-browser.stdio[4].on('data', (d) => {
-  inbox += d.toString('utf8');
-  let z;
-  while ((z = inbox.indexOf('\0')) >= 0) {
-    const msg = JSON.parse(inbox.slice(0, z));
-    inbox = inbox.slice(z + 1);
-    if (msg.id && pending.has(msg.id)) {
-      const { resolve: ok, reject: no } = pending.get(msg.id);
-      pending.delete(msg.id);
-      if (msg.error) no(new Error(`${msg.error.message} ${msg.error.data || ''}`));
-      else ok(msg.result);
-    } else {
-      for (const l of listeners) l(msg);
-    }
-  }
-});
-const send = (method, params = {}, sessionId) => new Promise((ok, no) => {
-  const id = nextId++;
-  pending.set(id, { resolve: ok, reject: no });
-  browser.stdio[3].write(JSON.stringify({ id, method, params, sessionId }) + '\0');
-});
-const waitEvent = (method, sessionId, ms = 60000) => new Promise((ok, no) => {
-  const t = setTimeout(() => no(new Error(`no ${method} in ${ms} ms`)), ms);
-  const l = (m) => {
-    if (m.method === method && m.sessionId === sessionId) {
-      clearTimeout(t);
-      listeners.splice(listeners.indexOf(l), 1);
-      ok(m.params);
-    }
-  };
-  listeners.push(l);
-});
-
-// A page: open(url), evaluate(expression) (awaited, by value), its console errors.
-async function newPage() {
-  const { targetId } = await send('Target.createTarget', { url: 'about:blank' });
-  const { sessionId } = await send('Target.attachToTarget', { targetId, flatten: true });
-  const page = { sessionId, logs: [] };
-  listeners.push((m) => {
-    if (m.sessionId !== sessionId) return;
-    if (m.method === 'Runtime.exceptionThrown') page.logs.push(`exception: ${JSON.stringify(m.params.exceptionDetails.exception?.description || m.params.exceptionDetails.text)}`);
-    if (m.method === 'Runtime.consoleAPICalled' && m.params.type === 'error') page.logs.push(`console.error: ${m.params.args.map((a) => a.value ?? a.description).join(' ')}`);
-  });
-  await send('Page.enable', {}, sessionId);
-  await send('Runtime.enable', {}, sessionId);
-  page.open = async (url) => {
-    const loaded = waitEvent('Page.loadEventFired', sessionId);
-    await send('Page.navigate', { url }, sessionId);
-    await loaded;
-  };
-  page.evaluate = async (expression) => {
-    const r = await send('Runtime.evaluate', { expression, awaitPromise: true, returnByValue: true }, sessionId);
-    if (r.exceptionDetails) throw new Error(`in the page: ${r.exceptionDetails.exception?.description || r.exceptionDetails.text}`);
-    return r.result.value;
-  };
-  // Waits until `expression` is truthy in the page; returns its value.
-  page.until = async (expression, ms = 60000) => {
-    const end = Date.now() + ms;
-    for (;;) {
-      const v = await page.evaluate(expression).catch(() => null);
-      if (v) return v;
-      if (Date.now() > end) throw new Error(`timed out waiting for ${expression}`);
-      await new Promise((r) => setTimeout(r, 50));
-    }
-  };
-  page.close = () => send('Target.closeTarget', { targetId });
-  return page;
-}
+const { send, newPage, close: closeBrowser, log: chromeLog } = await launch(chromium);
 
 // ---- the site, the vectors, and downloads that fail ----
 const types = { '.html': 'text/html', '.js': 'text/javascript', '.wasm': 'application/wasm' };
@@ -296,14 +214,11 @@ try {
   check(single.logs.length === 0, `${singleHtml}'s console: ${single.logs.join('; ')}`);
 } catch (e) {
   console.log(`FAIL ${e.stack || e}`);
-  if (chromeLog) console.log(`chromium said: ${chromeLog}`);
+  if (chromeLog()) console.log(`chromium said: ${chromeLog()}`);
   failed++;
 } finally {
   server.close();
-  const exited = new Promise((ok) => browser.once('exit', ok));
-  browser.kill();
-  await Promise.race([exited, new Promise((ok) => setTimeout(ok, 5000))]);
-  rmSync(profile, { recursive: true, force: true, maxRetries: 5, retryDelay: 200 });
+  await closeBrowser();
 }
 console.log(`browser: ${checked} checks, ${failed} failed, ${((Date.now() - t0) / 1000).toFixed(1)} s`);
 process.exit(failed ? 1 : 0);

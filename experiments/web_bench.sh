@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# The WebAssembly decoder against the native one, on this machine, in one run:
+#   experiments/web_bench.sh OUT [MAIN.cnrf [SMALL.cnrf]] [--runs N]
+# MAIN: the README main job's stream (default out/lego.cnrf, which scripts/demo.sh writes);
+# SMALL: a stream of preset small (default: encoded here, the main job's command with
+# --preset small and 500 iterations). For each, the first `cnerf render --orbit` camera at
+# 100x100 and 400x400: the median of N renders (default 5) by `cnerf render --threads 1`
+# and `2` (its ms/frame: the fixed-point render only), and by the JavaScript package with 1
+# and 2 workers under Node and in headless Chromium (experiments/web_bench.mjs: the render
+# calls only). Writes OUT/bench.csv and OUT/bench.md; needs build/web (the build makes it when
+# clang and wasm-ld are there), node and chromium.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+out=${1:?usage: experiments/web_bench.sh OUT [MAIN.cnrf [SMALL.cnrf]] [--runs N]}
+shift
+runs=5
+streams=()
+while [ $# -gt 0 ]; do
+  case $1 in
+    --runs) runs=$2; shift 2 ;;
+    *) streams+=("$1"); shift ;;
+  esac
+done
+cnerf=./build/cnerf
+data=${CNERF_DATA:-../shared/data}
+mkdir -p "$out"
+main=${streams[0]:-out/lego.cnrf}
+[ -f "$main" ] || { echo "web_bench.sh: $main is missing (scripts/demo.sh writes it)" >&2; exit 1; }
+small=${streams[1]:-$out/small.cnrf}
+if [ ! -f "$small" ]; then
+  "$cnerf" encode "$data/lego" -o "$small" --lambda 0.1 --preset small --downscale 4 --iters 500 \
+    --every 40 --log-every 100 > "$out/small-encode.log"
+fi
+median() { sort -n | awk '{a[NR] = $1} END {print a[int((NR + 1) / 2)]}'; }
+echo "where,name,camera,width,workers,median_ms,evals_per_ray" > "$out/bench.csv"
+specs=()
+for pair in "main=$main" "small=$small"; do
+  name=${pair%%=*} s=${pair#*=}
+  : > "$out/$name.cams"
+  for size in 100 400; do
+    "$cnerf" render "$s" --orbit 1 --size $size -o "$out/r-$name-$size" \
+      --save-cameras "$out/$name-$size.cam" > /dev/null
+    cat "$out/$name-$size.cam" >> "$out/$name.cams"
+    for t in 1 2; do
+      ms=$(for r in $(seq "$runs"); do
+             "$cnerf" render "$s" --orbit 1 --size $size --threads $t -o "$out/r-$name-$size" |
+               sed -n 's/.* \([0-9.]*\) ms\/frame .*/\1/p'
+           done | median)
+      epr=$("$cnerf" render "$s" --orbit 1 --size $size -o "$out/r-$name-$size" |
+              sed -n 's/^network evaluations per ray: \([0-9.]*\).*/\1/p')
+      echo "native,$name,orbit_000,$size,$t,$ms,$epr" >> "$out/bench.csv"
+    done
+  done
+  specs+=("$name=$s:$out/$name.cams")
+done
+node experiments/web_bench.mjs build/web "$runs" "${specs[@]}" >> "$out/bench.csv"
+python3 - "$out/bench.csv" > "$out/bench.md" <<'PY'
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+get = lambda w, n, s, k: next((float(r["median_ms"]) for r in rows if (r["where"], r["name"], r["width"], r["workers"]) == (w, n, s, k)), None)
+print("| stream | size | threads / workers | native (ms) | Node (ms) | Chromium (ms) | Chromium / native |")
+print("|---|---|---|---|---|---|---|")
+for n in ("main", "small"):
+    for s in ("100", "400"):
+        for k in ("1", "2"):
+            a, b, c = get("native", n, s, k), get("node", n, s, k), get("chromium", n, s, k)
+            print(f"| {n} | {s}×{s} | {k} | {a:.1f} | {b:.1f} | {c:.1f} | {c / a:.2f} |")
+PY
+cat "$out/bench.md"
