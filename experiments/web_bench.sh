@@ -66,4 +66,14 @@ for n in ("main", "small"):
             a, b, c = get("native", n, s, k), get("node", n, s, k), get("chromium", n, s, k)
             print(f"| {n} | {s}×{s} | {k} | {a:.1f} | {b:.1f} | {c:.1f} | {c / a:.2f} |")
 PY
+# sizes: the module, the package's script, the single file of the main stream, gzipped too
+"$cnerf" html "$main" -o "$out/main.html" > /dev/null
+{
+  echo
+  echo "| file | bytes | gzipped (-9) |"
+  echo "|---|---|---|"
+  for f in build/web/cnerf.wasm build/web/cnerf-bundle.js "$out/main.html"; do
+    echo "| $(basename "$f") | $(stat -c %s "$f") | $(gzip -9c "$f" | wc -c) |"
+  done
+} >> "$out/bench.md"
 cat "$out/bench.md"
