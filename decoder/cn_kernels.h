@@ -157,6 +157,11 @@ void cn_dot_s16_neon(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint3
 /* kernels_simd128.c: i32x4.dot_i16x8_s over a block's input pair */
 void cn_dot_s16_simd128(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                         int32_t *acc);
+/* kernels_simd128.c: eight inputs a step */
+int32_t cn_requant_s16_simd128(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
+/* kernels_simd128.c: four outputs a step (i64x2.extmul) */
+void cn_finish_s32_simd128(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
+                           const int32_t *bq, int32_t *y, int relu);
 #endif
 
 /* ---- x86-64 ---- */

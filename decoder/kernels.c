@@ -145,8 +145,8 @@ uint32_t cn_dot_variants(cn_dot_variant out[CN_DOT_MAX_VARIANTS])
                  neon_cost, CN_PAIRS);
 #endif
 #if defined(CN_HAVE_SIMD128) /* WebAssembly: fixed at compile time (-msimd128) */
-    n += variant(out + n, "simd128", cn_dot_s16_simd128, c_requant, c_finish, cn_spdot_s16_c,
-                 simd128_cost, CN_PAIRS);
+    n += variant(out + n, "simd128", cn_dot_s16_simd128, cn_requant_s16_simd128,
+                 cn_finish_s32_simd128, cn_spdot_s16_c, simd128_cost, CN_PAIRS);
 #endif
     return n;
 }

@@ -138,6 +138,8 @@ CN_NOINLINE static int32_t requant(const int32_t *x, int16_t *xq, uint32_t n, un
     return cn_requant_s16_mve(x, xq, n, s);
 #elif defined(CN_HAVE_DSP)
     return cn_requant_s16_dsp(x, xq, n, s);
+#elif defined(CN_HAVE_SIMD128)
+    return cn_requant_s16_simd128(x, xq, n, s);
 #else
     const int32_t h = (int32_t)1 << (s - 1u);
     for (uint32_t i = 0; i < n; i++) {
@@ -172,6 +174,11 @@ CN_NOINLINE static void finish_fast(const int32_t *acc, uint32_t live, int32_t a
 #elif defined(CN_HAVE_DSP)
     if (n < 32u) {
         cn_finish_s32_dsp(acc, live, am, n, t, bq, y, relu);
+        return;
+    }
+#elif defined(CN_HAVE_SIMD128)
+    if (n < 32u) {
+        cn_finish_s32_simd128(acc, live, am, n, t, bq, y, relu);
         return;
     }
 #endif
