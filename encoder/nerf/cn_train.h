@@ -17,6 +17,9 @@
 
 #define CN_PRECROP_ITERS 500
 
+/* The default warm-up of the learning rate, in iterations (docs/training.md, "Warm-up"). */
+#define CN_LR_WARMUP 20
+
 typedef struct cn_train_opts {
     const char *preset; /* "tiny", "small" or "paper" */
     int depth, width, view_width, n_coarse, n_fine; /* overrides; -1 keeps the preset's */
@@ -24,6 +27,10 @@ typedef struct cn_train_opts {
     int batch;             /* rays per iteration */
     double lr;             /* initial learning rate */
     double lr_decay_steps; /* lr = lr0 * 0.1^(step / lr_decay_steps); 0: over iters */
+    /* The first lr_warmup steps ramp lr linearly up to it (step k at (k + 1) / lr_warmup of it);
+     * -1 (the default): for the float model CN_LR_WARMUP, at most a tenth of iters; for a
+     * compressed one (compress) none. */
+    long lr_warmup;
     /* The first precrop_iters iterations draw their rays from the centre crop only (360-degree
      * scenes); -1 (the default): CN_PRECROP_ITERS when some training view has transparency,
      * else 0. */

@@ -22,6 +22,7 @@ void cn_train_defaults(cn_train_opts *o)
      * (docs/training.md: on Lego at 100x100 tiny reaches 25 dB in about a third of the time). */
     o->lr = 5e-3;
     o->lr_decay_steps = 0;
+    o->lr_warmup = -1;
     o->precrop_iters = -1;
     o->precrop_frac = 0.5;
     o->occ_grid = 32;
@@ -233,7 +234,13 @@ double cn_trainer_lr(const cn_trainer *t)
 {
     const double span = t->opts.lr_decay_steps > 0 ? t->opts.lr_decay_steps
                         : t->opts.iters > 0 ? (double)t->opts.iters : 1.0;
-    return t->opts.lr * pow(0.1, (double)t->step / span);
+    long warmup = t->opts.lr_warmup;
+    if (warmup < 0) /* the float trainer's default; the encoder's is none (docs/training.md) */
+        warmup = t->opts.compress ? 0
+                 : t->opts.iters / 10 < CN_LR_WARMUP ? t->opts.iters / 10 : CN_LR_WARMUP;
+    const double warm = warmup > 0 && t->step < warmup
+                            ? (double)(t->step + 1) / (double)warmup : 1.0;
+    return t->opts.lr * warm * pow(0.1, (double)t->step / span);
 }
 
 void cn_view_camera(const cn_view *v, cn_camera *cam)

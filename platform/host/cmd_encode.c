@@ -27,7 +27,7 @@
     "       cnerf encode DATASET1 DATASET2 ... -o set.cnrf (--lambda L | --quality Q)\n"   \
     "       (--lambda L | --quality Q | --size BYTES | --bits-per-param X)\n"               \
     "       [--preset tiny|small|paper|auto (the default with --size; else small)]\n"        \
-    "       [--rate-control dual|pi] [--lr X] [--lr-decay N] [--precrop-iters N]\n"          \
+    "       [--rate-control dual|pi] [--lr X] [--lr-decay N] [--lr-warmup N] [--precrop-iters N]\n"          \
     "       [--average N]\n"                                                                 \
     "       [--iters N] [--downscale F|--max-size N] [--threads T] [--seed S]\n"                         \
     "       [--resume CKPT | --force]\n"                                                     \
@@ -270,6 +270,7 @@ static int parse_args(int argc, char **argv, encode_args *A)
         {"--latent-lr", CLI_STR, &A->latent_lr, 0, 0},
         {"--lr", CLI_DOUBLE, &A->o.lr, 1e-8, 1},
         {"--lr-decay", CLI_DOUBLE, &A->o.lr_decay_steps, 1, 1e12},
+        {"--lr-warmup", CLI_LONG, &A->o.lr_warmup, 0, 1000000},
         {"--precrop-iters", CLI_LONG, &A->precrop, 0, 1e9},
         {"--average", CLI_LONG, &A->o.average, 1, 1e9},
         {"--prior-lr", CLI_DOUBLE, &A->o.lr_prior, 0, 1},

@@ -18,7 +18,7 @@
     "       [--downscale F|--max-size N] [--threads T] [--seed S] [--resume | --force] [--batch R] [--depth D]\n"     \
     "       [--width W] [--view-width V] [--coarse N] [--fine N] [--lr X] [--precrop-iters N] [--black]\n"     \
     "       [--near X] [--far X] [--ckpt-every N | --ckpt-secs S] [--log-every N] [--occupancy G]\n"     \
-    "       [--eval-every N] [--every K] [--lr-decay N]\n"                                              \
+    "       [--eval-every N] [--every K] [--lr-decay N] [--lr-warmup N]\n"                                            \
     "       [--occupancy-start N] [--skip-saturated EPS] [--random-bg auto|on|off]\n"    \
     "       [--background auto|constant|contract]\n"                                          \
     "       [--group-penalty MU] [--train-images DIR] [--val-views N]"
@@ -56,6 +56,7 @@ int cmd_train(int argc, char **argv)
         {"--fine", CLI_LONG, &fine, 0, CNERF_MAX_SAMPLES},
         {"--lr", CLI_DOUBLE, &lr, 1e-8, 1},
         {"--lr-decay", CLI_DOUBLE, &o.lr_decay_steps, 1, 1e12},
+        {"--lr-warmup", CLI_LONG, &o.lr_warmup, 0, 1000000},
         {"--precrop-iters", CLI_LONG, &precrop, 0, 1e9},
         {"--black", CLI_FLAG, &black, 0, 0},
         {"--near", CLI_DOUBLE, &near, 1e-6, 1e4},

@@ -56,6 +56,7 @@ static void small_opts(cn_train_opts *o)
     o->seed = 7;
     o->lr = 5e-3;
     o->lr_decay_steps = 500000; /* the schedule the pinned trajectory was measured with */
+    o->lr_warmup = 0;
 }
 
 static double scene_test_psnr(const cn_model *m, const cn_dataset *d, int views)
@@ -168,6 +169,40 @@ static void test_pinned_trajectory(void **state)
     cn_trainer_free(&t);
     cn_gemm_set_threads(2);
     assert_int_equal(bad, 0);
+}
+
+/* The learning rate's warm-up: by default CN_LR_WARMUP iterations of the float trainer, at most
+ * a tenth of the run, and none for the encoder; step k at (k + 1) / warm-up of the decayed
+ * rate; --lr-warmup N sets it, 0 turns it off. */
+static void test_lr_warmup(void **state)
+{
+    (void)state;
+    const struct {
+        long iters, warmup, want; /* want: the warm-up's length */
+        int compress;
+    } cases[] = {{2000, -1, CN_LR_WARMUP, 0}, {100, -1, 10, 0}, {5, -1, 0, 0}, {2000, 0, 0, 0},
+                 {2000, 400, 400, 0}, {2000, -1, 0, 1}, {2000, 50, 50, 1}};
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        cn_train_opts o;
+        small_opts(&o);
+        o.iters = cases[c].iters;
+        o.lr_warmup = cases[c].warmup;
+        o.compress = cases[c].compress;
+        o.lr_decay_steps = 0;
+        cn_trainer t;
+        char err[512];
+        assert_int_equal(cn_trainer_init(&t, &ds, &o, err, sizeof err), 0);
+        for (long k = 0; k < cases[c].want + 3; k++) {
+            t.step = k;
+            const double decayed = o.lr * pow(0.1, (double)k / (double)o.iters);
+            const double want = k < cases[c].want ? decayed * (double)(k + 1) / (double)cases[c].want
+                                                  : decayed;
+            if (fabs(cn_trainer_lr(&t) - want) > 1e-12 * want)
+                fail_msg("iters %ld, warm-up %ld, step %ld: lr %.9g, want %.9g", o.iters,
+                         o.lr_warmup, k, cn_trainer_lr(&t), want);
+        }
+        cn_trainer_free(&t);
+    }
 }
 
 /* --random-bg: auto follows the training views' transparency, off keeps the stream's
@@ -465,8 +500,8 @@ static void test_affine_scale_steps_relative(void **state)
         a[l] = m->params[m->off_ab + 2 * l];
         b[l] = m->params[m->off_ab + 2 * l + 1];
     }
+    const double decay = cn_trainer_lr(&t) / o.lr; /* the rate the first step takes */
     cn_trainer_step(&t, NULL, NULL);
-    const double decay = cn_trainer_lr(&t) / o.lr; /* the rate the first step took */
     unsigned moved = 0;
     for (unsigned l = 0; l < L; l++) {
         const double a0 = cn_glorot_limit(&m->topo.layer[l]) / o.levels;
@@ -889,6 +924,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_pinned_trajectory),
         cmocka_unit_test(test_random_bg_option),
+        cmocka_unit_test(test_lr_warmup),
         cmocka_unit_test(test_end_to_end),
         cmocka_unit_test(test_reproducible),
         cmocka_unit_test(test_resume_continues_exactly),
