@@ -3,7 +3,7 @@
 //   node experiments/web_bench.mjs WEBDIR RUNS NAME=STREAM:CAMFILE ...
 // For each stream, each camera of its CAMFILE (`cnerf render --save-cameras` lines) and 1 and
 // 2 workers: RUNS timed renders after one untimed, in Node then in Chromium; prints
-// "where,name,camera,width,workers,median_ms,evals_per_ray" lines. Only the render calls are
+// "where,name,camera,width,workers,median_ms,evals_per_ray,memory_per_worker" lines. Only the render calls are
 // timed (the stream is opened before).
 import { readFileSync } from 'node:fs';
 import { createServer } from 'node:http';
@@ -39,15 +39,15 @@ async function measure(pkg, wasm, bytes, camLines, runs, workers) {
       epr = image.stats.evalsPerRay;
     }
     times.sort((a, b) => a - b);
-    out.push([f[18], +f[16], times[times.length >> 1], epr]);
+    out.push([f[18], +f[16], times[times.length >> 1], epr, scene.memoryPerWorker]);
   }
   scene.close();
   return out;
 }
 
 const print = (where, name, workers, rows) => {
-  for (const [cam, width, ms, epr] of rows)
-    console.log(`${where},${name},${cam},${width},${workers},${ms.toFixed(1)},${epr.toFixed(2)}`);
+  for (const [cam, width, ms, epr, mem] of rows)
+    console.log(`${where},${name},${cam},${width},${workers},${ms.toFixed(1)},${epr.toFixed(2)},${mem}`);
 };
 
 const pkg = await import(pathToFileURL(join(resolve(webdir), 'js', 'index.js')));

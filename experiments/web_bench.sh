@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # The WebAssembly decoder against the native one, on this machine, in one run:
-#   experiments/web_bench.sh OUT [MAIN.cnrf [SMALL.cnrf]] [--runs N]
+#   experiments/web_bench.sh OUT [MAIN.cnrf [SMALL.cnrf]] [--runs N] [--sizes "100 400"]
 # MAIN: the README main job's stream (default out/lego.cnrf, which scripts/demo.sh writes);
 # SMALL: a stream of preset small (default: encoded here, the main job's command with
 # --preset small and 500 iterations). For each, the first `cnerf render --orbit` camera at
-# 100x100 and 400x400: the median of N renders (default 5) by `cnerf render --threads 1`
+# each size (100x100 and 400x400 by default; each native run also renders the float
+# reference, minutes at 400x400 for small, not timed): the median of N renders (default 5) by `cnerf render --threads 1`
 # and `2` (its ms/frame: the fixed-point render only), and by the JavaScript package with 1
 # and 2 workers under Node and in headless Chromium (experiments/web_bench.mjs: the render
 # calls only). Writes OUT/bench.csv and OUT/bench.md; needs build/web (the build makes it when
@@ -14,10 +15,12 @@ cd "$(dirname "$0")/.."
 out=${1:?usage: experiments/web_bench.sh OUT [MAIN.cnrf [SMALL.cnrf]] [--runs N]}
 shift
 runs=5
+sizes="100 400"
 streams=()
 while [ $# -gt 0 ]; do
   case $1 in
     --runs) runs=$2; shift 2 ;;
+    --sizes) sizes=$2; shift 2 ;;
     *) streams+=("$1"); shift ;;
   esac
 done
@@ -32,12 +35,12 @@ if [ ! -f "$small" ]; then
     --every 40 --log-every 100 > "$out/small-encode.log"
 fi
 median() { sort -n | awk '{a[NR] = $1} END {print a[int((NR + 1) / 2)]}'; }
-echo "where,name,camera,width,workers,median_ms,evals_per_ray" > "$out/bench.csv"
+echo "where,name,camera,width,workers,median_ms,evals_per_ray,memory_per_worker" > "$out/bench.csv"
 specs=()
 for pair in "main=$main" "small=$small"; do
   name=${pair%%=*} s=${pair#*=}
   : > "$out/$name.cams"
-  for size in 100 400; do
+  for size in $sizes; do
     "$cnerf" render "$s" --orbit 1 --size $size -o "$out/r-$name-$size" \
       --save-cameras "$out/$name-$size.cam" > /dev/null
     cat "$out/$name-$size.cam" >> "$out/$name.cams"
@@ -48,7 +51,7 @@ for pair in "main=$main" "small=$small"; do
            done | median)
       epr=$("$cnerf" render "$s" --orbit 1 --size $size -o "$out/r-$name-$size" |
               sed -n 's/^network evaluations per ray: \([0-9.]*\).*/\1/p')
-      echo "native,$name,orbit_000,$size,$t,$ms,$epr" >> "$out/bench.csv"
+      echo "native,$name,orbit_000,$size,$t,$ms,$epr," >> "$out/bench.csv"
     done
   done
   specs+=("$name=$s:$out/$name.cams")
@@ -58,13 +61,16 @@ python3 - "$out/bench.csv" > "$out/bench.md" <<'PY'
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 get = lambda w, n, s, k: next((float(r["median_ms"]) for r in rows if (r["where"], r["name"], r["width"], r["workers"]) == (w, n, s, k)), None)
+mem = {r["name"]: int(r["memory_per_worker"]) for r in rows if r["where"] == "chromium"}
 print("| stream | size | threads / workers | native (ms) | Node (ms) | Chromium (ms) | Chromium / native |")
 print("|---|---|---|---|---|---|---|")
 for n in ("main", "small"):
-    for s in ("100", "400"):
+    for s in sorted({r["width"] for r in rows}, key=int):
         for k in ("1", "2"):
             a, b, c = get("native", n, s, k), get("node", n, s, k), get("chromium", n, s, k)
             print(f"| {n} | {s}×{s} | {k} | {a:.1f} | {b:.1f} | {c:.1f} | {c / a:.2f} |")
+print()
+print("WebAssembly memory per worker: " + ", ".join(f"{n} {m:,} bytes" for n, m in mem.items()))
 PY
 # sizes: the module, the package's script, the single file of the main stream, gzipped too
 "$cnerf" html "$main" -o "$out/main.html" > /dev/null
