@@ -6,6 +6,7 @@
  * rescale (cn_kernels.h). Each function carries its target, so the file builds with the
  * compiler's default flags.
  */
+#include "../common/cn_fixed.h"
 #include "cn_kernels.h"
 #include "cnerf/format.h"
 
@@ -110,12 +111,9 @@ __attribute__((target("avx2"))) int32_t cn_requant_s16_avx2(const int32_t *x, in
     h = _mm_add_epi32(h, _mm_shuffle_epi32(h, 0x4E));
     h = _mm_add_epi32(h, _mm_shuffle_epi32(h, 0xB1));
     int32_t r = _mm_cvtsi128_si32(h);
-    for (; i < n; i++) {
-        const int32_t v = x[i] >= 0 ? x[i] >> s : ~((~x[i]) >> s);
-        int32_t q = v + (int32_t)(((uint32_t)x[i] >> (s - 1u)) & 1u);
-        q = q > 32767 ? 32767 : q < -32768 ? -32768 : q;
-        xq[i] = (int16_t)q;
-        r += q;
+    for (; i < n; i++) { /* the last inputs as the vector steps do them */
+        xq[i] = cn_requant16(x[i], s);
+        r += xq[i];
     }
     return r;
 }

@@ -67,12 +67,9 @@ int32_t cn_requant_s16_simd128(const int32_t *x, int16_t *xq, uint32_t n, unsign
     }
     int32_t r = wasm_i32x4_extract_lane(sum, 0) + wasm_i32x4_extract_lane(sum, 1) +
                 wasm_i32x4_extract_lane(sum, 2) + wasm_i32x4_extract_lane(sum, 3);
-    for (; i < n; i++) {
-        const int32_t v = x[i] >= 0 ? x[i] >> s : ~((~x[i]) >> s);
-        int32_t q = v + (int32_t)(((uint32_t)x[i] >> (s - 1u)) & 1u);
-        q = q > 32767 ? 32767 : q < -32768 ? -32768 : q;
-        xq[i] = (int16_t)q;
-        r += q;
+    for (; i < n; i++) { /* the last inputs as the vector steps do them */
+        xq[i] = cn_requant16(x[i], s);
+        r += xq[i];
     }
     return r;
 }
