@@ -20,15 +20,16 @@
 #define CN_FORM_SPARSE 2u
 
 typedef struct cn_state {
-    /* Latents widened to int16 and packed for the dot-product kernels (docs/decoder.md):
-     * the n_live[l] rows with a non-zero latent, in increasing output order, in blocks of
-     * four rows, each block in layout `layout` (int32 sums) or CN_PAIRS (int64 sums:
-     * cn_packed_index in cn_kernels.h); the remaining one to three rows row after row;
+    /* Latents as int8 where the layer's range fits (cn_latents_s8), else widened to int16,
+     * packed for the dot-product kernels (docs/decoder.md): the n_live[l] rows with a
+     * non-zero latent, in increasing output order, in blocks of four rows, each block in
+     * layout `layout` (int16, int32 sums), `layout8` (int8, int32 sums) or CN_PAIRS (int64
+     * sums: cn_packed_index in cn_kernels.h); the remaining one to three rows row after row;
      * inputs padded to n_pairs[l] pairs with zero; the columns fed by a hidden layer in
      * that layer's stored row order; or, for a layer whose form is CN_FORM_SPARSE, the
      * lists of cn_spdot_fn in the same place. cnerf_latent reads one latent by output and
      * input index. */
-    const int16_t *latent[CNERF_MAX_LAYERS];
+    const void *latent[CNERF_MAX_LAYERS];
     const int32_t *bias[CNERF_MAX_LAYERS];     /* n_out bias mantissas, by output */
     const int32_t *bias_q16[CNERF_MAX_LAYERS]; /* sat32(round(bias 2^16)), by stored row */
     /* Per layer the output index of each stored row: the n_live[l] rows with a non-zero
@@ -50,12 +51,15 @@ typedef struct cn_state {
     uint8_t a_shift[CNERF_MAX_LAYERS];
     uint8_t b_shift[CNERF_MAX_LAYERS]; /* the same for the term b sum x_q (|sum| < 2^26) */
     uint8_t shift_wide[CNERF_MAX_LAYERS];
-    uint8_t layout; /* the chosen kernels' packed layout (cn_dot_variant.layout) */
+    uint8_t layout;  /* the chosen kernels' packed layout (cn_dot_variant.layout) */
+    uint8_t layout8; /* and the one of their int8 sums (cn_dot_variant.layout8) */
     /* The kernels cnerf_open chose for this CPU (docs/decoder.md, Kernels): the sums, and,
      * where the CPU has its own (NULL: the portable C), the inputs' quantization and the
      * outputs' rescale. */
     void (*dot)(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                 int32_t *acc);
+    void (*dot8)(const int8_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                 int32_t *acc);
     uint32_t (*spdot)(const uint32_t *e, const int16_t *x, uint32_t n_rows, int32_t *acc);
     int32_t (*requant)(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
     void (*finish)(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,

@@ -7,14 +7,17 @@
  * the same values and are checked against it (tests/xarch/check_kernels.c). The choice
  * among them is made in one place, kernels.c.
  *
- * A layer's live latent rows are stored packed (cnerf_decoder.latent), in one of two
+ * A layer's live latent rows are stored packed (cnerf_decoder.latent), as int8 when the
+ * layer's latent range fits it (cn_latents_s8) and as int16 otherwise, in one of three
  * layouts (cn_packed_index), the one the chosen kernels read: blocks of four rows, each
  * block either input pair by input pair, k[r][2p] and k[r][2p+1] for each row r (layout
  * CN_PAIRS), or run by run of eight inputs, the run's eight latents of each row r in turn
- * (CN_RUNS8: Helium's dual multiply-accumulates across a vector); the remaining one to
- * three rows follow row after row in both. A layer whose latents are mostly zero may
- * instead be stored as lists of its non-zero latents (cn_spdot_fn), when that is cheaper
- * for the chosen kernels (cnerf_open, decoder/open.c).
+ * (CN_RUNS8: Helium's dual multiply-accumulates across a vector), or, for int8 latents on
+ * the DSP extension, input pair by input pair with the bytes of two rows crossed
+ * (CN_PAIRS_X: SXTB16 widens a word into one row's pair); the remaining one to three rows
+ * follow row after row in all three. A layer whose latents are mostly zero may instead be
+ * stored as lists of its non-zero latents (cn_spdot_fn), when that is cheaper for the
+ * chosen kernels (cnerf_open, decoder/open.c).
  * Freestanding: <stdint.h> only.
  */
 #ifndef CNERF_DECODER_KERNELS_H
@@ -47,17 +50,33 @@
 
 #define CN_PAIRS 0u /* a block's latents input pair by input pair */
 #define CN_RUNS8 1u /* a block's latents run by run of eight inputs */
+#define CN_PAIRS_X 2u /* int8 only: pair by pair, rows 0 and 1 (2 and 3) crossed in a word */
 /* Only builds with Helium's kernels pack in CN_RUNS8 (the others leave its code out). */
 #if defined(CN_HAVE_MVE)
 #define CN_RUNS8_BUILT 1
 #else
 #define CN_RUNS8_BUILT 0
 #endif
+/* Only builds with the DSP extension's int8 sums pack in CN_PAIRS_X. */
+#if defined(CN_HAVE_DSP) && !defined(CN_HAVE_MVE)
+#define CN_PAIRS_X_BUILT 1
+#else
+#define CN_PAIRS_X_BUILT 0
+#endif
+
+/* 1 when a layer's latents kmin..kmax are stored as int8 (else int16): a property of the
+ * stream alone, so the workspace's size is the same whichever kernels a CPU chooses. */
+static inline int cn_latents_s8(int32_t kmin, int32_t kmax)
+{
+    return kmin >= -128 && kmax <= 127;
+}
 
 /* The index of latent k[j][i] of stored row j among `live` packed rows of 2 pairs inputs,
  * in layout `layout`. A block of four rows holds 8 pairs latents either way; in CN_RUNS8 a
- * last run of m < 8 inputs holds each row's m latents in turn. The last one to three rows
- * (a block that is not full) are row after row in both layouts. */
+ * last run of m < 8 inputs holds each row's m latents in turn; in CN_PAIRS_X a pair's eight
+ * bytes are k[0][2p], k[1][2p], k[0][2p+1], k[1][2p+1], then rows 2 and 3 the same way.
+ * The last one to three rows (a block that is not full) are row after row in all
+ * layouts. */
 static inline uint32_t cn_packed_index(uint32_t j, uint32_t i, uint32_t live, uint32_t pairs,
                                        uint32_t layout)
 {
@@ -68,6 +87,8 @@ static inline uint32_t cn_packed_index(uint32_t j, uint32_t i, uint32_t live, ui
         const uint32_t run = i >> 3, left = 2u * pairs - 8u * run;
         return base + 32u * run + q * (left < 8u ? left : 8u) + (i & 7u);
     }
+    if (CN_PAIRS_X_BUILT && layout == CN_PAIRS_X)
+        return base + (i >> 1) * 8u + 4u * (q >> 1) + 2u * (i & 1u) + (q & 1u);
     return base + (i >> 1) * 8u + 2u * q + (i & 1u);
 }
 
@@ -79,6 +100,11 @@ static inline uint32_t cn_packed_index(uint32_t j, uint32_t i, uint32_t live, ui
  * order of summation gives the same value. */
 typedef void (*cn_dot_fn)(const int16_t *k, const int16_t *x, uint32_t n_pairs,
                           uint32_t n_rows, int32_t *acc);
+
+/* dot_s8: the same sums over int8 latents (a layer whose range fits, cn_latents_s8), in the
+ * int8 layout of the kernel's set (cn_dot_variant.layout8). */
+typedef void (*cn_dot8_fn)(const int8_t *k, const int16_t *x, uint32_t n_pairs,
+                           uint32_t n_rows, int32_t *acc);
 
 /* spdot_s16: the same sums over a sparse layer: for each of the n_rows live rows, one word
  * holding its count n of non-zero latents, then n words, each 2 i << 16 | (uint16_t)k for
@@ -117,12 +143,21 @@ uint32_t cn_spdot_s16_c(const uint32_t *e, const int16_t *x, uint32_t n_rows, in
 void cn_dot_s16_s64_c(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                       int64_t *acc);
 
+/* The sums over int8 latents in layout CN_PAIRS, in int32 and in int64. */
+void cn_dot_s8_c(const int8_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                 int32_t *acc);
+void cn_dot_s8_s64_c(const int8_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                     int64_t *acc);
+
 /* ---- Arm ---- */
 
 #if defined(CN_HAVE_DSP) && !defined(CN_HAVE_MVE)
 /* kernels_dsp.c: SMLAD, 16 multiply-accumulates in 15 instructions */
 void cn_dot_s16_dsp(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                     int32_t *acc);
+/* kernels_dsp.c: int8 latents in layout CN_PAIRS_X, SXTB16 and SMLAD */
+void cn_dot_s8_dsp(const int8_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                   int32_t *acc);
 #endif
 #if defined(CN_HAVE_DSP)
 /* kernels_dsp.c: SMLABB, two non-zero latents in seven instructions */
@@ -139,6 +174,10 @@ void cn_finish_s32_dsp(const int32_t *acc, uint32_t live, int32_t am, unsigned n
  * instruction for its eight multiply-accumulates */
 void cn_dot_s16_mve(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                     int32_t *acc);
+/* kernels_mve.c: the same over int8 latents, each run's eight widened by its load
+ * (VLDRB.S16) */
+void cn_dot_s8_mve(const int8_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                   int32_t *acc);
 /* kernels_mve.c: eight inputs a step (VLD2, VRSHL, VQMOVNB/VQMOVNT, VADDVA) */
 int32_t cn_requant_s16_mve(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
 /* kernels_mve.c: four outputs a step (VMUL, VMULH, shifts, VQADD) */
@@ -149,6 +188,9 @@ void cn_finish_s32_mve(const int32_t *acc, uint32_t live, int32_t am, unsigned n
 /* kernels_neon.c: vmlal_s16/vmlal_high_s16 over a block's input pair */
 void cn_dot_s16_neon(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                      int32_t *acc);
+/* kernels_neon.c: int8 latents, two blocks' pairs widened by vmovl_s8 */
+void cn_dot_s8_neon(const int8_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                    int32_t *acc);
 #endif
 
 /* ---- WebAssembly ---- */
@@ -157,6 +199,9 @@ void cn_dot_s16_neon(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint3
 /* kernels_simd128.c: i32x4.dot_i16x8_s over a block's input pair */
 void cn_dot_s16_simd128(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                         int32_t *acc);
+/* kernels_simd128.c: int8 latents widened by their load (i16x8.load8x8_s) */
+void cn_dot_s8_simd128(const int8_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                       int32_t *acc);
 /* kernels_simd128.c: eight inputs a step */
 int32_t cn_requant_s16_simd128(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
 /* kernels_simd128.c: four outputs a step (i64x2.extmul) */
@@ -172,6 +217,9 @@ int cn_cpu_has_avx2(void);
 /* kernels_avx2.c: vpmaddwd over two input pairs of a block */
 void cn_dot_s16_avx2(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                      int32_t *acc);
+/* kernels_avx2.c: int8 latents widened by vpmovsxbw, then as cn_dot_s16_avx2 */
+void cn_dot_s8_avx2(const int8_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                    int32_t *acc);
 /* kernels_avx2.c: sixteen inputs a step */
 int32_t cn_requant_s16_avx2(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
 /* kernels_avx2.c: eight outputs a step */
@@ -186,6 +234,7 @@ void cn_finish_s32_avx2(const int32_t *acc, uint32_t live, int32_t am, unsigned 
 typedef struct cn_dot_variant {
     const char *name; /* the instruction set: "c", "dsp", "mve", "neon", "simd128", "avx2" */
     cn_dot_fn fn;
+    cn_dot8_fn fn8; /* the sums over int8 latents */
     cn_requant_fn requant;
     cn_finish_fn finish;
     cn_spdot_fn spdot;
@@ -196,7 +245,9 @@ typedef struct cn_dot_variant {
      * place, or the layer stays packed). docs/decoder.md, "Zero latents", says how they
      * were measured. */
     uint16_t mac_cost, nz_cost, row_cost;
-    uint8_t layout; /* the packed layout fn reads: CN_PAIRS or CN_RUNS8 */
+    uint16_t mac8_cost; /* fn8 per multiply-accumulate (int8 latents) */
+    uint8_t layout;  /* the packed layout fn reads: CN_PAIRS or CN_RUNS8 */
+    uint8_t layout8; /* the one fn8 reads: CN_PAIRS, CN_RUNS8 or CN_PAIRS_X */
 } cn_dot_variant;
 
 #define CN_DOT_MAX_VARIANTS 4u
@@ -224,14 +275,19 @@ cn_dot_variant cn_dot_select(void);
 #endif
 #if defined(CN_HAVE_MVE)
 #define CN_DOT_DIRECT cn_dot_s16_mve
+#define CN_DOT8_DIRECT cn_dot_s8_mve
 #elif defined(CN_HAVE_DSP)
 #define CN_DOT_DIRECT cn_dot_s16_dsp
+#define CN_DOT8_DIRECT cn_dot_s8_dsp
 #elif defined(CN_HAVE_NEON)
 #define CN_DOT_DIRECT cn_dot_s16_neon
+#define CN_DOT8_DIRECT cn_dot_s8_neon
 #elif defined(CN_HAVE_SIMD128)
 #define CN_DOT_DIRECT cn_dot_s16_simd128
+#define CN_DOT8_DIRECT cn_dot_s8_simd128
 #elif !defined(CN_HAVE_AVX2)
 #define CN_DOT_DIRECT cn_dot_s16_c
+#define CN_DOT8_DIRECT cn_dot_s8_c
 #endif
 
 #endif /* CNERF_DECODER_KERNELS_H */

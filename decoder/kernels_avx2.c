@@ -1,7 +1,8 @@
 /*
  * x86-64 kernels, chosen at run time (kernels.c): AVX2 (vpmaddwd: sixteen 16-bit products
  * summed in pairs into eight int32) when the CPU has it and the operating system saves its
- * registers (cn_cpu_has_avx2). cn_dot_s16_avx2 computes exactly cn_dot_s16_c's sums,
+ * registers (cn_cpu_has_avx2). cn_dot_s16_avx2 and cn_dot_s8_avx2 compute exactly
+ * cn_dot_s16_c's and cn_dot_s8_c's sums,
  * cn_requant_s16_avx2 and cn_finish_s32_avx2 render.c's input quantization and output
  * rescale (cn_kernels.h). Each function carries its target, so the file builds with the
  * compiler's default flags.
@@ -14,77 +15,92 @@
 #include <cpuid.h>
 #include <immintrin.h>
 
-__attribute__((target("avx2"))) static int32_t row_avx2(const int16_t *k, const int16_t *x,
-                                                        uint32_t n);
-
-/* Each 256-bit load holds two input pairs of the block's four rows; multiplied with the
- * first pair repeated in the low half and the second in the high half, vpmaddwd gives the
- * four rows' sums over each pair. The inputs are spread that way once per call (xx, on
- * the stack: at most 281 vectors), so a block's step is a load, a vpmaddwd and an add. */
-__attribute__((target("avx2"))) void cn_dot_s16_avx2(const int16_t *k, const int16_t *x,
-                                                     uint32_t n_pairs, uint32_t n_rows,
-                                                     int32_t *acc)
+/* Latents as int16 lanes: sixteen (a 256-bit vector) and eight (128 bits), loaded as they
+ * are (int16) or widened by vpmovsxbw from sixteen and eight bytes (int8). */
+__attribute__((target("avx2"))) static inline __m256i k16_s16(const int16_t *k)
 {
-    __m256i xx[(CNERF_MAX_LAYER_IN + 3u) / 4u];
-    const __m256i spread = _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1);
-    const uint32_t steps = n_pairs >> 1;
-    for (uint32_t q = 0; q < steps; q++)
-        xx[q] = _mm256_permutevar8x32_epi32(
-            _mm256_castsi128_si256(_mm_loadl_epi64((const __m128i *)(const void *)(x + 4u * q))),
-            spread);
-    int32_t xlast = 0;
-    if (n_pairs & 1u)
-        __builtin_memcpy(&xlast, x + 4u * steps, 4);
-    uint32_t j = 0;
-    for (; j + 4u <= n_rows; j += 4u) {
-        __m256i a = _mm256_setzero_si256(), b = _mm256_setzero_si256();
-        uint32_t q = 0;
-        for (; q + 2u <= steps; q += 2u, k += 32) {
-            a = _mm256_add_epi32(a, _mm256_madd_epi16(
-                                        _mm256_loadu_si256((const __m256i *)(const void *)k), xx[q]));
-            b = _mm256_add_epi32(b, _mm256_madd_epi16(
-                                        _mm256_loadu_si256((const __m256i *)(const void *)(k + 16)),
-                                        xx[q + 1u]));
-        }
-        if (q < steps) {
-            a = _mm256_add_epi32(a, _mm256_madd_epi16(
-                                        _mm256_loadu_si256((const __m256i *)(const void *)k), xx[q]));
-            k += 16;
-        }
-        a = _mm256_add_epi32(a, b);
-        __m128i s = _mm_add_epi32(_mm256_castsi256_si128(a), _mm256_extracti128_si256(a, 1));
-        if (n_pairs & 1u) {
-            const __m128i w = _mm_loadu_si128((const __m128i *)(const void *)k);
-            s = _mm_add_epi32(s, _mm_madd_epi16(w, _mm_set1_epi32(xlast)));
-            k += 8;
-        }
-        _mm_storeu_si128((__m128i *)(void *)(acc + j), s);
+    return _mm256_loadu_si256((const __m256i *)(const void *)k);
+}
+__attribute__((target("avx2"))) static inline __m128i k8_s16(const int16_t *k)
+{
+    return _mm_loadu_si128((const __m128i *)(const void *)k);
+}
+__attribute__((target("avx2"))) static inline __m256i k16_s8(const int8_t *k)
+{
+    return _mm256_cvtepi8_epi16(_mm_loadu_si128((const __m128i *)(const void *)k));
+}
+__attribute__((target("avx2"))) static inline __m128i k8_s8(const int8_t *k)
+{
+    return _mm_cvtepi8_epi16(_mm_loadl_epi64((const __m128i *)(const void *)k));
+}
+
+/* Each 256-bit vector of latents holds two input pairs of the block's four rows; multiplied
+ * with the first pair repeated in the low half and the second in the high half, vpmaddwd
+ * gives the four rows' sums over each pair. The inputs are spread that way once per call
+ * (xx, on the stack: at most 281 vectors), so a block's step is a load, a vpmaddwd and an
+ * add. The last one to three rows, row after row: sixteen inputs per vpmaddwd (ROW). */
+#define CN_DOT_AVX2(NAME, ROW, KT, K16, K8)                                                 \
+    __attribute__((target("avx2"))) static int32_t ROW(const KT *k, const int16_t *x,        \
+                                                       uint32_t n)                          \
+    {                                                                                       \
+        __m256i a = _mm256_setzero_si256();                                                 \
+        uint32_t i = 0;                                                                     \
+        for (; i + 16u <= n; i += 16u)                                                      \
+            a = _mm256_add_epi32(                                                           \
+                a, _mm256_madd_epi16(K16(k + i),                                            \
+                                     _mm256_loadu_si256((const __m256i *)(const void *)(x + i)))); \
+        __m128i s = _mm_add_epi32(_mm256_castsi256_si128(a), _mm256_extracti128_si256(a, 1)); \
+        for (; i + 8u <= n; i += 8u)                                                        \
+            s = _mm_add_epi32(                                                              \
+                s, _mm_madd_epi16(K8(k + i), _mm_loadu_si128((const __m128i *)(const void *)(x + i)))); \
+        s = _mm_add_epi32(s, _mm_shuffle_epi32(s, 0x4E));                                   \
+        s = _mm_add_epi32(s, _mm_shuffle_epi32(s, 0xB1));                                   \
+        int32_t r = _mm_cvtsi128_si32(s);                                                   \
+        for (; i < n; i++)                                                                  \
+            r += k[i] * x[i];                                                               \
+        return r;                                                                           \
+    }                                                                                       \
+    __attribute__((target("avx2"))) void NAME(const KT *k, const int16_t *x, uint32_t n_pairs, \
+                                              uint32_t n_rows, int32_t *acc)                \
+    {                                                                                       \
+        __m256i xx[(CNERF_MAX_LAYER_IN + 3u) / 4u];                                         \
+        const __m256i spread = _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1);                   \
+        const uint32_t steps = n_pairs >> 1;                                                \
+        for (uint32_t q = 0; q < steps; q++)                                                \
+            xx[q] = _mm256_permutevar8x32_epi32(                                            \
+                _mm256_castsi128_si256(                                                     \
+                    _mm_loadl_epi64((const __m128i *)(const void *)(x + 4u * q))),          \
+                spread);                                                                    \
+        int32_t xlast = 0;                                                                  \
+        if (n_pairs & 1u)                                                                   \
+            __builtin_memcpy(&xlast, x + 4u * steps, 4);                                    \
+        uint32_t j = 0;                                                                     \
+        for (; j + 4u <= n_rows; j += 4u) {                                                 \
+            __m256i a = _mm256_setzero_si256(), b = _mm256_setzero_si256();                 \
+            uint32_t q = 0;                                                                 \
+            for (; q + 2u <= steps; q += 2u, k += 32) {                                     \
+                a = _mm256_add_epi32(a, _mm256_madd_epi16(K16(k), xx[q]));                  \
+                b = _mm256_add_epi32(b, _mm256_madd_epi16(K16(k + 16), xx[q + 1u]));        \
+            }                                                                               \
+            if (q < steps) {                                                                \
+                a = _mm256_add_epi32(a, _mm256_madd_epi16(K16(k), xx[q]));                  \
+                k += 16;                                                                    \
+            }                                                                               \
+            a = _mm256_add_epi32(a, b);                                                     \
+            __m128i s =                                                                     \
+                _mm_add_epi32(_mm256_castsi256_si128(a), _mm256_extracti128_si256(a, 1));   \
+            if (n_pairs & 1u) {                                                             \
+                s = _mm_add_epi32(s, _mm_madd_epi16(K8(k), _mm_set1_epi32(xlast)));         \
+                k += 8;                                                                     \
+            }                                                                               \
+            _mm_storeu_si128((__m128i *)(void *)(acc + j), s);                              \
+        }                                                                                   \
+        for (; j < n_rows; j++, k += 2u * n_pairs)                                          \
+            acc[j] = ROW(k, x, 2u * n_pairs);                                               \
     }
-    for (; j < n_rows; j++, k += 2u * n_pairs)
-        acc[j] = row_avx2(k, x, 2u * n_pairs);
-}
 
-/* The last one to three rows, row after row: sixteen inputs per vpmaddwd. */
-__attribute__((target("avx2"))) static int32_t row_avx2(const int16_t *k, const int16_t *x,
-                                                        uint32_t n)
-{
-    __m256i a = _mm256_setzero_si256();
-    uint32_t i = 0;
-    for (; i + 16u <= n; i += 16u)
-        a = _mm256_add_epi32(a, _mm256_madd_epi16(
-                                    _mm256_loadu_si256((const __m256i *)(const void *)(k + i)),
-                                    _mm256_loadu_si256((const __m256i *)(const void *)(x + i))));
-    __m128i s = _mm_add_epi32(_mm256_castsi256_si128(a), _mm256_extracti128_si256(a, 1));
-    for (; i + 8u <= n; i += 8u)
-        s = _mm_add_epi32(s, _mm_madd_epi16(_mm_loadu_si128((const __m128i *)(const void *)(k + i)),
-                                            _mm_loadu_si128((const __m128i *)(const void *)(x + i))));
-    s = _mm_add_epi32(s, _mm_shuffle_epi32(s, 0x4E));
-    s = _mm_add_epi32(s, _mm_shuffle_epi32(s, 0xB1));
-    int32_t r = _mm_cvtsi128_si32(s);
-    for (; i < n; i++)
-        r += k[i] * x[i];
-    return r;
-}
+CN_DOT_AVX2(cn_dot_s16_avx2, row_s16_avx2, int16_t, k16_s16, k8_s16)
+CN_DOT_AVX2(cn_dot_s8_avx2, row_s8_avx2, int8_t, k16_s8, k8_s8)
 
 /* render.c's requant for 1 <= s <= 16, sixteen inputs a step: floor(x / 2^s) plus bit s-1
  * of x in int32 lanes (exact), packed to int16 with signed saturation (vpackssdw, lanes

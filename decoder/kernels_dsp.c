@@ -1,7 +1,8 @@
 /*
  * The Arm DSP extension's kernels (Cortex-M4, M7, M33, M55; Armv7-A): dual 16-bit
- * multiply-accumulates (SMLAD), saturating additions and packing. cn_dot_s16_dsp computes
- * exactly cn_dot_s16_c's sums, cn_requant_s16_dsp and cn_finish_s32_dsp render.c's input
+ * multiply-accumulates (SMLAD), saturating additions and packing. cn_dot_s16_dsp and
+ * cn_dot_s8_dsp (int8 latents widened by SXTB16) compute exactly cn_dot_s16_c's and
+ * cn_dot_s8_c's sums, cn_requant_s16_dsp and cn_finish_s32_dsp render.c's input
  * quantization and output rescale (cn_kernels.h). Where Helium is there too (Cortex-M55) its
  * sums are the faster ones (mve.c), and the sums here are not built.
  */
@@ -86,6 +87,70 @@ void cn_dot_s16_dsp(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32
             a = __smlad(rd2(k), rd2(x + 2u * p), a);
         acc[j] = a;
     }
+}
+
+/* The int8 sums of a step of two input pairs in layout CN_PAIRS_X: one LDRD of the two
+ * input words and, per pair, one LDRD of its eight latent bytes and per word two SXTB16
+ * (bytes 0 and 2 as one row's pair; rotated by 8, bytes 1 and 3 as the next row's) and two
+ * SMLAD: 19 instructions for 16 multiply-accumulates. */
+#define CN_DSP8_PAIR(X)                                                                     \
+    "ldrd %[w0], %[w1], [%[k]], #8\n\t"                                                     \
+    "sxtb16 %[t], %[w0], ror #8\n\t"                                                        \
+    "sxtb16 %[w0], %[w0]\n\t"                                                               \
+    "smlad %[a0], %[w0], %[" X "], %[a0]\n\t"                                               \
+    "smlad %[a1], %[t], %[" X "], %[a1]\n\t"                                                \
+    "sxtb16 %[t], %[w1], ror #8\n\t"                                                        \
+    "sxtb16 %[w1], %[w1]\n\t"                                                               \
+    "smlad %[a2], %[w1], %[" X "], %[a2]\n\t"                                               \
+    "smlad %[a3], %[t], %[" X "], %[a3]\n\t"
+#define CN_DSP8_STEP "ldrd %[x0], %[x1], [%[xp]], #8\n\t" CN_DSP8_PAIR("x0") CN_DSP8_PAIR("x1")
+
+/* cn_dot_s8_c's sums over latents in layout CN_PAIRS_X: four rows at a time, eight input
+ * pairs per loop iteration (four steps), then steps for the remaining pairs two at a time
+ * and the intrinsics for a last odd pair; the last one to three rows (row after row) by the
+ * portable C. */
+void cn_dot_s8_dsp(const int8_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                   int32_t *acc)
+{
+    uint32_t j = 0;
+    for (; j + 4u <= n_rows; j += 4u) {
+        int32_t a0 = 0, a1 = 0, a2 = 0, a3 = 0;
+        const int16_t *xp = x;
+        int32_t x0, x1, w0, w1, t;
+        if (n_pairs >= 8u) {
+            const int8_t *end = k + 64u * (n_pairs >> 3);
+            __asm__("1:\n\t" CN_DSP8_STEP CN_DSP8_STEP CN_DSP8_STEP CN_DSP8_STEP
+                    "cmp %[k], %[end]\n\t"
+                    "bne 1b"
+                    : [a0] "+r"(a0), [a1] "+r"(a1), [a2] "+r"(a2), [a3] "+r"(a3), [k] "+r"(k),
+                      [xp] "+r"(xp), [x0] "=&r"(x0), [x1] "=&r"(x1), [w0] "=&r"(w0),
+                      [w1] "=&r"(w1), [t] "=&r"(t)
+                    : [end] "r"(end)
+                    : "cc", "memory");
+        }
+        for (uint32_t r = (n_pairs & 7u) >> 1; r > 0u; r--) {
+            __asm__(CN_DSP8_STEP
+                    : [a0] "+r"(a0), [a1] "+r"(a1), [a2] "+r"(a2), [a3] "+r"(a3), [k] "+r"(k),
+                      [xp] "+r"(xp), [x0] "=&r"(x0), [x1] "=&r"(x1), [w0] "=&r"(w0),
+                      [w1] "=&r"(w1), [t] "=&r"(t)
+                    :
+                    : "memory");
+        }
+        if (n_pairs & 1u) {
+            const int32_t xv = rd2(xp);
+            uint32_t v0, v1;
+            __builtin_memcpy(&v0, k, 4);
+            __builtin_memcpy(&v1, k + 4, 4);
+            a0 = __smlad(__sxtb16((int8x4_t)v0), xv, a0);
+            a1 = __smlad(__sxtb16((int8x4_t)(v0 >> 8 | v0 << 24)), xv, a1);
+            a2 = __smlad(__sxtb16((int8x4_t)v1), xv, a2);
+            a3 = __smlad(__sxtb16((int8x4_t)(v1 >> 8 | v1 << 24)), xv, a3);
+            k += 8;
+        }
+        acc[j] = a0, acc[j + 1u] = a1, acc[j + 2u] = a2, acc[j + 3u] = a3;
+    }
+    if (j < n_rows)
+        cn_dot_s8_c(k, x, n_pairs, n_rows - j, acc + j);
 }
 
 #endif /* the sums where there is no Helium */

@@ -1,6 +1,7 @@
 /*
- * Helium (the M-profile vector extension: Cortex-M55, M85): cn_dot_s16_mve, exactly
- * cn_dot_s16_c's sums over latents packed in layout CN_RUNS8, and cn_requant_s16_mve and
+ * Helium (the M-profile vector extension: Cortex-M55, M85): cn_dot_s16_mve and cn_dot_s8_mve,
+ * exactly cn_dot_s16_c's and cn_dot_s8_c's sums over latents packed in layout CN_RUNS8 (int8
+ * widened by their loads, VLDRB.S16), and cn_requant_s16_mve and
  * cn_finish_s32_mve, exactly render.c's input quantization and output rescale
  * (cn_kernels.h). The lists of non-zero latents keep the DSP extension's kernel.
  */
@@ -18,85 +19,96 @@
  * writing its pointer back, VMLADAVA's accumulators in even registers (constraint Te), and
  * eight instructions a block around it. Otherwise a last run of m < 8 inputs loads m lanes (the
  * others zero: a predicated load reads nothing past them). The last one to three rows,
- * row after row, the same way. */
-#define CN_MVE_RUN                                                                          \
+ * row after row, the same way.
+ * One run of a block: the run's inputs, then each row's eight latents (LDK: one load,
+ * widening int8 to int16 lanes for int8 latents) and its VMLADAVA. */
+#define CN_MVE_RUN(LDK)                                                                     \
     "vldrh.16 %q[xv], [%[xp]], #16\n\t"                                                     \
-    "vldrh.16 %q[w0], [%[k]], #16\n\t"                                                      \
-    "vldrh.16 %q[w1], [%[k]], #16\n\t"                                                      \
+    LDK(w0) LDK(w1)                                                                         \
     "vmladava.s16 %[a0], %q[w0], %q[xv]\n\t"                                                \
-    "vldrh.16 %q[w0], [%[k]], #16\n\t"                                                      \
+    LDK(w0)                                                                                 \
     "vmladava.s16 %[a1], %q[w1], %q[xv]\n\t"                                                \
-    "vldrh.16 %q[w1], [%[k]], #16\n\t"                                                      \
+    LDK(w1)                                                                                 \
     "vmladava.s16 %[a2], %q[w0], %q[xv]\n\t"                                                \
     "vmladava.s16 %[a3], %q[w1], %q[xv]\n\t"
+#define CN_LDK_S16(w) "vldrh.16 %q[" #w "], [%[k]], #16\n\t"
+#define CN_LDK_S8(w) "vldrb.s16 %q[" #w "], [%[k]], #8\n\t"
 
-void cn_dot_s16_mve(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
-                    int32_t *acc)
-{
-    const uint32_t runs = (2u * n_pairs) >> 3, left = (2u * n_pairs) & 7u;
-    const mve_pred16_t p = vctp16q(left);
-    uint32_t j = 0;
-    if (!left && runs && n_rows >= 4u) {
-        uint32_t blocks = n_rows >> 2;
-        register uint32_t r __asm__("lr"); /* the low-overhead loop's count (DLS, LE) */
-        int32_t a0, a1, a2, a3;
-        const int16_t *xp;
-        int16x8_t xv, w0, w1;
-        j = 4u * blocks;
-        __asm__("2:\n\t"
-                "mov %[a0], #0\n\t"
-                "mov %[a1], #0\n\t"
-                "mov %[a2], #0\n\t"
-                "mov %[a3], #0\n\t"
-                "mov %[xp], %[x]\n\t"
-                "dls lr, %[runs]\n\t"
-                "1:\n\t" CN_MVE_RUN
-                "le lr, 1b\n\t"
-                "strd %[a0], %[a1], [%[acc]], #8\n\t"
-                "strd %[a2], %[a3], [%[acc]], #8\n\t"
-                "subs %[b], %[b], #1\n\t"
-                "bne 2b"
-                : [a0] "=&Te"(a0), [a1] "=&Te"(a1), [a2] "=&Te"(a2), [a3] "=&Te"(a3),
-                  [k] "+r"(k), [acc] "+r"(acc), [b] "+r"(blocks), [xp] "=&r"(xp), [r] "=&r"(r),
-                  [xv] "=&w"(xv), [w0] "=&w"(w0), [w1] "=&w"(w1)
-                : [x] "r"(x), [runs] "r"(runs)
-                : "cc", "memory");
-        acc -= j; /* acc[j] is the next row's again */
+/* A run's eight latents as int16 lanes, and the first m of them (the others zero). */
+static inline int16x8_t run_s16(const int16_t *k) { return vld1q_s16(k); }
+static inline int16x8_t run_s8(const int8_t *k) { return vldrbq_s16(k); }
+static inline int16x8_t part_s16(const int16_t *k, mve_pred16_t p) { return vldrhq_z_s16(k, p); }
+static inline int16x8_t part_s8(const int8_t *k, mve_pred16_t p) { return vldrbq_z_s16(k, p); }
+
+#define CN_DOT_MVE(NAME, KT, LDK, RUN, PART)                                                \
+    void NAME(const KT *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows, int32_t *acc) \
+    {                                                                                       \
+        const uint32_t runs = (2u * n_pairs) >> 3, left = (2u * n_pairs) & 7u;              \
+        const mve_pred16_t p = vctp16q(left);                                               \
+        uint32_t j = 0;                                                                     \
+        if (!left && runs && n_rows >= 4u) {                                                \
+            uint32_t blocks = n_rows >> 2;                                                  \
+            register uint32_t r __asm__("lr"); /* the low-overhead loop's count (DLS, LE) */ \
+            int32_t a0, a1, a2, a3;                                                         \
+            const int16_t *xp;                                                              \
+            int16x8_t xv, w0, w1;                                                           \
+            j = 4u * blocks;                                                                \
+            __asm__("2:\n\t"                                                                \
+                    "mov %[a0], #0\n\t"                                                     \
+                    "mov %[a1], #0\n\t"                                                     \
+                    "mov %[a2], #0\n\t"                                                     \
+                    "mov %[a3], #0\n\t"                                                     \
+                    "mov %[xp], %[x]\n\t"                                                   \
+                    "dls lr, %[runs]\n\t"                                                   \
+                    "1:\n\t" CN_MVE_RUN(LDK) "le lr, 1b\n\t"                                \
+                    "strd %[a0], %[a1], [%[acc]], #8\n\t"                                   \
+                    "strd %[a2], %[a3], [%[acc]], #8\n\t"                                   \
+                    "subs %[b], %[b], #1\n\t"                                               \
+                    "bne 2b"                                                                \
+                    : [a0] "=&Te"(a0), [a1] "=&Te"(a1), [a2] "=&Te"(a2), [a3] "=&Te"(a3),   \
+                      [k] "+r"(k), [acc] "+r"(acc), [b] "+r"(blocks), [xp] "=&r"(xp),       \
+                      [r] "=&r"(r), [xv] "=&w"(xv), [w0] "=&w"(w0), [w1] "=&w"(w1)          \
+                    : [x] "r"(x), [runs] "r"(runs)                                          \
+                    : "cc", "memory");                                                      \
+            acc -= j; /* acc[j] is the next row's again */                                  \
+        }                                                                                   \
+        for (; j + 4u <= n_rows; j += 4u) {                                                 \
+            int32_t a0 = 0, a1 = 0, a2 = 0, a3 = 0;                                         \
+            const int16_t *xp = x;                                                          \
+            for (uint32_t r = runs; r > 0u; r--) {                                          \
+                const int16x8_t xv = vld1q_s16(xp);                                         \
+                xp += 8;                                                                    \
+                a0 = vmladavaq_s16(a0, RUN(k), xv);                                         \
+                a1 = vmladavaq_s16(a1, RUN(k + 8), xv);                                     \
+                a2 = vmladavaq_s16(a2, RUN(k + 16), xv);                                    \
+                a3 = vmladavaq_s16(a3, RUN(k + 24), xv);                                    \
+                k += 32;                                                                    \
+            }                                                                               \
+            if (left) {                                                                     \
+                const int16x8_t xv = vldrhq_z_s16(xp, p);                                   \
+                a0 = vmladavaq_s16(a0, PART(k, p), xv);                                     \
+                a1 = vmladavaq_s16(a1, PART(k + left, p), xv);                              \
+                a2 = vmladavaq_s16(a2, PART(k + 2u * left, p), xv);                         \
+                a3 = vmladavaq_s16(a3, PART(k + 3u * left, p), xv);                         \
+                k += 4u * left;                                                             \
+            }                                                                               \
+            acc[j] = a0, acc[j + 1u] = a1, acc[j + 2u] = a2, acc[j + 3u] = a3;              \
+        }                                                                                   \
+        for (; j < n_rows; j++) {                                                           \
+            int32_t a = 0;                                                                  \
+            const int16_t *xp = x;                                                          \
+            for (uint32_t r = runs; r > 0u; r--, k += 8, xp += 8)                           \
+                a = vmladavaq_s16(a, RUN(k), vld1q_s16(xp));                                \
+            if (left) {                                                                     \
+                a = vmladavaq_s16(a, PART(k, p), vldrhq_z_s16(xp, p));                      \
+                k += left;                                                                  \
+            }                                                                               \
+            acc[j] = a;                                                                     \
+        }                                                                                   \
     }
-    for (; j + 4u <= n_rows; j += 4u) {
-        int32_t a0 = 0, a1 = 0, a2 = 0, a3 = 0;
-        const int16_t *xp = x;
-        for (uint32_t r = runs; r > 0u; r--) {
-            const int16x8_t xv = vld1q_s16(xp);
-            xp += 8;
-            a0 = vmladavaq_s16(a0, vld1q_s16(k), xv);
-            a1 = vmladavaq_s16(a1, vld1q_s16(k + 8), xv);
-            a2 = vmladavaq_s16(a2, vld1q_s16(k + 16), xv);
-            a3 = vmladavaq_s16(a3, vld1q_s16(k + 24), xv);
-            k += 32;
-        }
-        if (left) {
-            const int16x8_t xv = vldrhq_z_s16(xp, p);
-            a0 = vmladavaq_s16(a0, vldrhq_z_s16(k, p), xv);
-            a1 = vmladavaq_s16(a1, vldrhq_z_s16(k + left, p), xv);
-            a2 = vmladavaq_s16(a2, vldrhq_z_s16(k + 2u * left, p), xv);
-            a3 = vmladavaq_s16(a3, vldrhq_z_s16(k + 3u * left, p), xv);
-            k += 4u * left;
-        }
-        acc[j] = a0, acc[j + 1u] = a1, acc[j + 2u] = a2, acc[j + 3u] = a3;
-    }
-    for (; j < n_rows; j++) {
-        int32_t a = 0;
-        const int16_t *xp = x;
-        for (uint32_t r = runs; r > 0u; r--, k += 8, xp += 8)
-            a = vmladavaq_s16(a, vld1q_s16(k), vld1q_s16(xp));
-        if (left) {
-            a = vmladavaq_s16(a, vldrhq_z_s16(k, p), vldrhq_z_s16(xp, p));
-            k += left;
-        }
-        acc[j] = a;
-    }
-}
+
+CN_DOT_MVE(cn_dot_s16_mve, int16_t, CN_LDK_S16, run_s16, part_s16)
+CN_DOT_MVE(cn_dot_s8_mve, int8_t, CN_LDK_S8, run_s8, part_s8)
 
 /* render.c's requant for 1 <= s <= 16, eight inputs a step (ten instructions with the
  * loop's two): VLD20/VLD21 split them into the even and the odd ones (q0, q1); VRSHL by -s

@@ -1,6 +1,7 @@
 /*
- * WebAssembly's 128-bit SIMD (wasm32 with simd128): cn_dot_s16_simd128, exactly
- * cn_dot_s16_c's sums (cn_kernels.h): per block of four rows and input pair, one load of the
+ * WebAssembly's 128-bit SIMD (wasm32 with simd128): cn_dot_s16_simd128 and cn_dot_s8_simd128,
+ * exactly cn_dot_s16_c's and cn_dot_s8_c's sums (cn_kernels.h; int8 latents widened by
+ * i16x8.load8x8_s): per block of four rows and input pair, one load of the
  * block's eight latents (layout CN_PAIRS) and one i32x4.dot_i16x8_s with the pair splat to
  * the four lanes (once per call), which sums each row's two products into its lane; two
  * blocks a step share each load of the splat pair. The sums wrap modulo
@@ -15,36 +16,43 @@
 #if defined(CN_HAVE_SIMD128)
 #include <wasm_simd128.h>
 
-void cn_dot_s16_simd128(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
-                        int32_t *acc)
-{
-    /* the pairs splat to four lanes once per call (on the stack: at most 282 vectors) */
-    v128_t xs[(CNERF_MAX_LAYER_IN + 1u) / 2u];
-    for (uint32_t p = 0; p < n_pairs; p++)
-        xs[p] = wasm_v128_load32_splat(x + 2u * p);
-    const uint32_t block = 8u * n_pairs; /* int16 of a block of four rows */
-    uint32_t j = 0;
-    for (; j + 8u <= n_rows; j += 8u, k += 2u * block) { /* two blocks: one load of xs each */
-        v128_t a = wasm_i32x4_splat(0), b = wasm_i32x4_splat(0);
-        const int16_t *k1 = k + block;
-        for (uint32_t p = 0; p < n_pairs; p++) {
-            a = wasm_i32x4_add(a, wasm_i32x4_dot_i16x8(wasm_v128_load(k + 8u * p), xs[p]));
-            b = wasm_i32x4_add(b, wasm_i32x4_dot_i16x8(wasm_v128_load(k1 + 8u * p), xs[p]));
-        }
-        wasm_v128_store(acc + j, a);
-        wasm_v128_store(acc + j + 4u, b);
+/* A pair's eight latents of a block as int16 lanes (int8 widened by the load). */
+static inline v128_t pair_s16(const int16_t *k) { return wasm_v128_load(k); }
+static inline v128_t pair_s8(const int8_t *k) { return wasm_i16x8_load8x8(k); }
+
+#define CN_DOT_SIMD128(NAME, KT, PAIR, TAIL)                                                \
+    void NAME(const KT *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows, int32_t *acc) \
+    {                                                                                       \
+        /* the pairs splat to four lanes once per call (on the stack: at most 282 vectors) */ \
+        v128_t xs[(CNERF_MAX_LAYER_IN + 1u) / 2u];                                          \
+        for (uint32_t p = 0; p < n_pairs; p++)                                              \
+            xs[p] = wasm_v128_load32_splat(x + 2u * p);                                     \
+        const uint32_t block = 8u * n_pairs; /* latents of a block of four rows */          \
+        uint32_t j = 0;                                                                     \
+        for (; j + 8u <= n_rows; j += 8u, k += 2u * block) { /* two blocks: one load of xs each */ \
+            v128_t a = wasm_i32x4_splat(0), b = wasm_i32x4_splat(0);                        \
+            const KT *k1 = k + block;                                                       \
+            for (uint32_t p = 0; p < n_pairs; p++) {                                        \
+                a = wasm_i32x4_add(a, wasm_i32x4_dot_i16x8(PAIR(k + 8u * p), xs[p]));       \
+                b = wasm_i32x4_add(b, wasm_i32x4_dot_i16x8(PAIR(k1 + 8u * p), xs[p]));      \
+            }                                                                               \
+            wasm_v128_store(acc + j, a);                                                    \
+            wasm_v128_store(acc + j + 4u, b);                                               \
+        }                                                                                   \
+        if (j + 4u <= n_rows) {                                                             \
+            v128_t a = wasm_i32x4_splat(0);                                                 \
+            for (uint32_t p = 0; p < n_pairs; p++)                                          \
+                a = wasm_i32x4_add(a, wasm_i32x4_dot_i16x8(PAIR(k + 8u * p), xs[p]));       \
+            wasm_v128_store(acc + j, a);                                                    \
+            j += 4u;                                                                        \
+            k += block;                                                                     \
+        }                                                                                   \
+        if (j < n_rows)                                                                     \
+            TAIL(k, x, n_pairs, n_rows - j, acc + j);                                       \
     }
-    if (j + 4u <= n_rows) {
-        v128_t a = wasm_i32x4_splat(0);
-        for (uint32_t p = 0; p < n_pairs; p++)
-            a = wasm_i32x4_add(a, wasm_i32x4_dot_i16x8(wasm_v128_load(k + 8u * p), xs[p]));
-        wasm_v128_store(acc + j, a);
-        j += 4u;
-        k += block;
-    }
-    if (j < n_rows)
-        cn_dot_s16_c(k, x, n_pairs, n_rows - j, acc + j);
-}
+
+CN_DOT_SIMD128(cn_dot_s16_simd128, int16_t, pair_s16, cn_dot_s16_c)
+CN_DOT_SIMD128(cn_dot_s8_simd128, int8_t, pair_s8, cn_dot_s8_c)
 
 /* render.c's requant for 1 <= s <= 16, eight inputs a step: floor(x / 2^s + 1/2) as
  * (x >> s) plus bit s - 1 of x (no addition that could overflow: the same value as the C's

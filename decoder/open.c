@@ -37,6 +37,28 @@ static size_t grid_summary_bytes(uint32_t g)
 /* Inputs of a layer padded to whole pairs (the kernels take two at a time). */
 static uint32_t in_pad(const cnerf_layer_info *L) { return ((uint32_t)L->n_in + 1u) & ~1u; }
 
+/* Bytes of one stored latent of layer L: 1 when its range fits int8, else 2. */
+static unsigned k_bytes(const cnerf_layer_info *L) { return cn_latents_s8(L->kmin, L->kmax) ? 1u : 2u; }
+
+/* Element i of a matrix of int8 (es 1) or int16 (es 2) values. Inlined where the compiler
+ * allows it: at -Os a call per latent would make cnerf_open several times slower. */
+#if defined(__GNUC__)
+#define CN_HOT_INLINE __attribute__((always_inline)) inline
+#else
+#define CN_HOT_INLINE inline
+#endif
+static CN_HOT_INLINE int32_t m_get(const void *m, unsigned es, size_t i)
+{
+    return es == 1u ? ((const int8_t *)m)[i] : ((const int16_t *)m)[i];
+}
+static CN_HOT_INLINE void m_set(void *m, unsigned es, size_t i, int32_t v)
+{
+    if (es == 1u)
+        ((int8_t *)m)[i] = (int8_t)v;
+    else
+        ((int16_t *)m)[i] = (int16_t)v;
+}
+
 size_t cnerf_workspace_size(const cnerf_info *info)
 {
     if (!info || info->n_layers > CNERF_MAX_LAYERS)
@@ -47,7 +69,7 @@ size_t cnerf_workspace_size(const cnerf_info *info)
     for (uint32_t l = 0; l < info->n_layers; l++) {
         const cnerf_layer_info *L = &info->layer[l];
         const cnerf_shift_info *S = &info->shift[l];
-        total += align8((size_t)in_pad(L) * L->n_out * 2u); /* packed int16 latents */
+        total += align8((size_t)in_pad(L) * L->n_out * k_bytes(L)); /* packed latents */
         if (cn_has_shift(S))
             total += align8((size_t)in_pad(L) * L->n_out * 2u); /* packed int16 shifts */
         total += 2u * align8((size_t)L->n_out * 4u);          /* bias mantissas, bias_q16 */
@@ -104,15 +126,16 @@ static coded coded_shifts(const cnerf_layer_info *L, const cnerf_shift_info *S)
     return c;
 }
 
-/* Decodes a coded matrix row-major into lat, rows of in_pad int16 with a zero in the pad
- * column. */
-static cnerf_status decode_matrix(const uint8_t *buf, const coded *C, int16_t *lat, uint32_t *cum)
+/* Decodes a coded matrix row-major into lat, rows of in_pad elements of es bytes (int8 or
+ * int16) with a zero in the pad column. */
+static cnerf_status decode_matrix(const uint8_t *buf, const coded *C, void *lat, unsigned es,
+                                  uint32_t *cum)
 {
     const uint32_t n_in = C->n_in, n_out = C->n_out, pad = (n_in + 1u) & ~1u;
     const uint32_t count = n_in * n_out;
     if (C->lo == C->hi) {
         for (uint32_t i = 0; i < count; i++)
-            lat[i] = (int16_t)C->lo;
+            m_set(lat, es, i, C->lo);
     } else {
         const uint32_t n = (uint32_t)(C->hi - C->lo) + 1u;
         cn_bits b;
@@ -120,16 +143,16 @@ static cnerf_status decode_matrix(const uint8_t *buf, const coded *C, int16_t *l
         cnerf_status st = cn_table_read(&b, n, C->prec, C->order, cum);
         if (st == CNERF_OK)
             st = cn_rans_decode(buf + C->payload_offset, C->payload_bytes, cum, n, C->prec,
-                                C->lo, lat, 2u, count);
+                                C->lo, lat, es, count);
         if (st != CNERF_OK)
             return st;
     }
     if (pad != n_in) {
         /* spread the rows to their padded stride, last first (each moves up) */
         for (uint32_t o = n_out; o-- > 0u;) {
-            lat[(size_t)o * pad + n_in] = 0;
+            m_set(lat, es, (size_t)o * pad + n_in, 0);
             for (uint32_t i = n_in; i-- > 0u;)
-                lat[(size_t)o * pad + i] = lat[(size_t)o * n_in + i];
+                m_set(lat, es, (size_t)o * pad + i, m_get(lat, es, (size_t)o * n_in + i));
         }
     }
     return CNERF_OK;
@@ -137,21 +160,24 @@ static cnerf_status decode_matrix(const uint8_t *buf, const coded *C, int16_t *l
 
 /* ---- the rows' order, the columns' order and the packing for the kernels ---- */
 
-/* The layout of layer l's packed latents (shift 0) or shifts (shift 1): the chosen
- * kernels' for int32 sums, CN_PAIRS for the int64 ones (cn_dot_s16_s64_c). */
-static uint32_t layout_of(const cn_state *ds, uint32_t l, int shift)
+/* The layout of layer l's packed latents (shift 0) or shifts (shift 1, always int16): the
+ * chosen kernels' for int32 sums (for int8 latents their int8 layout), CN_PAIRS for the
+ * int64 ones (cn_dot_s16_s64_c, cn_dot_s8_s64_c). */
+static uint32_t layout_of(const cnerf_decoder *dec, uint32_t l, int shift)
 {
+    const cn_state *ds = cn_cstate_of(dec);
     const int wide = shift ? ds->shift_wide[l] != 0 : ds->form[l] == CN_FORM_WIDE;
-    return wide ? CN_PAIRS : ds->layout;
+    if (wide)
+        return CN_PAIRS;
+    return !shift && k_bytes(&dec->info.layer[l]) == 1u ? ds->layout8 : ds->layout;
 }
 
-/* Sum |v| of row o of a padded matrix (<= 1124 * 32767 < 2^26). */
-static uint32_t row_abs_sum(const int16_t *m, uint32_t o, uint32_t pad)
+/* Sum |v| of row o of a padded matrix of es-byte elements (<= 1124 * 32767 < 2^26). */
+static uint32_t row_abs_sum(const void *m, unsigned es, uint32_t o, uint32_t pad)
 {
-    const int16_t *row = m + (size_t)o * pad;
     uint32_t sum = 0;
     for (uint32_t i = 0; i < pad; i++) {
-        const int32_t k = row[i];
+        const int32_t k = m_get(m, es, (size_t)o * pad + i);
         sum += (uint32_t)(k < 0 ? -k : k);
     }
     return sum;
@@ -161,14 +187,16 @@ static uint32_t row_abs_sum(const int16_t *m, uint32_t o, uint32_t pad)
  * not NULL) first, in increasing output order; rows[] gets each stored row's output index,
  * the all-zero rows last. Puts the largest sum |k| of a row into *maxsum and the largest
  * sum |s| into *maxshift. Returns the live rows. */
-static uint16_t order_rows(const cnerf_layer_info *L, const int16_t *lat, const int16_t *sh,
+static uint16_t order_rows(const cnerf_layer_info *L, const void *lat, const int16_t *sh,
                            uint16_t *rows, uint32_t *maxsum, uint32_t *maxshift)
 {
     const uint32_t pad = in_pad(L), n_out = L->n_out;
+    const unsigned es = k_bytes(L);
     uint32_t live = 0, dead = n_out;
     *maxsum = *maxshift = 0;
     for (uint32_t o = 0; o < n_out; o++) {
-        const uint32_t sum = row_abs_sum(lat, o, pad), ss = sh ? row_abs_sum(sh, o, pad) : 0u;
+        const uint32_t sum = row_abs_sum(lat, es, o, pad),
+                       ss = sh ? row_abs_sum(sh, 2u, o, pad) : 0u;
         *maxsum = sum > *maxsum ? sum : *maxsum;
         *maxshift = ss > *maxshift ? ss : *maxshift;
         if (sum || ss)
@@ -179,12 +207,12 @@ static uint16_t order_rows(const cnerf_layer_info *L, const int16_t *lat, const 
     return (uint16_t)live;
 }
 
-/* Packs the live rows of lat (in the order of rows[]) into blocks of four in `layout`
- * (cn_packed_index), using `tmp` (4 padded rows), and zeroes the rest. A block's rows come
- * from row slots at or after its own (a live row's output index is at least its rank), so
- * writing block b overwrites only slots that were copied to tmp, belong to earlier blocks
- * or hold zeros. */
-static void pack_rows(const cnerf_layer_info *L, int16_t *lat, const uint16_t *rows,
+/* Packs the live rows of lat (es-byte elements, in the order of rows[]) into blocks of four
+ * in `layout` (cn_packed_index), using `tmp` (4 padded rows), and zeroes the rest. A
+ * block's rows come from row slots at or after its own (a live row's output index is at
+ * least its rank), so writing block b overwrites only slots that were copied to tmp,
+ * belong to earlier blocks or hold zeros. */
+static void pack_rows(const cnerf_layer_info *L, void *lat, unsigned es, const uint16_t *rows,
                       uint32_t live, int16_t *tmp, uint32_t layout)
 {
     const uint32_t pad = in_pad(L), n_out = L->n_out;
@@ -192,63 +220,52 @@ static void pack_rows(const cnerf_layer_info *L, int16_t *lat, const uint16_t *r
         const uint32_t rb = live - 4u * b < 4u ? live - 4u * b : 4u;
         for (uint32_t q = 0; q < rb; q++)
             for (uint32_t i = 0; i < pad; i++)
-                tmp[(size_t)q * pad + i] = lat[(size_t)rows[4u * b + q] * pad + i];
-        int16_t *out = lat + (size_t)b * 4u * pad; /* cn_packed_index's order, written out */
-        if (rb < 4u) { /* the last rows, row after row */
-            for (uint32_t i = 0; i < rb * pad; i++)
-                out[i] = tmp[i];
-        } else if (CN_RUNS8_BUILT && layout == CN_RUNS8) { /* run by run, row by row */
-            for (uint32_t i0 = 0; i0 < pad; i0 += 8u)
-                for (uint32_t q = 0; q < 4u; q++)
-                    for (uint32_t i = i0; i < i0 + 8u && i < pad; i++)
-                        *out++ = tmp[(size_t)q * pad + i];
-        } else { /* pair by pair: k[q][i] at (i / 2) 8 + 2 q + i % 2 */
+                tmp[(size_t)q * pad + i] =
+                    (int16_t)m_get(lat, es, (size_t)rows[4u * b + q] * pad + i);
+        for (uint32_t q = 0; q < rb; q++)
             for (uint32_t i = 0; i < pad; i++)
-                for (uint32_t q = 0; q < 4u; q++)
-                    out[(i >> 1) * 8u + 2u * q + (i & 1u)] = tmp[(size_t)q * pad + i];
-        }
+                m_set(lat, es, cn_packed_index(4u * b + q, i, live, pad / 2u, layout),
+                      tmp[(size_t)q * pad + i]);
     }
     for (size_t i = (size_t)live * pad; i < (size_t)n_out * pad; i++)
-        lat[i] = 0;
+        m_set(lat, es, i, 0);
 }
 
-/* 1 when the live rows of lat (row-major, in the order of rows[]) are better stored as
- * lists of their non-zero latents for kernels v: the lists cost v less than the packed
- * rows, and they fit in place. Written row after row from the start of the layer's place,
- * the lists of rows 0..j take 4 (j + 1 + their non-zeros) bytes; row j + 1 is read from
- * row slot rows[j + 1] >= j + 1, at byte 2 pad (j + 1) or after: every prefix must end
- * there, so that no row is overwritten before it is read. The workspace is the same either
- * way. */
-static int sparse_pays(const cnerf_layer_info *L, const int16_t *lat, const uint16_t *rows,
-                       uint32_t live, const cn_dot_variant *v)
+/* 1 when the live rows of lat (row-major, es-byte elements, in the order of rows[]) are
+ * better stored as lists of their non-zero latents for kernels v: the lists cost v less
+ * than the packed rows, and they fit in place. Written row after row from the start of the
+ * layer's place, the lists of rows 0..j take 4 (j + 1 + their non-zeros) bytes; row j + 1
+ * is read from row slot rows[j + 1] >= j + 1, at byte es pad (j + 1) or after: every
+ * prefix must end there, so that no row is overwritten before it is read. The workspace is
+ * the same either way. */
+static int sparse_pays(const cnerf_layer_info *L, const void *lat, unsigned es,
+                       const uint16_t *rows, uint32_t live, const cn_dot_variant *v)
 {
     const uint32_t pad = in_pad(L);
     uint64_t words = 0, nz = 0;
     for (uint32_t j = 0; j < live; j++) {
-        const int16_t *row = lat + (size_t)rows[j] * pad;
         uint32_t n = 0;
         for (uint32_t i = 0; i < pad; i++)
-            n += row[i] != 0;
+            n += m_get(lat, es, (size_t)rows[j] * pad + i) != 0;
         nz += n;
         words += 1u + n;
-        if (2u * words > (uint64_t)(j + 1u) * pad)
+        if (4u * words > (uint64_t)(j + 1u) * pad * es)
             return 0;
     }
     return nz * v->nz_cost + (uint64_t)live * v->row_cost <
-           (uint64_t)live * pad * v->mac_cost;
+           (uint64_t)live * pad * (es == 1u ? v->mac8_cost : v->mac_cost);
 }
 
 /* Stores the live rows of lat as lists (cn_spdot_fn's layout) in its place, each row first
  * copied to tmp (sparse_pays proved that no row is overwritten before it is read). */
-static void sparse_rows(const cnerf_layer_info *L, int16_t *lat, const uint16_t *rows,
+static void sparse_rows(const cnerf_layer_info *L, void *lat, unsigned es, const uint16_t *rows,
                         uint32_t live, int16_t *tmp)
 {
     const uint32_t pad = in_pad(L);
-    uint32_t *w = (uint32_t *)(void *)lat;
+    uint32_t *w = (uint32_t *)lat;
     for (uint32_t j = 0; j < live; j++) {
-        const int16_t *row = lat + (size_t)rows[j] * pad;
         for (uint32_t i = 0; i < pad; i++)
-            tmp[i] = row[i];
+            tmp[i] = (int16_t)m_get(lat, es, (size_t)rows[j] * pad + i);
         uint32_t *count = w++;
         uint32_t n = 0;
         for (uint32_t i = 0; i < pad; i++)
@@ -295,9 +312,11 @@ int cn_layer_final(const cnerf_layer_info *L)
            L->role == CNERF_ROLE_OUTPUT;
 }
 
-/* Reorders layer l's input columns from its producer's outputs into the producer's stored
- * row order: column off + j takes column off + rows_p[j]. tmp holds one row. */
-static void order_columns(const cnerf_decoder *dec, uint32_t l, int16_t *lat, int16_t *tmp)
+/* Reorders layer l's input columns (es-byte elements) from its producer's outputs into the
+ * producer's stored row order: column off + j takes column off + rows_p[j]. tmp holds one
+ * row. */
+static void order_columns(const cnerf_decoder *dec, uint32_t l, void *lat, unsigned es,
+                          int16_t *tmp)
 {
     const cn_state *ds = cn_cstate_of(dec);
     uint32_t off;
@@ -308,11 +327,11 @@ static void order_columns(const cnerf_decoder *dec, uint32_t l, int16_t *lat, in
     const uint32_t pad = in_pad(L), U = dec->info.layer[p].n_out;
     const uint16_t *rows = ds->rows[p];
     for (uint32_t o = 0; o < L->n_out; o++) {
-        int16_t *row = lat + (size_t)o * pad;
+        const size_t row = (size_t)o * pad + off;
         for (uint32_t j = 0; j < U; j++)
-            tmp[j] = row[off + rows[j]];
+            tmp[j] = (int16_t)m_get(lat, es, row + rows[j]);
         for (uint32_t j = 0; j < U; j++)
-            row[off + j] = tmp[j];
+            m_set(lat, es, row + j, tmp[j]);
     }
 }
 
@@ -386,8 +405,8 @@ static uint8_t *lay_out(cnerf_decoder *dec, uint8_t *w)
     const cnerf_info *info = &dec->info;
     for (uint32_t l = 0; l < info->n_layers; l++) {
         const cnerf_layer_info *L = &info->layer[l];
-        ds->latent[l] = (const int16_t *)(void *)w;
-        w += align8((size_t)in_pad(L) * L->n_out * 2u);
+        ds->latent[l] = w;
+        w += align8((size_t)in_pad(L) * L->n_out * k_bytes(L));
         if (cn_has_shift(&info->shift[l])) {
             ds->shift[l] = (const int16_t *)(void *)w;
             w += align8((size_t)in_pad(L) * L->n_out * 2u);
@@ -418,33 +437,35 @@ static cnerf_status open_layer(cnerf_decoder *dec, const uint8_t *buf, uint32_t 
     cn_state *ds = cn_state_of(dec);
     const cnerf_layer_info *L = &dec->info.layer[l];
     int32_t *bias = (int32_t *)(uintptr_t)ds->bias[l];
-    int16_t *lat = (int16_t *)(uintptr_t)ds->latent[l];
+    void *lat = (void *)(uintptr_t)ds->latent[l];
+    const unsigned es = k_bytes(L);
     uint16_t *rows = (uint16_t *)(uintptr_t)ds->rows[l];
     int16_t *sh = (int16_t *)(uintptr_t)ds->shift[l]; /* NULL: no shift */
     int16_t *tmp = (int16_t *)(void *)scratch;
     const coded ck = coded_latents(L), cs = coded_shifts(L, &dec->info.shift[l]);
     cnerf_status st = read_biases(buf, L, bias);
     if (st == CNERF_OK)
-        st = decode_matrix(buf, &ck, lat, (uint32_t *)(void *)scratch);
+        st = decode_matrix(buf, &ck, lat, es, (uint32_t *)(void *)scratch);
     if (st == CNERF_OK && sh)
-        st = decode_matrix(buf, &cs, sh, (uint32_t *)(void *)scratch);
+        st = decode_matrix(buf, &cs, sh, 2u, (uint32_t *)(void *)scratch);
     if (st != CNERF_OK)
         return st;
-    order_columns(dec, l, lat, tmp);
+    order_columns(dec, l, lat, es, tmp);
     if (sh)
-        order_columns(dec, l, sh, tmp);
+        order_columns(dec, l, sh, 2u, tmp);
     uint32_t maxsum, maxshift;
     const uint16_t live = order_rows(L, lat, sh, rows, &maxsum, &maxshift);
     ds->n_live[l] = live;
     prove_layer(dec, l, maxsum, maxshift);
     /* a layer with a shift, or with int64 sums, stays packed */
-    if (!sh && ds->form[l] == CN_FORM_PACKED && live && sparse_pays(L, lat, rows, live, v)) {
-        sparse_rows(L, lat, rows, live, tmp);
+    if (!sh && ds->form[l] == CN_FORM_PACKED && live &&
+        sparse_pays(L, lat, es, rows, live, v)) {
+        sparse_rows(L, lat, es, rows, live, tmp);
         ds->form[l] = CN_FORM_SPARSE;
     } else {
-        pack_rows(L, lat, rows, live, tmp, layout_of(ds, l, 0));
+        pack_rows(L, lat, es, rows, live, tmp, layout_of(dec, l, 0));
         if (sh)
-            pack_rows(L, sh, rows, live, tmp, layout_of(ds, l, 1));
+            pack_rows(L, sh, 2u, rows, live, tmp, layout_of(dec, l, 1));
     }
     int32_t *bq = (int32_t *)(uintptr_t)ds->bias_q16[l];
     for (uint32_t j = 0; j < L->n_out; j++)
@@ -471,6 +492,7 @@ cnerf_status cn_open_with(cnerf_decoder *dec, const uint8_t *buf, size_t len, ui
         st = CNERF_E_WS_SMALL;
     if (st == CNERF_OK) {
         ds->layout = v->layout;
+        ds->layout8 = v->layout8;
         /* the layers' arrays, the grid, and open's scratch last */
         uint8_t *scratch = lay_out(dec, (uint8_t *)ws);
         if (info->grid_g)
@@ -484,6 +506,7 @@ cnerf_status cn_open_with(cnerf_decoder *dec, const uint8_t *buf, size_t len, ui
     }
     if (st == CNERF_OK) {
         ds->dot = v->fn;
+        ds->dot8 = v->fn8;
         ds->spdot = v->spdot;
         ds->requant = v->requant;
         ds->finish = v->finish;
@@ -509,7 +532,7 @@ cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void
 /* ---- the decoded matrices, for tools and tests ---- */
 
 /* Element (o, i) of layer l's packed matrix m (its latents or its shifts). */
-static int32_t packed_at(const cnerf_decoder *dec, uint32_t l, const int16_t *m, uint32_t o,
+static int32_t packed_at(const cnerf_decoder *dec, uint32_t l, const void *m, uint32_t o,
                          uint32_t i)
 {
     const cn_state *ds = cn_cstate_of(dec);
@@ -539,8 +562,9 @@ static int32_t packed_at(const cnerf_decoder *dec, uint32_t l, const int16_t *m,
                 return cn_entry_k(e[k]);
         return 0;
     }
-    return m[cn_packed_index(j, c, ds->n_live[l], ds->n_pairs[l],
-                             layout_of(ds, l, m != ds->latent[l]))];
+    const int shift = m != ds->latent[l];
+    return m_get(m, shift ? 2u : k_bytes(L), cn_packed_index(j, c, ds->n_live[l], ds->n_pairs[l],
+                                                             layout_of(dec, l, shift)));
 }
 
 int32_t cnerf_latent(const cnerf_decoder *dec, uint32_t l, uint32_t o, uint32_t i)

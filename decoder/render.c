@@ -222,7 +222,8 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
                          : cn_sat32(cn_mul_exp_r(sx, L->b_m, L->b_e + e, 1));
     const int final = cn_layer_final(L);
     const int32_t *bq = ds->bias_q16[l];
-    const int16_t *k = ds->latent[l];
+    const void *k = ds->latent[l];
+    const int k8 = cn_latents_s8(L->kmin, L->kmax); /* int8 latents, else int16 */
     const unsigned form = ds->form[l];
     if (work) { /* the work done, for cost models: only when the caller asked for it */
         work->layer_values += n_in + n_out;
@@ -234,6 +235,8 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
             work->list_macs += live * n_in;
         if (form == CN_FORM_WIDE)
             work->wide_macs += live * n_in;
+        if (form == CN_FORM_PACKED && k8)
+            work->s8_macs += live * n_in;
         if (ds->shift[l] && ds->shift_wide[l])
             work->wide_macs += live * n_in;
     }
@@ -242,24 +245,34 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
         for (uint32_t j = 0; j < live; j += 4u) {
             const uint32_t rb = live - j < 4u ? live - j : 4u;
             int64_t a64[4]; /* a full block of four, or the last rows (the same layout) */
-            cn_dot_s16_s64_c(k + (size_t)j * 2u * pairs, xq, pairs, rb, a64);
+            if (k8)
+                cn_dot_s8_s64_c((const int8_t *)k + (size_t)j * 2u * pairs, xq, pairs, rb, a64);
+            else
+                cn_dot_s16_s64_c((const int16_t *)k + (size_t)j * 2u * pairs, xq, pairs, rb,
+                                 a64);
             for (uint32_t q = 0; q < rb; q++)
                 y[j + q] = cn_sat32(cn_mul_exp_r(a64[q], L->a_m, L->a_e + e, 1));
         }
     } else if (live) {
         if (form == CN_FORM_SPARSE) {
 #ifdef CN_SPDOT_DIRECT
-            const uint32_t nz = CN_SPDOT_DIRECT((const uint32_t *)(const void *)k, xq, live, acc);
+            const uint32_t nz = CN_SPDOT_DIRECT((const uint32_t *)k, xq, live, acc);
 #else
-            const uint32_t nz = ds->spdot((const uint32_t *)(const void *)k, xq, live, acc);
+            const uint32_t nz = ds->spdot((const uint32_t *)k, xq, live, acc);
 #endif
             if (work)
                 work->list_nz += nz;
-        } else
-#ifdef CN_DOT_DIRECT
-            CN_DOT_DIRECT(k, xq, pairs, live, acc);
+        } else if (k8)
+#ifdef CN_DOT8_DIRECT
+            CN_DOT8_DIRECT((const int8_t *)k, xq, pairs, live, acc);
 #else
-            ds->dot(k, xq, pairs, live, acc);
+            ds->dot8((const int8_t *)k, xq, pairs, live, acc);
+#endif
+        else
+#ifdef CN_DOT_DIRECT
+            CN_DOT_DIRECT((const int16_t *)k, xq, pairs, live, acc);
+#else
+            ds->dot((const int16_t *)k, xq, pairs, live, acc);
 #endif
         if (ds->a_shift[l] && !final) {
 #ifndef CN_DOT_DIRECT
@@ -1110,7 +1123,7 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
     gridmap_init(dec, !(o.flags & CNERF_RENDER_NO_SKIP), &gm);
     cnerf_render_stats stats; /* field by field: an initializer may become a memset call */
     stats.rays = stats.evals = stats.in_bounds = stats.macs = stats.list_macs = stats.list_nz = 0;
-    stats.samples = stats.layer_values = stats.exact_rescales = stats.wide_macs = 0;
+    stats.samples = stats.layer_values = stats.exact_rescales = stats.wide_macs = stats.s8_macs = 0;
     const unsigned nc = o.n_coarse, nf = I->n_nets > 1 ? o.n_fine : 0;
     /* The sampling interval [near, far] in Q32; contracted scenes sample s in
      * [0, 2 - 2^-CNERF_CONTRACT_SHIFT] and march at the distances ray_t(s). */
@@ -1219,6 +1232,7 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
         stats_out->layer_values += stats.layer_values;
         stats_out->exact_rescales += stats.exact_rescales;
         stats_out->wide_macs += stats.wide_macs;
+        stats_out->s8_macs += stats.s8_macs;
     }
     return CNERF_OK;
 }

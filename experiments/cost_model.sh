@@ -5,7 +5,7 @@
 # batches (scripts/firmware.sh --jobs: instructions of cnerf_render_tile, and the work the
 # firmware counts, cnerf_render_stats), then fits the instructions of a tile as a sum of the
 # work's terms, each with its coefficient (the columns of OUT.csv: multiply-accumulates of
-# packed layers, non-zero latents multiplied in list layers, multiply-accumulates in int64,
+# packed layers over int16 latents and over int8 latents, non-zero latents multiplied in list layers, multiply-accumulates in int64,
 # layer inputs and outputs, exact rescales, network evaluations, positional-encoding values,
 # sample positions, sample positions of contracted streams, samples placed, rays of NDC
 # streams, rays, tiles) by least squares on the relative error. Prints the coefficients and
@@ -25,7 +25,7 @@ case $core in m55|an547) budget=350000 ;; *) budget=3000000 ;; esac
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 if [ $fit_only = 0 ]; then
-  echo "tile,instructions,packed_macs,list_nz,wide_macs,layer_values,exact_rescales,evals,pe_values,samples,contract_samples,placed,ndc_rays,rays,tiles" > "$out.csv"
+  echo "tile,instructions,packed_macs,packed_s8_macs,list_nz,wide_macs,layer_values,exact_rescales,evals,pe_values,samples,contract_samples,placed,ndc_rays,rays,tiles" > "$out.csv"
   batch=0 bytes=0
   for md5 in vectors/valid/*.md5; do
     name=$(basename "$md5" .md5)
@@ -58,7 +58,8 @@ with open(sys.argv[1], "a") as f:
         m = re.match(r"  work of the tile: (.*)$", line)
         if m and name:
             k = dict(zip(m.group(1).split()[0::2], map(int, m.group(1).split()[1::2])))
-            row = [k["instructions"], k["macs"] - k["list_macs"] - k["wide_macs"], k["list_nz"],
+            row = [k["instructions"], k["macs"] - k["list_macs"] - k["wide_macs"] - k["s8_macs"],
+                   k["s8_macs"], k["list_nz"],
                    k["wide_macs"], k["layer_values"], k["exact_rescales"], k["evals"],
                    k["evals"] * k["in_pos"], k["samples"], k["samples"] * k["contract"],
                    k["rays"] * k["samples_per_ray"], k["rays"] * k["ndc"], k["rays"], 1]

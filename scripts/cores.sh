@@ -65,7 +65,7 @@ names=()
   for k in "code:flash: code (decoder, runner, startup, vector table)" \
            "const:flash: constants (the decoder's sin, 2^−x and sigmoid tables: 4,108)" \
            "stream:flash: the embedded stream" \
-           "ws:RAM: workspace (int16 latents, biases, row orders)" \
+           "ws:RAM: workspace (latents as int8 where their range allows, else int16; biases, row orders)" \
            "scratch:RAM: render scratch" "dec:RAM: \`cnerf_decoder\`" \
            "stack:RAM: worst-case stack: the deepest call chain and the SysTick and fault exception frames (the chain alone; the high-water mark measured)"; do
     line="| ${k#*:} |"

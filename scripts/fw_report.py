@@ -224,7 +224,7 @@ for job, fj in zip(jobs, fw_jobs):
     work = (f"rays {rays} evals {r['evals']} in_bounds {r['in_bounds']} macs {r['macs']} "
             f"list_macs {r['list_macs']} list_nz {r['list_nz']} samples {r['samples']} "
             f"layer_values {r['layer_values']} exact_rescales {r['exact_rescales']} "
-            f"wide_macs {r['wide_macs']} contract {r['contract']} ndc {r['ndc']} "
+            f"wide_macs {r['wide_macs']} s8_macs {r['s8_macs']} contract {r['contract']} ndc {r['ndc']} "
             f"in_pos {r['in_pos']} samples_per_ray {r['samples_per_ray']} "
             f"instructions {ins['render']}") if "evals" in r else ""
     if not single:

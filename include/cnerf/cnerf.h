@@ -295,6 +295,9 @@ typedef struct cnerf_render_stats {
                                 could not prove) */
     uint64_t wide_macs; /* of macs, those summed in int64 (layers and shifts whose int32 bound
                            cnerf_open could not prove) */
+    uint64_t s8_macs;   /* of macs, those of packed int32 sums over latents stored as int8
+                           (a layer whose latent range fits int8); the other packed ones are
+                           over int16 */
 } cnerf_render_stats;
 
 /* The default early ray termination, round(0.01 2^30): a ray ends once 1% of its light is

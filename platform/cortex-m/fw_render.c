@@ -237,7 +237,7 @@ static int run_job(uint32_t j, size_t *ws_max, size_t *sc_max)
     const int counted = CNERF_FW_WORK && (!CNERF_FW_WORK_FIRST || j == 0);
     cnerf_render_stats work; /* field by field: no memset in this firmware */
     work.rays = work.evals = work.in_bounds = work.macs = work.list_macs = work.list_nz = 0;
-    work.samples = work.layer_values = work.exact_rescales = work.wide_macs = 0;
+    work.samples = work.layer_values = work.exact_rescales = work.wide_macs = work.s8_macs = 0;
     if (counted) {
         st = cnerf_render_tile_stats(&dec, &job->camera, &opts, x0, y0, w, h, tile,
                                      job->stride, scratch, sizeof scratch, &work);
@@ -270,6 +270,7 @@ static int run_job(uint32_t j, size_t *ws_max, size_t *sc_max)
         put_kv("layer_values", work.layer_values);
         put_kv("exact_rescales", work.exact_rescales);
         put_kv("wide_macs", work.wide_macs);
+        put_kv("s8_macs", work.s8_macs);
     }
     put_kv("ndc", dec.info.coord == CNERF_COORD_NDC);
     put_kv("in_pos", dec.info.in_pos);

@@ -77,6 +77,7 @@ static int render_fixed(const cnerf_decoder *dec, const cnerf_camera *cam, const
             stats->layer_values += mine.layer_values;
             stats->exact_rescales += mine.exact_rescales;
             stats->wide_macs += mine.wide_macs;
+            stats->s8_macs += mine.s8_macs;
         }
     }
     if (bad)

@@ -9,14 +9,15 @@
 
 #include "cnerf/cnerf.h"
 
-#define CLI_COST_TERMS 13
+#define CLI_COST_TERMS 14
 
 typedef struct cli_core {
     const char *name; /* "Cortex-M4" */
     const char *set;  /* its kernel set, for cnerf_open_as: "dsp" */
     double hz;        /* the clock an estimated time assumes */
     /* instructions per term of the work (cli_cost_instructions, experiments/cost_model.sh's
-     * columns): packed multiply-accumulate, non-zero latent of a list layer, int64
+     * columns): packed multiply-accumulate over int16 latents, over int8 latents, non-zero
+     * latent of a list layer, int64
      * multiply-accumulate, layer input or output, exact rescale, network evaluation,
      * positional-encoding value, sample position, sample position of a contracted stream,
      * sample placed, ray of an NDC stream, ray, tile */

@@ -221,7 +221,7 @@ CW_EXPORT(cw_render) int32_t cw_render(const cnerf_decoder *dec, const int32_t *
         opts.flags = flags;
     }
     st.rays = st.evals = st.in_bounds = st.macs = st.list_macs = st.list_nz = 0;
-    st.samples = st.layer_values = st.exact_rescales = st.wide_macs = 0;
+    st.samples = st.layer_values = st.exact_rescales = st.wide_macs = st.s8_macs = 0;
     cnerf_status s = cnerf_render_tile_stats(dec, &cam, &opts, x0, y0, w, h, rgb, stride,
                                              scratch, scratch_size, stats ? &st : NULL);
     if (stats) {

@@ -277,25 +277,35 @@ static void test_pinned_workspace(void **state)
     (void)state;
     const struct {
         const char *preset;
+        double spread; /* the synthetic latents' spread: within int8, or beyond it */
+        int s8;        /* every layer's latents stored as int8 (1) or as int16 (0) */
         size_t bytes;
     } pins[] = {
-        /* tiny per network: int16 latents of 27680 (inputs padded to pairs) 55360 + bias
-         * mantissas and Q16 biases 2 x 1432 + row orders 720; x2; + open's scratch: four
-         * padded rows of the widest layer input, 4 x 128 x 2 = 1024 */
-        {"tiny", 118912},
-        /* small per network: 2 x 92224 + 2 x 2840 + 1424; x2; + 4 x 192 x 2 */
-        {"small", 384640},
+        /* tiny per network: int8 latents of 27680 (inputs padded to pairs) + bias mantissas
+         * and Q16 biases 2 x 1432 + row orders 720; x2; + open's scratch: four padded rows
+         * of the widest layer input as int16, 4 x 128 x 2 = 1024 */
+        {"tiny", 2.0, 1, 63552},
+        /* the same with int16 latents: 2 x 27680 + 2864 + 720; x2; + open's scratch, now the
+         * cumulative frequency table of the widest alphabet, [-445, 398]: 845 x 4, aligned, 3384 */
+        {"tiny", 40.0, 0, 121272},
+        /* small per network: 92224 + 2 x 2840 + 1424; x2; + 4 x 192 x 2 */
+        {"small", 2.0, 1, 200192},
+        /* and with int16 latents: 2 x 92224 + 2 x 2840 + 1424; x2; + the widest table, 3384 */
+        {"small", 40.0, 0, 386488},
     };
-    for (int i = 0; i < 2; i++) {
+    for (size_t i = 0; i < sizeof pins / sizeof pins[0]; i++) {
         cnerf_info hdr;
         assert_int_equal(cn_preset_header(pins[i].preset, &hdr), 0);
         cn_buf b;
-        tu_synth_stream(&hdr, 1, 2.0, &b, NULL);
+        tu_synth_stream(&hdr, 1, pins[i].spread, &b, NULL);
         cnerf_info info;
         assert_int_equal(cnerf_peek(b.p, b.n, &info), CNERF_OK);
+        for (uint32_t l = 0; l < info.n_layers; l++)
+            assert_int_equal(info.layer[l].kmin >= -128 && info.layer[l].kmax <= 127,
+                             pins[i].s8);
         size_t ws = cnerf_workspace_size(&info);
-        print_message("# workspace %s: %zu bytes for %u latents\n", pins[i].preset, ws,
-                      info.n_params);
+        print_message("# workspace %s, spread %g: %zu bytes for %u latents\n", pins[i].preset,
+                      pins[i].spread, ws, info.n_params);
         assert_int_equal(ws, pins[i].bytes);
         assert_true(ws <= CNERF_WORKSPACE_BOUND(info.n_params, info.n_biases, info.n_layers,
                                                 info.grid_g));

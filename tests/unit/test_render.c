@@ -1115,7 +1115,7 @@ static void reopen(const scene *s, const cn_dot_variant *v, scene *c)
 /* A layer stored as lists of its non-zero latents gives the same sums as packed: the same
  * latents read back, the same pixels and the same work counted, from every view, with the
  * kernels of this build that store no layer sparse, every layer that fits, or as they
- * choose. */
+ * choose; with latents stored as int8 (a small spread) and as int16 (a wide one). */
 static void test_sparse_exact(void **state)
 {
     (void)state;
@@ -1126,18 +1126,24 @@ static void test_sparse_exact(void **state)
     const uint32_t nv = cn_dot_variants(all);
     unsigned sparse_layers = 0, kept_packed = 0;
     uint64_t listed = 0; /* multiply-accumulates of layers in lists */
+    for (int wide = 0; wide < 2; wide++)
     for (uint32_t k = 0; k < nv; k++)
         for (int mode = 0; mode < 3; mode++) {
             cn_dot_variant v = all[k];
             if (mode == 0)
-                v.mac_cost = 0; /* never sparse */
-            else if (mode == 1)
-                v.mac_cost = 1000, v.nz_cost = 0, v.row_cost = 0; /* sparse wherever it fits */
+                v.mac_cost = v.mac8_cost = 0; /* never sparse */
+            else if (mode == 1) /* sparse wherever it fits */
+                v.mac_cost = v.mac8_cost = 1000, v.nz_cost = 0, v.row_cost = 0;
             scene s, c[2];
-            make_scene_edit(&s, &hdr, 3.0, 31 + k, sparsify);
+            make_scene_edit(&s, &hdr, wide ? 60.0 : 3.0, 31 + k, sparsify);
+            unsigned s8 = 0;
+            for (unsigned l = 0; l < s.dec.info.n_layers; l++)
+                s8 += s.dec.info.layer[l].kmin >= -128 && s.dec.info.layer[l].kmax <= 127;
+            /* every layer int8, or most int16 */
+            assert_true(wide ? 2 * s8 < s.dec.info.n_layers : s8 == s.dec.info.n_layers);
             reopen(&s, &v, &c[0]);
             v = all[k];
-            v.mac_cost = 0;
+            v.mac_cost = v.mac8_cost = 0;
             reopen(&s, &v, &c[1]); /* packed */
             const cnerf_info *I = &s.dec.info;
             for (unsigned l = 0; l < I->n_layers; l++) {
@@ -1167,6 +1173,9 @@ static void test_sparse_exact(void **state)
                             st[0].evals > 0);
                 /* the packed open does every multiply-accumulate, the lists fewer */
                 assert_true(st[1].list_macs == 0 && st[1].list_nz == 0);
+                /* packed: int8 latents' sums counted apart (all of them with a small spread) */
+                assert_true(wide ? st[1].s8_macs < st[1].macs
+                                 : st[1].s8_macs == st[1].macs - st[1].wide_macs);
                 assert_true(st[0].list_nz <= st[0].list_macs && st[0].list_macs <= st[0].macs);
                 listed += st[0].list_macs;
                 free(px[0]);

@@ -110,6 +110,7 @@ static int16_t rowmajor[MAX_ROWS][2 * MAX_PAIRS];
 static int16_t packed[MAX_ROWS * 2 * MAX_PAIRS + 16];
 static int16_t xq[2 * MAX_PAIRS + 8] __attribute__((aligned(8)));
 static int16_t kbuf[MAX_ROWS * 2 * MAX_PAIRS + 16] __attribute__((aligned(8)));
+static int8_t kbuf8[MAX_ROWS * 2 * MAX_PAIRS + 16] __attribute__((aligned(8)));
 
 /* The packed layouts of the decoded latents (cn_packed_index in decoder/cn_kernels.h:
  * blocks of four rows, pair by pair (CN_PAIRS) or run by run of eight inputs, a last run of
@@ -132,6 +133,24 @@ static void pack(uint32_t rows, uint32_t pairs, uint32_t layout)
         kbuf[i] = packed[i];
 }
 
+/* The same rows as int8 (every latent within [-128, 127]) into kbuf8, in the int8 layouts:
+ * CN_PAIRS and CN_RUNS8 as above, or CN_PAIRS_X, pair by pair with the bytes of rows 0
+ * and 1 (2 and 3) crossed: k[0][2p], k[1][2p], k[0][2p+1], k[1][2p+1]. */
+static void pack8(uint32_t rows, uint32_t pairs, uint32_t layout)
+{
+    pack(rows, pairs, layout == CN_PAIRS_X ? CN_PAIRS : layout);
+    for (uint32_t i = 0; i < rows * 2 * pairs; i++)
+        kbuf8[i] = (int8_t)packed[i];
+    if (layout != CN_PAIRS_X)
+        return;
+    for (uint32_t j = 0; j < rows - rows % 4; j++) /* the full blocks only */
+        for (uint32_t i = 0; i < 2 * pairs; i++) {
+            const uint32_t b = j / 4, q = j % 4;
+            kbuf8[b * 8 * pairs + (i / 2) * 8 + 4 * (q / 2) + 2 * (i & 1) + (q & 1)] =
+                (int8_t)rowmajor[j][i];
+        }
+}
+
 /* cn_spdot_fn's lists of the non-zero latents of rowmajor's rows (kernels.c's layout, written
  * here independently): per row its count, then (2 i) << 16 | (uint16_t)k. Returns the
  * non-zeros. */
@@ -152,6 +171,22 @@ static uint32_t make_lists(uint32_t rows, uint32_t pairs)
     return nz;
 }
 
+/* 1 when the first `rows` sums of got (int32 or int64) are want's. */
+static int same32(const int32_t *got, const int32_t *want, uint32_t rows)
+{
+    int ok = 1;
+    for (uint32_t j = 0; j < rows; j++)
+        ok &= got[j] == want[j];
+    return ok;
+}
+static int same64(const int64_t *got, const int32_t *want, uint32_t rows)
+{
+    int ok = 1;
+    for (uint32_t j = 0; j < rows; j++)
+        ok &= got[j] == want[j];
+    return ok;
+}
+
 static int fails, passes;
 static void check(int ok, const char *what, const char *name, uint32_t rows, uint32_t pairs)
 {
@@ -164,15 +199,22 @@ static void check(int ok, const char *what, const char *name, uint32_t rows, uin
 }
 
 /* Fills one case: mode 0 random small latents, 1 the extremes (each row's sum |k| at the
- * int32 bound 65535, inputs at -32768 or 32767), 2 random inputs with sparse large latents. */
+ * int32 bound 65535, inputs at -32768 or 32767), 2 random inputs with sparse large latents,
+ * 3 the int8 extremes (latents -128, 127 or 0, inputs at -32768 or 32767). Modes 0 and 3
+ * fit int8. */
 static void fill(uint32_t rows, uint32_t pairs, int mode)
 {
     for (uint32_t i = 0; i < 2 * pairs; i++)
-        xq[i] = (int16_t)(mode == 1 ? (rnd() & 1 ? 32767 : -32768) : rnd_range(-32768, 32767));
+        xq[i] = (int16_t)(mode == 1 || mode == 3 ? (rnd() & 1 ? 32767 : -32768)
+                                                 : rnd_range(-32768, 32767));
     for (uint32_t j = 0; j < rows; j++) {
-        for (uint32_t i = 0; i < 2 * pairs; i++)
-            rowmajor[j][i] = (int16_t)(mode == 0 ? rnd_range(-127, 127) : 0);
-        if (mode == 0)
+        for (uint32_t i = 0; i < 2 * pairs; i++) {
+            const uint32_t r = rnd() % 3u;
+            rowmajor[j][i] = (int16_t)(mode == 0   ? rnd_range(-127, 127)
+                                       : mode == 3 ? (r == 0 ? -128 : r == 1 ? 127 : 0)
+                                                   : 0);
+        }
+        if (mode == 0 || mode == 3)
             continue;
         int32_t budget = mode == 1 ? 65535 : rnd_range(1, 65535);
         while (budget > 0) {
@@ -479,7 +521,7 @@ int main(int argc, char **argv)
     int32_t want[MAX_ROWS], got[MAX_ROWS];
     int64_t want64[MAX_ROWS];
     for (long it = 0; it < iters; it++)
-        for (int mode = 0; mode < 3; mode++)
+        for (int mode = 0; mode < 4; mode++)
             for (uint32_t rows = 1; rows <= MAX_ROWS; rows++)
                 for (uint32_t pairs = 1; pairs <= MAX_PAIRS; pairs += pairs < 9 ? 1 : 7) {
                     fill(rows, pairs, mode);
@@ -494,28 +536,34 @@ int main(int argc, char **argv)
                     }
                     check(ok, "the case keeps the int32 bound", "setup", rows, pairs);
                     cn_dot_s16_s64_c(kbuf, xq, pairs, rows, want64);
-                    ok = 1;
-                    for (uint32_t j = 0; j < rows; j++)
-                        ok &= want64[j] == want[j];
-                    check(ok, "int64 sums", "c", rows, pairs);
+                    check(same64(want64, want, rows), "int64 sums", "c", rows, pairs);
                     for (uint32_t k = 0; k < nv; k++) {
                         for (uint32_t j = 0; j < rows; j++)
                             got[j] = 0x5A5A5A5A;
                         pack(rows, pairs, v[k].layout);
                         v[k].fn(kbuf, xq, pairs, rows, got);
-                        ok = 1;
-                        for (uint32_t j = 0; j < rows; j++)
-                            ok &= got[j] == want[j];
-                        check(ok, "int32 sums", v[k].name, rows, pairs);
+                        check(same32(got, want, rows), "int32 sums", v[k].name, rows, pairs);
+                    }
+                    if (mode == 0 || mode == 3) { /* int8 latents */
+                        pack8(rows, pairs, CN_PAIRS);
+                        cn_dot_s8_s64_c(kbuf8, xq, pairs, rows, want64);
+                        check(same64(want64, want, rows), "int64 sums, int8 latents", "c", rows,
+                              pairs);
+                        for (uint32_t k = 0; k < nv; k++) {
+                            for (uint32_t j = 0; j < rows; j++)
+                                got[j] = 0x5A5A5A5A;
+                            pack8(rows, pairs, v[k].layout8);
+                            v[k].fn8(kbuf8, xq, pairs, rows, got);
+                            check(same32(got, want, rows), "int32 sums, int8 latents", v[k].name,
+                                  rows, pairs);
+                        }
                     }
                     const uint32_t nz = make_lists(rows, pairs);
                     for (uint32_t k = 0; k < nv; k++) {
                         for (uint32_t j = 0; j < rows; j++)
                             got[j] = 0x5A5A5A5A;
                         ok = v[k].spdot(lists, xq, rows, got) == nz;
-                        for (uint32_t j = 0; j < rows; j++)
-                            ok &= got[j] == want[j];
-                        check(ok, "int32 sums of the non-zero latents", v[k].name, rows, pairs);
+                        check(ok && same32(got, want, rows), "int32 sums of the non-zero latents", v[k].name, rows, pairs);
                     }
                 }
     /* The fast rescale against the exact product, wherever cnerf_open takes it: |acc| at most

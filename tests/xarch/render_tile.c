@@ -47,12 +47,14 @@ static int cost(const char *name, const uint8_t *buf, size_t len, uint32_t scene
         return 1;
     fprintf(stderr,
             "host work of the tile: rays %llu evals %llu in_bounds %llu macs %llu list_macs %llu "
-            "list_nz %llu samples %llu layer_values %llu exact_rescales %llu wide_macs %llu\n",
+            "list_nz %llu samples %llu layer_values %llu exact_rescales %llu wide_macs %llu "
+            "s8_macs %llu\n",
             (unsigned long long)s.rays, (unsigned long long)s.evals,
             (unsigned long long)s.in_bounds, (unsigned long long)s.macs,
             (unsigned long long)s.list_macs, (unsigned long long)s.list_nz,
             (unsigned long long)s.samples, (unsigned long long)s.layer_values,
-            (unsigned long long)s.exact_rescales, (unsigned long long)s.wide_macs);
+            (unsigned long long)s.exact_rescales, (unsigned long long)s.wide_macs,
+            (unsigned long long)s.s8_macs);
     if (c)
         fprintf(stderr, "cost model %s: %.0f instructions (within %.0f%% on the vectors' tiles)\n",
                 c->name, cli_cost_instructions(c, &s, &d.info, o, 1), 100 * c->error);
