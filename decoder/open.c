@@ -40,18 +40,12 @@ static uint32_t in_pad(const cnerf_layer_info *L) { return ((uint32_t)L->n_in + 
 /* Bytes of one stored latent of layer L: 1 when its range fits int8, else 2. */
 static unsigned k_bytes(const cnerf_layer_info *L) { return cn_latents_s8(L->kmin, L->kmax) ? 1u : 2u; }
 
-/* Element i of a matrix of int8 (es 1) or int16 (es 2) values. Inlined where the compiler
- * allows it: at -Os a call per latent would make cnerf_open several times slower. */
-#if defined(__GNUC__)
-#define CN_HOT_INLINE __attribute__((always_inline)) inline
-#else
-#define CN_HOT_INLINE inline
-#endif
-static CN_HOT_INLINE int32_t m_get(const void *m, unsigned es, size_t i)
+/* Element i of a matrix of int8 (es 1) or int16 (es 2) values. */
+static int32_t m_get(const void *m, unsigned es, size_t i)
 {
     return es == 1u ? ((const int8_t *)m)[i] : ((const int16_t *)m)[i];
 }
-static CN_HOT_INLINE void m_set(void *m, unsigned es, size_t i, int32_t v)
+static void m_set(void *m, unsigned es, size_t i, int32_t v)
 {
     if (es == 1u)
         ((int8_t *)m)[i] = (int8_t)v;
