@@ -90,6 +90,11 @@ struct cn_dot_variant;
 cnerf_status cn_open_with(cnerf_decoder *dec, const uint8_t *buf, size_t len, uint32_t scene,
                           void *ws, size_t ws_size, const struct cn_dot_variant *v);
 
+/* cnerf_open_packed for the kernels v: tests open images packed for any device with them
+ * (cn_dot_variant_target), and read them back through cnerf_latent. */
+cnerf_status cn_open_packed_with(cnerf_decoder *dec, const uint8_t *image, size_t len,
+                                 const struct cn_dot_variant *v);
+
 /* ---- frequency tables and rANS ---- */
 
 /* Parses a coded frequency table of `n` >= 2 symbols with precision `prec` and
@@ -142,6 +147,12 @@ static inline int cn_has_shift(const cnerf_shift_info *S) { return S->smin != 0 
 void cn_memzero(void *p, size_t n);
 
 /* ---- the workspace (open.c) ---- */
+
+/* Points the state's arrays (latents, shifts, biases, rows, the grid and its summary) at
+ * their places in the workspace w, by the stream's topology alone, and sets n_pairs.
+ * Returns the end of those places: where open's scratch starts, and a packed image's
+ * workspace ends. */
+uint8_t *cn_lay_out(cnerf_decoder *dec, uint8_t *w);
 
 /* 1 for the layers whose outputs leave the networks (density and colour): the renderer
  * writes them by output index, every other layer's outputs in its stored row order. */

@@ -51,14 +51,16 @@
 #define CN_PAIRS 0u /* a block's latents input pair by input pair */
 #define CN_RUNS8 1u /* a block's latents run by run of eight inputs */
 #define CN_PAIRS_X 2u /* int8 only: pair by pair, rows 0 and 1 (2 and 3) crossed in a word */
-/* Only builds with Helium's kernels pack in CN_RUNS8 (the others leave its code out). */
-#if defined(CN_HAVE_MVE)
+/* On an Arm M-profile core only builds with Helium's kernels pack in CN_RUNS8 (the others
+ * leave its code out); other hosts have every layout, for cnerf_pack's images of any core. */
+#if defined(CN_HAVE_MVE) || !(defined(__ARM_ARCH_PROFILE) && __ARM_ARCH_PROFILE == 'M')
 #define CN_RUNS8_BUILT 1
 #else
 #define CN_RUNS8_BUILT 0
 #endif
-/* Only builds with the DSP extension's int8 sums pack in CN_PAIRS_X. */
-#if defined(CN_HAVE_DSP) && !defined(CN_HAVE_MVE)
+/* Likewise only M-profile builds with the DSP extension's int8 sums pack in CN_PAIRS_X. */
+#if (defined(CN_HAVE_DSP) && !defined(CN_HAVE_MVE)) ||                                      \
+    !(defined(__ARM_ARCH_PROFILE) && __ARM_ARCH_PROFILE == 'M')
 #define CN_PAIRS_X_BUILT 1
 #else
 #define CN_PAIRS_X_BUILT 0
@@ -261,6 +263,11 @@ uint32_t cn_dot_variants(cn_dot_variant out[CN_DOT_MAX_VARIANTS]);
  * "avx2"), whichever this build holds: a device's choice of forms, computed anywhere.
  * Returns 1, or 0 for an unknown name. */
 int cn_dot_variant_as(const char *set, cn_dot_variant *out);
+
+/* The same costs with the layouts of that set's own kernels ("dsp": int8 latents in
+ * CN_PAIRS_X, "mve": CN_RUNS8): a workspace packed for that device (cnerf_pack), which only
+ * its own kernels sum. Returns 1, or 0 for an unknown name. */
+int cn_dot_variant_target(const char *set, cn_dot_variant *out);
 
 /* The fastest kernels this build and CPU have (x86-64: AVX2 when the CPU and the OS
  * support it; Arm: chosen at compile time; CNERF_PORTABLE builds: the portable C). */

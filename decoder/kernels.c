@@ -158,19 +158,33 @@ static int same(const char *a, const char *b)
     return *a == *b;
 }
 
-int cn_dot_variant_as(const char *set, cn_dot_variant *out)
+/* The sets by name: their costs, and the layouts their own kernels read. */
+static int set_named(const char *set, int own_layouts, cn_dot_variant *out)
 {
     static const struct {
         const char *name;
         const uint16_t *cost;
-    } sets[] = {{"c", c_cost},       {"dsp", dsp_cost},         {"mve", mve_cost},
-                {"neon", neon_cost}, {"simd128", simd128_cost}, {"avx2", avx2_cost}};
+        uint8_t layout, layout8;
+    } sets[] = {{"c", c_cost, CN_PAIRS, CN_PAIRS},
+                {"dsp", dsp_cost, CN_PAIRS, CN_PAIRS_X},
+                {"mve", mve_cost, CN_RUNS8, CN_RUNS8},
+                {"neon", neon_cost, CN_PAIRS, CN_PAIRS},
+                {"simd128", simd128_cost, CN_PAIRS, CN_PAIRS},
+                {"avx2", avx2_cost, CN_PAIRS, CN_PAIRS}};
     for (uint32_t i = 0; set && i < sizeof sets / sizeof sets[0]; i++)
         if (same(set, sets[i].name))
             return (int)variant(out, sets[i].name, cn_dot_s16_c, cn_dot_s8_c, (cn_requant_fn)0,
-                                (cn_finish_fn)0, cn_spdot_s16_c, sets[i].cost, CN_PAIRS,
-                                CN_PAIRS);
+                                (cn_finish_fn)0, cn_spdot_s16_c, sets[i].cost,
+                                own_layouts ? sets[i].layout : CN_PAIRS,
+                                own_layouts ? sets[i].layout8 : CN_PAIRS);
     return 0;
+}
+
+int cn_dot_variant_as(const char *set, cn_dot_variant *out) { return set_named(set, 0, out); }
+
+int cn_dot_variant_target(const char *set, cn_dot_variant *out)
+{
+    return set_named(set, 1, out);
 }
 
 cn_dot_variant cn_dot_select(void)

@@ -391,9 +391,9 @@ static void build_summary(const uint8_t *grid, uint32_t g, uint8_t *out)
 
 /* ---- cnerf_open ---- */
 
-/* The workspace's layout: per layer its packed latents (and shifts), bias mantissas, Q16
- * biases and row order; then the grid's bitmap. Returns where open's scratch starts. */
-static uint8_t *lay_out(cnerf_decoder *dec, uint8_t *w)
+/* The workspace's layout (cn_internal.h): per layer its packed latents (and shifts), bias
+ * mantissas, Q16 biases and row order; then the grid's bitmap and summary. */
+uint8_t *cn_lay_out(cnerf_decoder *dec, uint8_t *w)
 {
     cn_state *ds = cn_state_of(dec);
     const cnerf_info *info = &dec->info;
@@ -488,7 +488,7 @@ cnerf_status cn_open_with(cnerf_decoder *dec, const uint8_t *buf, size_t len, ui
         ds->layout = v->layout;
         ds->layout8 = v->layout8;
         /* the layers' arrays, the grid, and open's scratch last */
-        uint8_t *scratch = lay_out(dec, (uint8_t *)ws);
+        uint8_t *scratch = cn_lay_out(dec, (uint8_t *)ws);
         if (info->grid_g)
             st = cn_grid_decode(buf + info->grid_payload_offset, info->grid_payload_bytes,
                                 info->grid_g, info->grid_prec, info->grid_f1,
@@ -521,6 +521,185 @@ cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void
                         size_t ws_size)
 {
     return cnerf_open_scene(dec, buf, len, 0, ws, ws_size);
+}
+
+/* ---- packed images (cnerf_open_packed; cnerf_pack in tools.c writes them) ---- */
+
+/* Little-endian header fields (docs/decoder.md, "Rendering from flash"). */
+static uint32_t le16(const uint8_t *p) { return (uint32_t)p[0] | (uint32_t)p[1] << 8; }
+static uint32_t le32(const uint8_t *p) { return le16(p) | le16(p + 2) << 16; }
+
+/* 1 when this machine stores integers least significant byte first. */
+static int little_endian(void)
+{
+    const uint16_t one = 1u;
+    return *(const unsigned char *)&one == 1u;
+}
+
+/* Sum |k| over the live row j of a packed layer: n elements of es bytes in `layout`. */
+static uint32_t packed_row_sum(const void *m, unsigned es, uint32_t j, uint32_t live,
+                               uint32_t pairs, uint32_t layout)
+{
+    uint32_t sum = 0;
+    for (uint32_t i = 0; i < 2u * pairs; i++) {
+        const int32_t k = m_get(m, es, cn_packed_index(j, i, live, pairs, layout));
+        sum += (uint32_t)(k < 0 ? -k : k);
+    }
+    return sum;
+}
+
+/* Layer l of an image: its row order must be a permutation of its outputs, its lists (a
+ * sparse layer) must lie in the layer's place with inputs in range, and the proofs of its
+ * sums, made again from the image's latents, must give the form and the shifts' width
+ * that the image states (form, shift_wide): then the kernels read only what they would
+ * read from cnerf_open's workspace, and no sum leaves its accumulator. */
+static cnerf_status packed_layer(cnerf_decoder *dec, uint32_t l, uint32_t live, uint32_t form,
+                                 uint32_t shift_wide)
+{
+    cn_state *ds = cn_state_of(dec);
+    const cnerf_layer_info *L = &dec->info.layer[l];
+    const uint32_t n_out = L->n_out, pad = in_pad(L), pairs = pad / 2u;
+    const unsigned es = k_bytes(L);
+    if (live > n_out || form > CN_FORM_SPARSE || shift_wide > 1u ||
+        (shift_wide && !ds->shift[l]) || (form == CN_FORM_SPARSE && ds->shift[l]))
+        return CNERF_E_IMAGE;
+    uint8_t seen[((CNERF_MAX_WIDTH > CNERF_MAX_VIEW_WIDTH ? CNERF_MAX_WIDTH
+                                                          : CNERF_MAX_VIEW_WIDTH) + 7u) / 8u];
+    cn_memzero(seen, sizeof seen);
+    for (uint32_t j = 0; j < n_out; j++) {
+        const uint32_t o = ds->rows[l][j];
+        if (o >= n_out || o >= 8u * sizeof seen || (seen[o >> 3] >> (o & 7u)) & 1u)
+            return CNERF_E_IMAGE;
+        seen[o >> 3] = (uint8_t)(seen[o >> 3] | 1u << (o & 7u));
+    }
+    ds->n_live[l] = (uint16_t)live;
+    ds->form[l] = (uint8_t)form;
+    ds->shift_wide[l] = (uint8_t)shift_wide;
+    uint32_t maxsum = 0, maxshift = 0;
+    if (form == CN_FORM_SPARSE) {
+        const uint32_t *e = (const uint32_t *)ds->latent[l];
+        const size_t words = (size_t)pad * n_out * es / 4u; /* the layer's place */
+        size_t at = 0;
+        for (uint32_t j = 0; j < live; j++) {
+            if (at >= words || e[at] > pad || e[at] > words - at - 1u)
+                return CNERF_E_IMAGE;
+            const uint32_t n = e[at++];
+            uint32_t sum = 0;
+            for (uint32_t k = 0; k < n; k++, at++) {
+                if (e[at] >> 17 >= pad || (e[at] >> 16 & 1u))
+                    return CNERF_E_IMAGE;
+                const int32_t v = cn_entry_k(e[at]);
+                sum += (uint32_t)(v < 0 ? -v : v);
+            }
+            maxsum = sum > maxsum ? sum : maxsum;
+        }
+    } else {
+        for (uint32_t j = 0; j < live; j++) {
+            const uint32_t sum = packed_row_sum(ds->latent[l], es, j, live, pairs,
+                                                layout_of(dec, l, 0));
+            const uint32_t ss = ds->shift[l] ? packed_row_sum(ds->shift[l], 2u, j, live, pairs,
+                                                              layout_of(dec, l, 1))
+                                             : 0u;
+            maxsum = sum > maxsum ? sum : maxsum;
+            maxshift = ss > maxshift ? ss : maxshift;
+        }
+    }
+    prove_layer(dec, l, maxsum, maxshift);
+    if (ds->form[l] != (form == CN_FORM_SPARSE ? CN_FORM_PACKED : form) ||
+        ds->shift_wide[l] != shift_wide)
+        return CNERF_E_IMAGE;
+    ds->form[l] = (uint8_t)form;
+    return CNERF_OK;
+}
+
+/* cnerf_open_packed's checks of the header, in the order of cnerf.h; the state's layouts
+ * from it. */
+static cnerf_status packed_header(cnerf_decoder *dec, const uint8_t *im, size_t len,
+                                  const cn_dot_variant *v)
+{
+    if ((uintptr_t)im & (CNERF_WS_ALIGN - 1u))
+        return CNERF_E_IMAGE_ALIGN;
+    if (len < 4u || im[0] != 'C' || im[1] != 'N' || im[2] != 'P' || im[3] != 'K')
+        return len < 4u ? CNERF_E_TRUNCATED : CNERF_E_MAGIC;
+    if (len < CNERF_IMAGE_HEADER_BYTES)
+        return CNERF_E_TRUNCATED;
+    if (le16(im + 4) != CNERF_IMAGE_VERSION)
+        return CNERF_E_IMAGE_VERSION;
+    uint32_t i = 0;
+    while (i < 8u && v->name[i] && im[8 + i] == (uint8_t)v->name[i])
+        i++;
+    if (im[6] != (little_endian() ? 'L' : 'B') || (i < 8u && (v->name[i] || im[8 + i])) ||
+        im[16] != v->layout || im[17] != v->layout8)
+        return CNERF_E_IMAGE_TARGET;
+    const uint32_t total = le32(im + 24);
+    if (total < CNERF_IMAGE_HEADER_BYTES)
+        return CNERF_E_IMAGE;
+    if (total > len)
+        return CNERF_E_TRUNCATED;
+    uint32_t crc = cnerf_crc32(0, im, 44u);
+    crc = cnerf_crc32(crc, im + 48, total - 48u);
+    if (crc != le32(im + 44))
+        return CNERF_E_IMAGE_CRC;
+    const uint32_t n_layers = im[7], ws_off = le32(im + 28), ws_len = le32(im + 32),
+                   s_off = le32(im + 36), s_len = le32(im + 40);
+    if (n_layers > CNERF_MAX_LAYERS || ws_off < CNERF_IMAGE_HEADER_BYTES + 4u * n_layers ||
+        (ws_off & (CNERF_WS_ALIGN - 1u)) || ws_len > total - ws_off ||
+        s_off < ws_off + ws_len || s_len > total - s_off)
+        return CNERF_E_IMAGE;
+    cn_state *ds = cn_state_of(dec);
+    ds->layout = v->layout;
+    ds->layout8 = v->layout8;
+    return CNERF_OK;
+}
+
+cnerf_status cn_open_packed_with(cnerf_decoder *dec, const uint8_t *image, size_t len,
+                                 const cn_dot_variant *vp)
+{
+    if (!dec)
+        return CNERF_E_NULL;
+    cn_memzero(dec, sizeof *dec);
+    if (!image)
+        return CNERF_E_NULL;
+    const cn_dot_variant v = *vp;
+    cnerf_status st = packed_header(dec, image, len, &v);
+    const uint8_t *im = image;
+    if (st == CNERF_OK)
+        st = cn_parse(im + le32(im + 36), le32(im + 40), le32(im + 20), &dec->info);
+    cn_state *ds = cn_state_of(dec);
+    const cnerf_info *info = &dec->info;
+    if (st == CNERF_OK && info->n_layers != im[7])
+        st = CNERF_E_IMAGE;
+    if (st == CNERF_OK) {
+        /* The state points into the image, which the decoder only reads. */
+        uint8_t *ws = (uint8_t *)(uintptr_t)(im + le32(im + 28));
+        if ((size_t)(cn_lay_out(dec, ws) - ws) != le32(im + 32))
+            st = CNERF_E_IMAGE;
+    }
+    for (uint32_t l = 0; st == CNERF_OK && l < info->n_layers; l++) {
+        const uint8_t *p = im + CNERF_IMAGE_HEADER_BYTES + 4u * l;
+        st = packed_layer(dec, l, le16(p), p[2], p[3]);
+    }
+    if (st == CNERF_OK && info->grid_g) {
+        const uint32_t cells = (uint32_t)info->grid_g * info->grid_g * info->grid_g;
+        for (uint32_t c = 0; c < cells; c++)
+            ds->grid_occupied += cn_grid_bit(ds->grid, c);
+    }
+    if (st == CNERF_OK) {
+        ds->dot = v.fn;
+        ds->dot8 = v.fn8;
+        ds->spdot = v.spdot;
+        ds->requant = v.requant;
+        ds->finish = v.finish;
+    } else {
+        cn_memzero(dec, sizeof *dec);
+    }
+    return st;
+}
+
+cnerf_status cnerf_open_packed(cnerf_decoder *dec, const uint8_t *image, size_t len)
+{
+    const cn_dot_variant v = cn_dot_select();
+    return cn_open_packed_with(dec, image, len, &v);
 }
 
 /* ---- the decoded matrices, for tools and tests ---- */

@@ -27,6 +27,11 @@ const char *cnerf_status_str(cnerf_status s)
     case CNERF_E_CHUNK: return "CNERF_E_CHUNK";
     case CNERF_E_OVERFLOW: return "CNERF_E_OVERFLOW";
     case CNERF_E_BUF_SMALL: return "CNERF_E_BUF_SMALL";
+    case CNERF_E_IMAGE_ALIGN: return "CNERF_E_IMAGE_ALIGN";
+    case CNERF_E_IMAGE_VERSION: return "CNERF_E_IMAGE_VERSION";
+    case CNERF_E_IMAGE_TARGET: return "CNERF_E_IMAGE_TARGET";
+    case CNERF_E_IMAGE_CRC: return "CNERF_E_IMAGE_CRC";
+    case CNERF_E_IMAGE: return "CNERF_E_IMAGE";
     }
     return "CNERF_E_UNKNOWN_STATUS";
 }

@@ -41,6 +41,10 @@
 #   FW_EXPECT_MD5  if set, the MD5 the tile must also have (a golden value)
 #   FW_SCENE       the scene of a stream of several that the firmware opens (0)
 #   FW_AMALGAMATED 1: the decoder from scripts/amalgamate.sh's single file (cnerf_decoder.c)
+#   FW_PACK        a kernel set (dsp for the M4, M7, M33; mve for the M55; c for the M0+):
+#                  each tile's stream is embedded as its packed image for that set (cnerf
+#                  pack), which the firmware opens in place in flash (cnerf_open_packed), with
+#                  no workspace in RAM; the MD5s must be the stream's
 #   FW_WORK        0: no second, untimed render of each tile to count its work (evaluations,
 #                  MACs): half the run, for a check that needs only the MD5s; first: the
 #                  first job's work only (the check that the host's count, which the cost
@@ -160,7 +164,7 @@ esac
 if ! { cmake -S . -B "$bdir" -DCMAKE_TOOLCHAIN_FILE="$toolchain" -DCNERF_FW_BOARD="$board" \
          -DCMAKE_BUILD_TYPE="$btype" -DCNERF_FW_JOBS="$jobs" -DCNERF_FW_STACK="$stack" \
          -DCNERF_AMALGAMATED="${FW_AMALGAMATED:-0}" -DCNERF_FW_WORK="$fw_work" \
-         -DCNERF_FW_WORK_FIRST="$fw_work_first" &&
+         -DCNERF_FW_WORK_FIRST="$fw_work_first" -DCNERF_FW_PACK="${FW_PACK:-}" &&
        cmake --build "$bdir" -j1 --target cnerf_fw; } > "$log" 2>&1; then
   cat "$log" >&2
   echo "firmware.sh: the firmware build failed (log: $log)" >&2

@@ -98,6 +98,8 @@ for line in subprocess.run(["arm-none-eabi-nm", "-S", "-t", "d", elf], capture_o
         sym[f[3]] = int(f[1])
 code = sec.get(".vectors", 0) + sec.get(".text", 0) + sec.get(".ARM.exidx", 0)
 stream = sum(v for k, v in sym.items() if re.fullmatch(r"cnerf_fw_stream(_\d+)?", k))
+packed = sum(v for k, v in sym.items() if re.fullmatch(r"cnerf_fw_image\d+", k))
+stream += packed
 consts = sec.get(".rodata", 0) - stream
 tables = sum(sym.get(t, 0) for t in ("cn_sin_q30", "cn_exp2_q30", "cn_sigmoid_q30"))
 data = sec.get(".data", 0)
@@ -109,7 +111,9 @@ print(f"== cost on the target: {core}, {btype}, decoder + firmware, {os.path.bas
       f"{'' if single else f', {len(jobs)} jobs'} ==")
 print(f"flash {n(flash)} bytes: code {n(code)} (vector table {sec.get('.vectors', 0)}), "
       f"constants {n(consts)} (decoder sin/exp2/sigmoid tables {n(tables)}), "
-      f"embedded stream{'' if single else 's'} {n(stream)}, .data image {n(data)}")
+      f"embedded {'packed image' if packed else 'stream'}{'' if single else 's'} {n(stream)}"
+      f"{' (read in place: workspace, latents and grid in flash)' if packed else ''}, "
+      f".data image {n(data)}")
 print(f"RAM   {n(data + bss + stack_size)} bytes: .data {n(data)} + .bss {n(bss)} (workspace "
       f"{n(named['ws'])}, render scratch {n(named['scratch'])}, cnerf_decoder {n(named['dec'])}, "
       f"tile buffer {n(named['tile'])}, other {n(bss - sum(named.values()))}) + stack "

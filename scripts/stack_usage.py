@@ -16,7 +16,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 ENTRIES = ["cnerf_peek", "cnerf_open", "cnerf_workspace_size", "cnerf_expand_topology",
            "cnerf_latent", "cnerf_crc32", "cnerf_status_str",
            "cnerf_render_scratch_size", "cnerf_render_defaults", "cnerf_render_tile",
-           "cnerf_net_has_color", "cnerf_camera_look_at"]
+           "cnerf_net_has_color", "cnerf_camera_look_at", "cnerf_open_packed"]
 
 
 def load(build_dir, check_sources=True):

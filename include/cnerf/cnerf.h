@@ -45,7 +45,13 @@ typedef enum cnerf_status {
     CNERF_E_FORMAT = -18,       /* a number-format field out of range (exponent, bit count) */
     CNERF_E_CHUNK = -19,        /* a chunk's length disagrees with its content, or a bad tag */
     CNERF_E_OVERFLOW = -20,     /* a value could overflow the renderer's accumulators */
-    CNERF_E_BUF_SMALL = -21     /* an output buffer is too small */
+    CNERF_E_BUF_SMALL = -21,    /* an output buffer is too small */
+    /* Packed images (cnerf_open_packed): */
+    CNERF_E_IMAGE_ALIGN = -22,   /* the image is not aligned to CNERF_WS_ALIGN */
+    CNERF_E_IMAGE_VERSION = -23, /* an image of another decoder version (CNERF_IMAGE_VERSION) */
+    CNERF_E_IMAGE_TARGET = -24,  /* an image for other kernels (another core) or byte order */
+    CNERF_E_IMAGE_CRC = -25,     /* the image's CRC-32 does not match */
+    CNERF_E_IMAGE = -26          /* the image's contents disagree with its stream or bounds */
 } cnerf_status;
 
 /* Workspace alignment in bytes. */
@@ -335,6 +341,26 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
                                      uint32_t w, uint32_t h, uint8_t *rgb, size_t stride,
                                      void *scratch, size_t scratch_size,
                                      cnerf_render_stats *stats);
+
+/* ---- packed images: the workspace decoded ahead of time and read in place ----
+ * cnerf_pack (cnerf/tools.h, `cnerf pack`) writes, for one kind of core, the workspace that
+ * cnerf_open would build, behind a header and followed by the stream itself
+ * (docs/decoder.md, "Rendering from flash"). cnerf_open_packed maps such an image where it
+ * lies, for example in memory-mapped flash: the decoder then reads its latents, biases and
+ * grid from the image, and needs no workspace. Rendering from it gives the same bytes as
+ * rendering from the stream. The image must be aligned to CNERF_WS_ALIGN and must stay in
+ * place, unchanged, while `dec` is used. */
+#define CNERF_IMAGE_VERSION 1u      /* changes whenever the workspace's layout does */
+#define CNERF_IMAGE_HEADER_BYTES 48u
+
+/* Opens the image[0..len) (len may exceed the image, for a flash partition): checks its
+ * alignment (CNERF_E_IMAGE_ALIGN), its version (CNERF_E_IMAGE_VERSION), that it was packed
+ * for this build's kernels and byte order (CNERF_E_IMAGE_TARGET) and its CRC-32
+ * (CNERF_E_IMAGE_CRC); parses the stream inside it (its own statuses); then checks every
+ * layer's stored rows and lists against the stream and proves their sums' bounds again from
+ * the image's latents (CNERF_E_IMAGE), as cnerf_open does from the stream's. On error `dec`
+ * is left zeroed. */
+cnerf_status cnerf_open_packed(cnerf_decoder *dec, const uint8_t *image, size_t len);
 
 /* CRC-32 (ISO-HDLC, as zlib and PNG) of `len` bytes, continuing from `crc` (start at 0). */
 uint32_t cnerf_crc32(uint32_t crc, const uint8_t *p, size_t len);

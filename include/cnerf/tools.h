@@ -31,6 +31,18 @@ cnerf_status cnerf_grid_bitmap(const uint8_t *payload, size_t len, uint32_t g, u
 cnerf_status cnerf_open_as(cnerf_decoder *dec, const uint8_t *buf, size_t len, uint32_t scene,
                            void *ws, size_t ws_size, const char *set);
 
+/* Packs scene `scene` of buf for a device whose kernel set is `set` ("c": Cortex-M0, M0+,
+ * M3 and portable builds; "dsp": Cortex-M4, M7, M33; "mve": Cortex-M55; "neon": aarch64;
+ * "avx2": x86-64 with AVX2; "simd128": WebAssembly) into the image that cnerf_open_packed
+ * reads on that device (the byte order is this machine's). `dec` and ws (aligned,
+ * cnerf_workspace_size() bytes) are the decoder and workspace it opens the stream with (dec
+ * then describes it). *image_len gets the image's size; with out NULL nothing is written
+ * (a query), else out must hold cap >= *image_len bytes (CNERF_E_BUF_SMALL). CNERF_E_ARG for
+ * an unknown set. */
+cnerf_status cnerf_pack(cnerf_decoder *dec, const uint8_t *buf, size_t len, uint32_t scene,
+                        const char *set, void *ws, size_t ws_size, uint8_t *out, size_t cap,
+                        size_t *image_len);
+
 #ifdef __cplusplus
 }
 #endif

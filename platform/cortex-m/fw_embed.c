@@ -5,7 +5,11 @@
  * cnerf_fw_embed.h that fw_render.c includes: the streams (each once) and the table of jobs.
  * Hosted C99.
  *
- *   cnerf_fw_embed OUT.h JOBS
+ *   cnerf_fw_embed OUT.h JOBS [SET]
+ *
+ * With SET (a kernel set: "dsp", "mve", "c"), each job's stream and scene are embedded as the
+ * packed image for that set (cnerf_pack), 8-byte aligned, which the firmware opens in place
+ * (cnerf_open_packed, CNERF_FW_PACKED); the workspace is then not needed.
  *
  * JOBS: one job a line, whitespace-separated:
  *   NAME EXPECT STREAM SCENE CAMERA CAMNAME X0 Y0 W H [N_COARSE N_FINE T_STOP [FLAGS]]
@@ -20,12 +24,15 @@
 #include <string.h>
 
 #include "cnerf/cnerf.h"
+#include "cnerf/tools.h"
 
 #define MAX_JOBS 256
 #define MAX_WORDS 16
 
 typedef struct {
     int stream;   /* index into streams[] */
+    uint8_t *image; /* with SET: the packed image of the stream's scene */
+    size_t image_len;
     long long scene, tile[4], knobs[4], cam[18];
     int have_knobs, host_peek;
     unsigned long long stride;
@@ -191,13 +198,38 @@ static int parse_job(char *line, const char *where)
     return 0;
 }
 
+/* Job j's stream and scene packed for the kernel set `set` into j->image. */
+static int pack_job(job *j, const stream *s, const char *set)
+{
+    static cnerf_info info;
+    static cnerf_decoder dec;
+    if (cnerf_peek_scene(s->buf, s->len, (uint32_t)j->scene, &info) != CNERF_OK)
+        return die(s->path, "does not parse, so it cannot be packed");
+    const size_t n = cnerf_workspace_size(&info);
+    void *ws = calloc((n + 7u) / 8u + 1u, 8u);
+    cnerf_status st = ws ? cnerf_pack(&dec, s->buf, s->len, (uint32_t)j->scene, set, ws, n,
+                                      NULL, 0, &j->image_len)
+                         : CNERF_E_WS_SMALL;
+    if (st == CNERF_OK && !(j->image = malloc(j->image_len)))
+        st = CNERF_E_WS_SMALL;
+    if (st == CNERF_OK)
+        st = cnerf_pack(&dec, s->buf, s->len, (uint32_t)j->scene, set, ws, n, j->image,
+                        j->image_len, &j->image_len);
+    free(ws);
+    if (st == CNERF_E_ARG)
+        return die(set, "not a kernel set (c, dsp, mve, neon, simd128, avx2)");
+    if (st != CNERF_OK)
+        return die(s->path, cnerf_status_str(st));
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
-    if (argc != 3) {
-        fprintf(stderr, "usage: cnerf_fw_embed OUT.h JOBS\n");
+    if (argc != 3 && argc != 4) {
+        fprintf(stderr, "usage: cnerf_fw_embed OUT.h JOBS [SET]\n");
         return 2;
     }
-    const char *out_path = argv[1], *jobs_path = argv[2];
+    const char *out_path = argv[1], *jobs_path = argv[2], *set = argc == 4 ? argv[3] : NULL;
     FILE *f = fopen(jobs_path, "r");
     if (!f)
         return die(jobs_path, strerror(errno));
@@ -233,7 +265,11 @@ int main(int argc, char **argv)
         }
         const unsigned long long t = j->stride * (unsigned long long)j->tile[3];
         tile_bytes = t > tile_bytes ? t : tile_bytes;
+        if (set && st == CNERF_OK && pack_job(j, s, set))
+            return 1;
     }
+    if (set)
+        ws = 8; /* the images hold the workspaces */
 
     f = fopen(out_path, "w");
     if (!f)
@@ -246,10 +282,22 @@ int main(int argc, char **argv)
     fprintf(f, "#define CNERF_FW_TILE_BYTES %lluu\n", tile_bytes);
     fprintf(f, "#define CNERF_FW_JOBS %d\n", n_jobs);
     size_t total = 0;
-    for (int i = 0; i < n_streams; i++)
+    for (int i = 0; i < n_streams && !set; i++)
         total += streams[i].len;
-    fprintf(f, "#define CNERF_FW_STREAM_BYTES %zuu /* all streams, each once */\n", total);
-    for (int i = 0; i < n_streams; i++) {
+    for (int i = 0; i < n_jobs && set; i++)
+        total += jobs[i].image_len;
+    fprintf(f, "#define CNERF_FW_STREAM_BYTES %zuu /* %s */\n", total,
+            set ? "all packed images, one per job" : "all streams, each once");
+    for (int i = 0; i < n_jobs && set; i++) {
+        const job *j = &jobs[i];
+        fprintf(f, "/* job %d, packed for %s */\nstatic const uint8_t cnerf_fw_image%d[%zu] "
+                   "__attribute__((aligned(8))) = {",
+                i, set, i, j->image_len ? j->image_len : 1);
+        for (size_t k = 0; k < j->image_len; k++)
+            fprintf(f, "%s0x%02x,", k % 16 ? "" : "\n    ", j->image[k]);
+        fprintf(f, "%s\n};\n", j->image_len ? "" : "0");
+    }
+    for (int i = 0; i < n_streams && !set; i++) {
         const stream *s = &streams[i];
         fprintf(f, "/* %s */\nstatic const uint8_t cnerf_fw_stream%s%.0d[%zu] = {", s->path,
                 i ? "_" : "", i, s->len ? s->len : 1);
@@ -260,9 +308,14 @@ int main(int argc, char **argv)
     fprintf(f, "static const fw_job cnerf_fw_jobs[CNERF_FW_JOBS] = {\n");
     for (int i = 0; i < n_jobs; i++) {
         const job *j = &jobs[i];
-        fprintf(f, "    {cnerf_fw_stream%s%.0d, %zuu, %lldu, %d, {%lldu, %lldu, %lldu, %lldu}, "
+        if (set)
+            fprintf(f, "    {cnerf_fw_image%d, %zuu, ", i, j->image_len);
+        else
+            fprintf(f, "    {cnerf_fw_stream%s%.0d, %zuu, ", j->stream ? "_" : "", j->stream,
+                    streams[j->stream].len);
+        fprintf(f, "%lldu, %d, {%lldu, %lldu, %lldu, %lldu}, "
                    "%lluu, %d, {%lldu, %lldu, %lldu, %lldu},\n     {{",
-                j->stream ? "_" : "", j->stream, streams[j->stream].len, j->scene, j->host_peek,
+                j->scene, j->host_peek,
                 j->tile[0], j->tile[1], j->tile[2], j->tile[3], j->stride, j->have_knobs,
                 j->knobs[0], j->knobs[1], j->knobs[2], j->knobs[3]);
         for (int k = 0; k < 9; k++) {
@@ -279,6 +332,8 @@ int main(int argc, char **argv)
         }
     }
     fprintf(f, "};\n");
+    for (int i = 0; i < n_jobs; i++)
+        free(jobs[i].image);
     for (int i = 0; i < n_streams; i++) {
         free(streams[i].buf);
         free(streams[i].path);

@@ -58,6 +58,9 @@ typedef struct {
 #ifndef CNERF_FW_WORK
 #define CNERF_FW_WORK 1
 #endif
+#ifndef CNERF_FW_PACKED
+#define CNERF_FW_PACKED 0 /* 1: the jobs are packed images (fw_embed.c's SET) */
+#endif
 #ifndef CNERF_FW_WORK_FIRST
 #define CNERF_FW_WORK_FIRST 0
 #endif
@@ -183,6 +186,17 @@ static int too_small(const char *what, size_t need, size_t have)
 static int run_job(uint32_t j, size_t *ws_max, size_t *sc_max)
 {
     const fw_job *job = &cnerf_fw_jobs[j];
+#if CNERF_FW_PACKED
+    /* The job's packed image, opened where it lies in flash: no peek, no workspace. */
+    const uint64_t t0 = ticks_now(), t1 = t0, t2 = ticks_now();
+    cnerf_status st = cnerf_open_packed(&dec, job->stream, job->len);
+    const uint64_t t3 = ticks_now();
+    if (st != CNERF_OK)
+        return fail(j, "cnerf_open_packed", st);
+    const size_t ws_need = 0, sc_need = cnerf_render_scratch_size(&dec.info);
+    if (sc_need > sizeof scratch)
+        return too_small("render scratch", sc_need, sizeof scratch);
+#else
     const uint64_t t0 = ticks_now();
     cnerf_status st = cnerf_peek_scene(job->stream, job->len, job->scene, &dec.info);
     const uint64_t t1 = ticks_now();
@@ -194,14 +208,15 @@ static int run_job(uint32_t j, size_t *ws_max, size_t *sc_max)
         return too_small("workspace", ws_need, sizeof ws);
     if (sc_need > sizeof scratch)
         return too_small("render scratch", sc_need, sizeof scratch);
-    *ws_max = ws_need > *ws_max ? ws_need : *ws_max;
-    *sc_max = sc_need > *sc_max ? sc_need : *sc_max;
 
     const uint64_t t2 = ticks_now();
     st = cnerf_open_scene(&dec, job->stream, job->len, job->scene, ws, sizeof ws);
     const uint64_t t3 = ticks_now();
     if (st != CNERF_OK)
         return fail(j, "cnerf_open", st);
+#endif
+    *ws_max = ws_need > *ws_max ? ws_need : *ws_max;
+    *sc_max = sc_need > *sc_max ? sc_need : *sc_max;
 
     cnerf_render_opts opts;
     cnerf_render_defaults(&dec.info, &opts);

@@ -55,6 +55,10 @@ static const struct {
      "                                  [--verify MD5] | --orbit N [--size PX]\n"
      "                                  fixed-point decoder render, checked against the float\n"
      "                                  reference and the ground truth"},
+    {"pack", cmd_pack,
+     "pack scene.cnrf --target CORE -o scene.bin\n"
+     "                                  the decoded workspace for one core, read in place\n"
+     "                                  from flash by cnerf_open_packed"},
     {"views", cmd_views,
      "views DATASET -o DIR [--split train] [--downscale F]\n"
      "                                  a split's views as trained on, as PNGs, and a path\n"

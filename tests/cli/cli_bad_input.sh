@@ -316,6 +316,12 @@ rows=(
   "1|lies inside the dataset|views $D -o $D/v --downscale 16"
   "1|unknown split 'x' (test, val, train)|views $D -o $work/vv --split x --downscale 16"
   "2|unknown command 'nope'|help nope"
+  "2|no --target|pack $work/s.cnrf -o $work/x.bin"
+  "2|unknown --target 'cortex-m9'|pack $work/s.cnrf --target cortex-m9 -o $work/x.bin"
+  "2|no output file|pack $work/s.cnrf --target cortex-m4"
+  "1|no scene 1: the stream has 1|pack $work/s.cnrf --target cortex-m4 --scene 1 -o $work/x.bin"
+  "1|CNERF_E_MAGIC|pack $work/t.ckpt --target cortex-m4 -o $work/x.bin"
+  "1|is a device, not a regular file|pack /dev/zero --target cortex-m4 -o $work/x.bin"
   "2|unknown command 'nope'|nope"
   # Every file a command writes is checked, -o and the files inside an output folder alike.
   "1|$work/link.cnrf is a symbolic link; cnerf writes regular files only|synth -o $work/link.cnrf"
@@ -541,6 +547,7 @@ matrix=(
   "synth -o OUT --preset tiny"
   "quantize $work/t.ckpt -o OUT"
   "html $work/s.cnrf -o OUT"
+  "pack $work/s.cnrf --target cortex-m4 -o OUT"
   "render $work/s.cnrf --orbit 1 --size 8 --save-cameras OUT"
   "eval $work/t.ckpt $D -o DIR/r_0.png --downscale 16 --every 200"
   "views $D -o DIR/0000.png --downscale 16"
@@ -549,7 +556,7 @@ matrix=(
 )
 # (for train, encode and views the input is an image of the dataset, linked outside its
 # folder: known as an input only once the dataset is loaded)
-input_of=("$D/train/r_0.png" "$D/train/r_1.png" "" "$work/t.ckpt" "$work/s.cnrf" "$work/s.cnrf" "$work/t.ckpt"
+input_of=("$D/train/r_0.png" "$D/train/r_1.png" "" "$work/t.ckpt" "$work/s.cnrf" "$work/s.cnrf" "$work/s.cnrf" "$work/t.ckpt"
           "$D/train/r_2.png" "$work/s.cnrf" "$D/test/r_0.png")
 kinds=(link fifo input)
 [ $have_dev = 1 ] && kinds+=(dev)

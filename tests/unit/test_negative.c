@@ -113,7 +113,7 @@ static void test_every_bit_flip(void **state)
 static void test_status_strings(void **state)
 {
     (void)state;
-    for (int s = 0; s >= CNERF_E_BUF_SMALL; s--) {
+    for (int s = 0; s >= CNERF_E_IMAGE; s--) {
         const char *name = cnerf_status_str((cnerf_status)s);
         assert_non_null(name);
         assert_true(strncmp(name, "CNERF_", 6) == 0);
@@ -124,6 +124,8 @@ static void test_status_strings(void **state)
     assert_int_equal(CNERF_E_CRC, -8);
     assert_int_equal(CNERF_E_PAYLOAD, -16);
     assert_int_equal(CNERF_E_BUF_SMALL, -21);
+    assert_int_equal(CNERF_E_IMAGE_ALIGN, -22);
+    assert_int_equal(CNERF_E_IMAGE, -26);
 }
 
 int main(void)

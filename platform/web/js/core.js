@@ -26,6 +26,11 @@ export const STATUS = {
   CNERF_E_CHUNK: [-19, "a chunk's length disagrees with its content"],
   CNERF_E_OVERFLOW: [-20, "a value could overflow the renderer's accumulators"],
   CNERF_E_BUF_SMALL: [-21, 'an output buffer is too small'],
+  CNERF_E_IMAGE_ALIGN: [-22, 'a packed image not aligned to 8 bytes'],
+  CNERF_E_IMAGE_VERSION: [-23, 'a packed image of another decoder version'],
+  CNERF_E_IMAGE_TARGET: [-24, 'a packed image for other kernels or byte order'],
+  CNERF_E_IMAGE_CRC: [-25, "a packed image whose CRC-32 does not match"],
+  CNERF_E_IMAGE: [-26, "a packed image whose contents disagree with its stream"],
 };
 
 // cw_summary's fields, in platform/web/cnerf_web.c's order ([name, count]).
