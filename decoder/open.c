@@ -642,9 +642,10 @@ static cnerf_status packed_header(cnerf_decoder *dec, const uint8_t *im, size_t 
         return CNERF_E_IMAGE_CRC;
     const uint32_t n_layers = im[7], ws_off = le32(im + 28), ws_len = le32(im + 32),
                    s_off = le32(im + 36), s_len = le32(im + 40);
+    /* each part inside the image, in order, none wrapping around */
     if (n_layers > CNERF_MAX_LAYERS || ws_off < CNERF_IMAGE_HEADER_BYTES + 4u * n_layers ||
-        (ws_off & (CNERF_WS_ALIGN - 1u)) || ws_len > total - ws_off ||
-        s_off < ws_off + ws_len || s_len > total - s_off)
+        (ws_off & (CNERF_WS_ALIGN - 1u)) || ws_off > total || ws_len > total - ws_off ||
+        s_off < ws_off + ws_len || s_off > total || s_len > total - s_off)
         return CNERF_E_IMAGE;
     cn_state *ds = cn_state_of(dec);
     ds->layout = v->layout;

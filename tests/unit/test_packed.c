@@ -279,6 +279,8 @@ static void test_forged_contents(void **state)
     FORGED(CNERF_E_IMAGE, 7, image[7] + 1);        /* layer count */
     FORGED(CNERF_E_IMAGE, 28, ws_off + 8u);        /* the workspace moved */
     FORGED(CNERF_E_IMAGE, 32, image[32] + 8);      /* its length */
+    FORGED(CNERF_E_IMAGE, 39, 0x7f);               /* the stream past the image's end */
+    FORGED(CNERF_E_IMAGE, 35, 0x7f);               /* the workspace past it */
     FORGED(CNERF_E_IMAGE, 50, 3);                  /* layer 0's form out of range */
     FORGED(CNERF_E_IMAGE, 51, 1);                  /* a shift width without shifts */
     FORGED(CNERF_E_IMAGE, 49, image[49] + 1);      /* more live rows than rows (> 255) */
