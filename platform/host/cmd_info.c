@@ -11,7 +11,7 @@
 #include "cost_model.h"
 
 #define INFO_USAGE                                                                            \
-    "usage: cnerf info [--check] [--scene I] FILE.cnrf\n"                                    \
+    "usage: cnerf info [--check] [--scene I] FILE.cnrf|IMAGE\n"                              \
     "  --check    also decode every payload (cnerf_open), as a device would; without it the\n" \
     "             structure and every chunk's CRC are checked, not the coded latents\n"      \
     "  --scene I  a stream of several scenes: describe scene I (0 by default); --check\n"    \
@@ -97,6 +97,51 @@ static int print_estimates(const uint8_t *buf, size_t len, uint32_t scene, const
     return rc;
 }
 
+static uint32_t le32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+/* A packed image (cnerf pack): its header, whether its CRC holds and whether this machine's
+ * decoder opens it; *off and *len get the stream inside it. Returns 1 (with a message) when
+ * the image is cut short or its parts lie outside it. */
+static int describe_image(const char *path, const uint8_t *im, size_t n, size_t *off,
+                          size_t *len)
+{
+    if (n < CNERF_IMAGE_HEADER_BYTES)
+        return cli_fail("info", "%s: a packed image cut short (%zu bytes, less than its "
+                                "%u-byte header)", path, n, CNERF_IMAGE_HEADER_BYTES);
+    const uint32_t total = le32(im + 24), ws_len = le32(im + 32), s_off = le32(im + 36),
+                   s_len = le32(im + 40);
+    if (total > n || total < CNERF_IMAGE_HEADER_BYTES || s_off > total || s_len > total - s_off)
+        return cli_fail("info", "%s: a packed image whose parts lie outside its %zu bytes "
+                                "(CNERF_E_TRUNCATED or CNERF_E_IMAGE)", path, n);
+    char set[9] = {0};
+    memcpy(set, im + 8, 8);
+    const uint32_t crc = cnerf_crc32(cnerf_crc32(0, im, 44), im + 48, total - 48u);
+    printf("%s: packed image (cnerf pack), version %u%s, kernels %s, %s-endian, scene %u: "
+           "%u bytes = header and layer records %u + workspace %u + stream %u; CRC-32 %s\n",
+           path, (unsigned)(im[4] | im[5] << 8),
+           (im[4] | im[5] << 8) == CNERF_IMAGE_VERSION ? "" : " (not this decoder's)", set,
+           im[6] == 'L' ? "little" : "big", le32(im + 20), total, le32(im + 28), ws_len, s_len,
+           crc == le32(im + 44) ? "ok" : "WRONG");
+    /* whether this machine's decoder opens it in place (an aligned copy) */
+    uint8_t *copy = aligned_alloc(CNERF_WS_ALIGN, (total + 7u) & ~(size_t)7u);
+    cnerf_decoder *dec = malloc(sizeof *dec);
+    if (copy && dec) {
+        memcpy(copy, im, total);
+        const cnerf_status st = cnerf_open_packed(dec, copy, total);
+        printf("this machine's decoder: %s (%d)%s\n", cnerf_status_str(st), (int)st,
+               st == CNERF_OK ? ": it renders the image in place"
+                              : st == CNERF_E_IMAGE_TARGET ? ": packed for another core" : "");
+    }
+    free(copy);
+    free(dec);
+    *off = s_off;
+    *len = s_len;
+    return 0;
+}
+
 int cmd_info(int argc, char **argv)
 {
     int check = 0;
@@ -127,9 +172,18 @@ int cmd_info(int argc, char **argv)
     size_t len;
     if (cn_read_file_sig(argv[1], CLI_STREAM_SIG, 4, &buf, &len, err, sizeof err))
         return cli_fail("info", "%s", err);
+    uint8_t *file = buf; /* a packed image: describe it, then the stream inside */
+    if (len >= 4 && !memcmp(buf, "CNPK", 4)) {
+        size_t off = 0;
+        if (describe_image(argv[1], buf, len, &off, &len)) {
+            free(file);
+            return 1;
+        }
+        buf += off;
+    }
     cnerf_info *info = malloc(sizeof *info);
     if (!info) {
-        free(buf);
+        free(file);
         return cli_fail("info", "out of memory");
     }
     cnerf_status st = cnerf_peek_scene(buf, len, (uint32_t)scene, info);
@@ -154,6 +208,6 @@ int cmd_info(int argc, char **argv)
     if (rc == 0 && check)
         printf("check: every payload decodes (cnerf_open)\n");
     free(info);
-    free(buf);
+    free(file);
     return rc;
 }

@@ -14,6 +14,8 @@ fail() { echo "FAIL: $*" >&2; exit 1; }
 "$cnerf" train "$data/lego" -o "$work/t.ckpt" --preset tiny --downscale 16 --iters 2 \
   > "$work/fixture.log" || fail "fixture: train"
 "$cnerf" synth -o "$work/s.cnrf" --preset tiny > /dev/null || fail "fixture: synth"
+"$cnerf" pack "$work/s.cnrf" --target x86-64 -o "$work/p.bin" > /dev/null || fail "fixture: pack"
+head -c 100 "$work/p.bin" > "$work/p_cut.bin"
 "$cnerf" encode "$data/lego" -o "$work/e.cnrf" --lambda 1 --preset tiny --downscale 16 --iters 2 \
   --every 200 > "$work/fixture-e.log" || fail "fixture: encode"
 "$cnerf" encode "$data/lego" "$data/mic" -o "$work/set.cnrf" --lambda 1 --downscale 16 --iters 2 \
@@ -322,6 +324,7 @@ rows=(
   "1|no scene 1: the stream has 1|pack $work/s.cnrf --target cortex-m4 --scene 1 -o $work/x.bin"
   "1|CNERF_E_MAGIC|pack $work/t.ckpt --target cortex-m4 -o $work/x.bin"
   "1|is a device, not a regular file|pack /dev/zero --target cortex-m4 -o $work/x.bin"
+  "1|a packed image whose parts lie outside its 100 bytes|info $work/p_cut.bin"
   "2|unknown command 'nope'|nope"
   # Every file a command writes is checked, -o and the files inside an output folder alike.
   "1|$work/link.cnrf is a symbolic link; cnerf writes regular files only|synth -o $work/link.cnrf"
@@ -460,6 +463,11 @@ set -e
 # at its match before cnerf has written its last line, which then dies of SIGPIPE)
 grep -q "^check: every payload decodes" <<<"$("$cnerf" info --check "$work/s.cnrf")" ||
   fail "info --check of a good stream"
+# a packed image: its header, its CRC, whether this machine opens it, then its stream
+out=$("$cnerf" info "$work/p.bin") || fail "info of a packed image"
+grep -q "packed image (cnerf pack), version 1, kernels avx2, little-endian, scene 0: .* CRC-32 ok" \
+  <<<"$out" && grep -q "this machine's decoder: CNERF_" <<<"$out" &&
+  grep -q "cnerf stream, format version" <<<"$out" || fail "info of a packed image: $out"
 n=$((n + 1))
 
 # Two runs never write one output: the second is refused while the first holds OUT.lock.
