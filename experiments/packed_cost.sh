@@ -23,17 +23,18 @@ row() { # label pack-set
         FW_BUILD_DIR=build-fw-packed-cost scripts/firmware.sh "$d/lego-c070829.cnrf" \
         "$d/lego-c070829.r_0.cam" "0 0 100 100" 32 32 262144 2>&1) || {
     echo "$out" >&2; exit 1; }
-  local flash ram open ipr
+  local flash ram tile open ipr
   flash=$(sed -n 's/^flash \([0-9,]*\) bytes.*/\1/p' <<<"$out")
   ram=$(sed -n 's/^RAM needed with the stack.s worst case instead of the reservation: \([0-9,]*\) bytes.*/\1/p' <<<"$out")
+  tile=$(sed -n 's/^RAM .* tile buffer \([0-9,]*\),.*/\1/p' <<<"$out")
   open=$(sed -n 's/.*cnerf_open \([0-9,]*\), md5.*/\1/p' <<<"$out")
   ipr=$(sed -n 's/.*: \([0-9,]*\) instructions per ray.*/\1/p' <<<"$out")
-  echo "| $1 | $flash | $ram | $open | $ipr |"
+  echo "| $1 | $flash | $ram | $tile | $open | $ipr |"
   work=$(sed -n 's/.*work of the tile: \(.*\)/\1/p' <<<"$out")
 }
 work=
-echo "| decoder reads | flash (bytes) | RAM (bytes, worst-case stack) | open (instructions) | render (instructions per ray) |"
-echo "|---|---|---|---|---|"
+echo "| decoder reads | flash (bytes) | RAM (bytes, worst-case stack) | of which the test's tile buffer | open (instructions) | render (instructions per ray) |"
+echo "|---|---|---|---|---|---|"
 row "the stream, decoded into RAM (cnerf_open)" ""
 row "its packed image in flash (cnerf_open_packed)" "$set_"
 python3 - "$work" "${WAIT_STATES:-5}" <<'PY'
