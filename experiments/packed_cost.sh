@@ -20,7 +20,7 @@ set_=${FW_PACK_SET:-dsp}
 row() { # label pack-set
   local out
   out=$(FW_PACK=$2 FW_WORK=first FW_TIMEOUT=3000 FW_EXPECT_MD5=e8516816eb358986fb227cd2beb4f48e \
-        FW_BUILD_DIR=build-fw-packed-cost scripts/firmware.sh "$d/lego-c070829.cnrf" \
+        FW_BUILD_DIR=build-fw-packed-cost-${FW_BOARD:-an386} scripts/firmware.sh "$d/lego-c070829.cnrf" \
         "$d/lego-c070829.r_0.cam" "0 0 100 100" 32 32 262144 2>&1) || {
     echo "$out" >&2; exit 1; }
   local flash ram tile open ipr
