@@ -568,7 +568,7 @@ static cnerf_status packed_layer(cnerf_decoder *dec, uint32_t l, uint32_t live, 
     cn_memzero(seen, sizeof seen);
     for (uint32_t j = 0; j < n_out; j++) {
         const uint32_t o = ds->rows[l][j];
-        if (o >= n_out || o >= 8u * sizeof seen || (seen[o >> 3] >> (o & 7u)) & 1u)
+        if (o >= n_out || o >= 8u * sizeof seen || ((uint32_t)seen[o >> 3] >> (o & 7u)) & 1u)
             return CNERF_E_IMAGE;
         seen[o >> 3] = (uint8_t)(seen[o >> 3] | 1u << (o & 7u));
     }
