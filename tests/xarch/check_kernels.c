@@ -272,7 +272,7 @@ static void finish_c(const int32_t *acc, uint32_t live, int32_t am, unsigned n, 
     }
 }
 
-enum { OP_DOT, OP_REQUANT, OP_FINISH, OP_SPDOT };
+enum { OP_DOT, OP_REQUANT, OP_FINISH, OP_SPDOT, OP_DOT8 };
 static const char *const op_name[] = {"dot_s16", "requant_s16", "finish_s32", "spdot_s16"};
 
 /* One shape of one operation. */
@@ -297,6 +297,10 @@ static void run(const cn_dot_variant *v, const bench_case *c, long calls)
         cn_dot_fn volatile f = v->fn;
         for (long i = 0; i < calls; i++)
             f(kbuf, xq, c->pairs, c->rows, b_out);
+    } else if (c->op == OP_DOT8) {
+        cn_dot8_fn volatile f = v->fn8;
+        for (long i = 0; i < calls; i++)
+            f(kbuf8, xq, c->pairs, c->rows, b_out);
     } else if (c->op == OP_SPDOT) {
         cn_spdot_fn volatile f = v->spdot;
         for (long i = 0; i < calls; i++)
@@ -317,6 +321,8 @@ static void layout_for(const cn_dot_variant *v, const bench_case *c)
 {
     if (c->op == OP_DOT)
         pack(c->rows, c->pairs, v->layout);
+    else if (c->op == OP_DOT8)
+        pack8(c->rows, c->pairs, v->layout8);
 }
 
 /* The median nanoseconds per call of each set of v[0..nv) (v[0]: the C) on c: the calls a
@@ -407,14 +413,16 @@ static void bench(const cn_dot_variant *v, uint32_t nv)
      * lists per non-zero latent and per row, from 12 rows of 128 inputs, whole and with
      * every 8th latent kept. */
     {
-        static double pk[CN_DOT_MAX_VARIANTS], whole[CN_DOT_MAX_VARIANTS],
-            eighth[CN_DOT_MAX_VARIANTS];
+        static double pk[CN_DOT_MAX_VARIANTS], pk8[CN_DOT_MAX_VARIANTS],
+            whole[CN_DOT_MAX_VARIANTS], eighth[CN_DOT_MAX_VARIANTS];
         fill(12, 64, 0);
         for (uint32_t j = 0; j < 12; j++)
             for (uint32_t i = 0; i < 128; i++)
                 rowmajor[j][i] = (int16_t)(rowmajor[j][i] ? rowmajor[j][i] : 1);
         bench_case c = {OP_DOT, 12, 64, 0, 0, 0, 0, 0};
         bench_one(v, nv, &c, pk);
+        c.op = OP_DOT8; /* the same rows as int8 (they are within its range) */
+        bench_one(v, nv, &c, pk8);
         const double nz_whole = make_lists(12, 64);
         c.op = OP_SPDOT;
         bench_one(v, nv, &c, whole);
@@ -427,11 +435,14 @@ static void bench(const cn_dot_variant *v, uint32_t nv)
             const double per_nz = (whole[k] - eighth[k]) / (nz_whole - nz_eighth);
             const double per_row = (eighth[k] - per_nz * nz_eighth) / 12;
             const double per_mac = pk[k] / (12 * 128);
+            const double per_mac8 = pk8[k] / (12 * 128);
             printf("costs %s: %.3f ns per multiply-accumulate packed, %.3f ns per non-zero "
-                   "latent and %.2f ns per row in lists; in sixteenths of the first: 16, "
-                   "%.0f, %.0f (kernels.c: %u, %u, %u)\n", v[k].name, per_mac, per_nz, per_row,
-                   16 * per_nz / per_mac, 16 * per_row / per_mac, v[k].mac_cost, v[k].nz_cost,
-                   v[k].row_cost);
+                   "latent and %.2f ns per row in lists, %.3f ns per multiply-accumulate over "
+                   "int8 latents; in sixteenths of the first: 16, %.0f, %.0f, %.0f (kernels.c: "
+                   "%u, %u, %u, %u)\n",
+                   v[k].name, per_mac, per_nz, per_row, per_mac8, 16 * per_nz / per_mac,
+                   16 * per_row / per_mac, 16 * per_mac8 / per_mac, v[k].mac_cost,
+                   v[k].nz_cost, v[k].row_cost, v[k].mac8_cost);
         }
     }
     static double ratio[MAX_ROWS * N_PAIRS];
