@@ -103,8 +103,8 @@ int cmd_pack(int argc, char **argv)
         rc = cli_fail("pack", "%s", err);
     if (rc == 0)
         printf("wrote %s: %zu bytes for %s (kernels %s): header %zu, workspace %u, stream %zu; "
-               "RAM then needed: the decoder struct and the render scratch (%zu bytes), not "
-               "the %zu-byte workspace\n",
+               "the device's RAM is then the render scratch (%zu bytes), the decoder struct "
+               "and the stack, without the %zu-byte workspace\n",
                out, n, target, set, (size_t)le32(image + 28), le32(image + 32),
                len, cnerf_render_scratch_size(info), ws_n);
     free(image);
