@@ -143,6 +143,14 @@ cnerf_status cn_parse(const uint8_t *buf, size_t len, uint32_t scene, cnerf_info
 /* 1 when the layer's kernel has a shift term (not every shift 0). */
 static inline int cn_has_shift(const cnerf_shift_info *S) { return S->smin != 0 || S->smax != 0; }
 
+/* 1 when this machine stores integers least significant byte first (a packed image's
+ * workspace is in the byte order of the machine that packed it). */
+static inline int cn_little_endian(void)
+{
+    const uint16_t one = 1u;
+    return *(const unsigned char *)&one == 1u;
+}
+
 /* Freestanding memset. */
 void cn_memzero(void *p, size_t n);
 

@@ -525,17 +525,6 @@ cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void
 
 /* ---- packed images (cnerf_open_packed; cnerf_pack in tools.c writes them) ---- */
 
-/* Little-endian header fields (docs/decoder.md, "Rendering from flash"). */
-static uint32_t le16(const uint8_t *p) { return (uint32_t)p[0] | (uint32_t)p[1] << 8; }
-static uint32_t le32(const uint8_t *p) { return le16(p) | le16(p + 2) << 16; }
-
-/* 1 when this machine stores integers least significant byte first. */
-static int little_endian(void)
-{
-    const uint16_t one = 1u;
-    return *(const unsigned char *)&one == 1u;
-}
-
 /* Sum |k| over the live row j of a packed layer: n elements of es bytes in `layout`. */
 static uint32_t packed_row_sum(const void *m, unsigned es, uint32_t j, uint32_t live,
                                uint32_t pairs, uint32_t layout)
@@ -623,25 +612,25 @@ static cnerf_status packed_header(cnerf_decoder *dec, const uint8_t *im, size_t 
         return len < 4u ? CNERF_E_TRUNCATED : CNERF_E_MAGIC;
     if (len < CNERF_IMAGE_HEADER_BYTES)
         return CNERF_E_TRUNCATED;
-    if (le16(im + 4) != CNERF_IMAGE_VERSION)
+    if (cn_le16(im + 4) != CNERF_IMAGE_VERSION)
         return CNERF_E_IMAGE_VERSION;
     uint32_t i = 0;
     while (i < 8u && v->name[i] && im[8 + i] == (uint8_t)v->name[i])
         i++;
-    if (im[6] != (little_endian() ? 'L' : 'B') || (i < 8u && (v->name[i] || im[8 + i])) ||
+    if (im[6] != (cn_little_endian() ? 'L' : 'B') || (i < 8u && (v->name[i] || im[8 + i])) ||
         im[16] != v->layout || im[17] != v->layout8)
         return CNERF_E_IMAGE_TARGET;
-    const uint32_t total = le32(im + 24);
+    const uint32_t total = cn_le32(im + 24);
     if (total < CNERF_IMAGE_HEADER_BYTES)
         return CNERF_E_IMAGE;
     if (total > len)
         return CNERF_E_TRUNCATED;
     uint32_t crc = cnerf_crc32(0, im, 44u);
     crc = cnerf_crc32(crc, im + 48, total - 48u);
-    if (crc != le32(im + 44))
+    if (crc != cn_le32(im + 44))
         return CNERF_E_IMAGE_CRC;
-    const uint32_t n_layers = im[7], ws_off = le32(im + 28), ws_len = le32(im + 32),
-                   s_off = le32(im + 36), s_len = le32(im + 40);
+    const uint32_t n_layers = im[7], ws_off = cn_le32(im + 28), ws_len = cn_le32(im + 32),
+                   s_off = cn_le32(im + 36), s_len = cn_le32(im + 40);
     /* each part inside the image, in order, none wrapping around */
     if (n_layers > CNERF_MAX_LAYERS || ws_off < CNERF_IMAGE_HEADER_BYTES + 4u * n_layers ||
         (ws_off & (CNERF_WS_ALIGN - 1u)) || ws_off > total || ws_len > total - ws_off ||
@@ -665,20 +654,20 @@ cnerf_status cn_open_packed_with(cnerf_decoder *dec, const uint8_t *image, size_
     cnerf_status st = packed_header(dec, image, len, &v);
     const uint8_t *im = image;
     if (st == CNERF_OK)
-        st = cn_parse(im + le32(im + 36), le32(im + 40), le32(im + 20), &dec->info);
+        st = cn_parse(im + cn_le32(im + 36), cn_le32(im + 40), cn_le32(im + 20), &dec->info);
     cn_state *ds = cn_state_of(dec);
     const cnerf_info *info = &dec->info;
     if (st == CNERF_OK && info->n_layers != im[7])
         st = CNERF_E_IMAGE;
     if (st == CNERF_OK) {
         /* The state points into the image, which the decoder only reads. */
-        uint8_t *ws = (uint8_t *)(uintptr_t)(im + le32(im + 28));
-        if ((size_t)(cn_lay_out(dec, ws) - ws) != le32(im + 32))
+        uint8_t *ws = (uint8_t *)(uintptr_t)(im + cn_le32(im + 28));
+        if ((size_t)(cn_lay_out(dec, ws) - ws) != cn_le32(im + 32))
             st = CNERF_E_IMAGE;
     }
     for (uint32_t l = 0; st == CNERF_OK && l < info->n_layers; l++) {
         const uint8_t *p = im + CNERF_IMAGE_HEADER_BYTES + 4u * l;
-        st = packed_layer(dec, l, le16(p), p[2], p[3]);
+        st = packed_layer(dec, l, cn_le16(p), p[2], p[3]);
     }
     if (st == CNERF_OK && info->grid_g) {
         const uint32_t cells = (uint32_t)info->grid_g * info->grid_g * info->grid_g;

@@ -76,12 +76,11 @@ cnerf_status cnerf_pack(cnerf_decoder *dec, const uint8_t *buf, size_t len, uint
         return CNERF_OK;
     if (cap < total)
         return CNERF_E_BUF_SMALL;
-    const uint16_t one = 1u;
     for (size_t i = 0; i < ws_off; i++)
         out[i] = 0;
     out[0] = 'C', out[1] = 'N', out[2] = 'P', out[3] = 'K';
     put16(out + 4, CNERF_IMAGE_VERSION);
-    out[6] = *(const unsigned char *)&one == 1u ? 'L' : 'B';
+    out[6] = cn_little_endian() ? 'L' : 'B';
     out[7] = (uint8_t)info->n_layers;
     for (uint32_t i = 0; i < 8u && v.name[i]; i++)
         out[8 + i] = (uint8_t)v.name[i];

@@ -7,6 +7,7 @@
 #include "cn_fixcam.h"
 #include "cn_report.h"
 #include "cn_file.h"
+#include "cn_reader.h"
 #include "cnerf/tools.h"
 #include "cost_model.h"
 
@@ -97,11 +98,6 @@ static int print_estimates(const uint8_t *buf, size_t len, uint32_t scene, const
     return rc;
 }
 
-static uint32_t le32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-
 /* A packed image (cnerf pack): its header, whether its CRC holds and whether this machine's
  * decoder opens it; *off and *len get the stream inside it. Returns 1 (with a message) when
  * the image is cut short or its parts lie outside it. */
@@ -111,8 +107,8 @@ static int describe_image(const char *path, const uint8_t *im, size_t n, size_t 
     if (n < CNERF_IMAGE_HEADER_BYTES)
         return cli_fail("info", "%s: a packed image cut short (%zu bytes, less than its "
                                 "%u-byte header)", path, n, CNERF_IMAGE_HEADER_BYTES);
-    const uint32_t total = le32(im + 24), ws_len = le32(im + 32), s_off = le32(im + 36),
-                   s_len = le32(im + 40);
+    const uint32_t total = cn_le32(im + 24), ws_len = cn_le32(im + 32), s_off = cn_le32(im + 36),
+                   s_len = cn_le32(im + 40);
     if (total > n || total < CNERF_IMAGE_HEADER_BYTES || s_off > total || s_len > total - s_off)
         return cli_fail("info", "%s: a packed image whose parts lie outside its %zu bytes "
                                 "(CNERF_E_TRUNCATED or CNERF_E_IMAGE)", path, n);
@@ -121,10 +117,10 @@ static int describe_image(const char *path, const uint8_t *im, size_t n, size_t 
     const uint32_t crc = cnerf_crc32(cnerf_crc32(0, im, 44), im + 48, total - 48u);
     printf("%s: packed image (cnerf pack), version %u%s, kernels %s, %s-endian, scene %u: "
            "%u bytes = header and layer records %u + workspace %u + stream %u; CRC-32 %s\n",
-           path, (unsigned)(im[4] | im[5] << 8),
-           (im[4] | im[5] << 8) == CNERF_IMAGE_VERSION ? "" : " (not this decoder's)", set,
-           im[6] == 'L' ? "little" : "big", le32(im + 20), total, le32(im + 28), ws_len, s_len,
-           crc == le32(im + 44) ? "ok" : "WRONG");
+           path, cn_le16(im + 4),
+           cn_le16(im + 4) == CNERF_IMAGE_VERSION ? "" : " (not this decoder's)", set,
+           im[6] == 'L' ? "little" : "big", cn_le32(im + 20), total, cn_le32(im + 28), ws_len,
+           s_len, crc == cn_le32(im + 44) ? "ok" : "WRONG");
     /* whether this machine's decoder opens it in place (an aligned copy) */
     uint8_t *copy = aligned_alloc(CNERF_WS_ALIGN, (total + 7u) & ~(size_t)7u);
     cnerf_decoder *dec = malloc(sizeof *dec);

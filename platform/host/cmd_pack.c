@@ -8,6 +8,7 @@
 #include "cli.h"
 #include "cli_args.h"
 #include "cn_file.h"
+#include "cn_reader.h"
 #include "cnerf/tools.h"
 
 #define PACK_USAGE                                                                            \
@@ -26,11 +27,6 @@ static const struct {
                {"cortex-m4", "dsp"},   {"cortex-m7", "dsp"},   {"cortex-m33", "dsp"},
                {"cortex-m55", "mve"},  {"aarch64", "neon"},    {"x86-64", "avx2"},
                {"wasm32", "simd128"},  {"portable", "c"}};
-
-static unsigned le32(const uint8_t *p)
-{
-    return (unsigned)p[0] | (unsigned)p[1] << 8 | (unsigned)p[2] << 16 | (unsigned)p[3] << 24;
-}
 
 int cmd_pack(int argc, char **argv)
 {
@@ -105,7 +101,7 @@ int cmd_pack(int argc, char **argv)
         printf("wrote %s: %zu bytes for %s (kernels %s): header %zu, workspace %u, stream %zu; "
                "the device's RAM is then the render scratch (%zu bytes), the decoder struct "
                "and the stack, without the %zu-byte workspace\n",
-               out, n, target, set, (size_t)le32(image + 28), le32(image + 32),
+               out, n, target, set, (size_t)cn_le32(image + 28), cn_le32(image + 32),
                len, cnerf_render_scratch_size(info), ws_n);
     free(image);
     free(ws);

@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../../common/cn_reader.h"
 #include "../../decoder/cn_kernels.h"
 #include "cnerf/cnerf.h"
 #include "fuzz_tile.h"
@@ -41,8 +42,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             im[16] = v.layout;
             im[17] = v.layout8;
         }
-        const uint32_t total = (uint32_t)im[24] | (uint32_t)im[25] << 8 |
-                               (uint32_t)im[26] << 16 | (uint32_t)im[27] << 24;
+        const uint32_t total = cn_le32(im + 24);
         if (!(c[1] & 2) && total >= 48 && total <= n) /* the CRC made right */
             put32(im + 44, cnerf_crc32(cnerf_crc32(0, im, 44), im + 48, total - 48));
     }
