@@ -30,12 +30,15 @@
  *   the origin and s = aabb_scale (default 1), near = max(0.05, min |c_i| - sqrt(3) s),
  *   far = max |c_i| + sqrt(3) s, over all usable frames.
  * LLFF: images from images_<8*downscale>/ if it exists, else images_8/ area-downscaled by
- *   `downscale` (sorted file names, PNG or JPEG, one per pose). NeRF's conventions: rotation
- *   columns [down, right, back] become [right, up, back], translations and bounds scaled
- *   by 1 / (0.75 min bound), poses recentred on their average pose, ndc = 1,
- *   near = 0.9 min bound, far = max bound (after scaling), i.e. the scene's depth range;
- *   an NDC renderer itself starts its rays at the plane z = -1 (near 1.0). Split: views
- *   0, 8, 16, ... test, the rest train (no val).
+ *   `downscale` (sorted file names, PNG or JPEG, one per pose). Rotation columns [down,
+ *   right, back] become [right, up, back]. Forward-facing (the mean of the viewing
+ *   directions longer than 0.9), NeRF's conventions: translations and bounds scaled by
+ *   1 / (0.75 min bound), poses recentred on their average pose, ndc = 1, near = 0.9 min
+ *   bound, far = max bound (after scaling), i.e. the scene's depth range; an NDC renderer
+ *   itself starts its rays at the plane z = -1 (near 1.0). Otherwise a capture around the
+ *   object (NeRF's 360-degree real scenes, NeRD's): oriented, centred and scaled as an
+ *   inward COLMAP model below, near = max(0.01, 0.9 min bound), far = 1.1 max bound (after
+ *   scaling), ndc = 0. Split: views 0, 8, 16, ... test, the rest train (no val).
  * DTU: cameras.npz (IDR, VolSDF, MonoSDF), else cameras_sphere.npz (NeuS): a zip archive
  *   (entries stored or deflated: np.savez or np.savez_compressed) of .npy arrays, for views
  *   i = 0 .. N-1 world_mat_i (the 3x4 projection P = K [R | t] from world to pixels in

@@ -1184,6 +1184,14 @@ static int cn_llff_recentre(cn_llff_cam *cams, int n, const char *file, char *er
     return 0;
 }
 
+/* A capture whose cameras all look the same way (the mean of their viewing directions is
+ * longer than this) is forward-facing and takes LLFF's conventions (NDC); any other is a
+ * capture around its object (LLFF files and COLMAP models alike). */
+#define CN_FORWARD 0.9
+
+static int cn_orient_inward(cn_llff_cam *cams, int n, const char *file, double *scale,
+                            char *err, size_t errlen);
+
 /* poses_bounds.npy's bytes into NeRF-convention cameras (see cn_llff_cameras). */
 static int cn_llff_cameras_mem(const char *file, const uint8_t *data, size_t len,
                                cn_llff_cam **cams, int *n, cn_dataset *ds, char *err,
@@ -1203,10 +1211,22 @@ static int cn_llff_cameras_mem(const char *file, const uint8_t *data, size_t len
         rc = cn_llff_row(&a, i, file, &(*cams)[i], err, errlen);
     if (rc != 0)
         return -1;
-    double bmin = (*cams)[0].bnear, bmax = (*cams)[0].bfar;
-    for (int i = 1; i < *n; i++) {
+    double bmin = (*cams)[0].bnear, bmax = (*cams)[0].bfar, fwd[3] = {0, 0, 0};
+    for (int i = 0; i < *n; i++) {
         bmin = fmin(bmin, (*cams)[i].bnear);
         bmax = fmax(bmax, (*cams)[i].bfar);
+        for (int a = 0; a < 3; a++)
+            fwd[a] -= (*cams)[i].c2w[a][2] / *n;
+    }
+    ds->ndc = cn_normalize3(fwd) > CN_FORWARD;
+    if (!ds->ndc) {
+        /* a capture around the object (NeRF's 360-degree real scenes ship this way) */
+        double sc;
+        if (cn_orient_inward(*cams, *n, file, &sc, err, errlen) != 0)
+            return -1;
+        ds->near = fmax(0.01, 0.9 * bmin * sc);
+        ds->far = 1.1 * bmax * sc;
+        return 0;
     }
     double sc = 1.0 / (bmin * 0.75);
     for (int i = 0; i < *n; i++)
@@ -1217,8 +1237,10 @@ static int cn_llff_cameras_mem(const char *file, const uint8_t *data, size_t len
     return cn_llff_recentre(*cams, *n, file, err, errlen);
 }
 
-/* Reads poses_bounds.npy into NeRF-convention cameras: scaled so that the nearest bound
- * is 1/0.75, recentred. Sets the dataset's near/far (0.9 x nearest bound, farthest). */
+/* Reads poses_bounds.npy into NeRF-convention cameras. Forward-facing (CN_FORWARD):
+ * scaled so that the nearest bound is 1/0.75, recentred, near/far 0.9 x the nearest bound
+ * and the farthest, NDC. Otherwise inward (cn_orient_inward), near/far 0.9 and 1.1 x the
+ * extreme bounds, no NDC. */
 static int cn_llff_cameras(const char *file, cn_llff_cam **cams, int *n, cn_dataset *ds,
                            char *err, size_t errlen)
 {
@@ -1407,7 +1429,6 @@ static int cn_load_llff(const char *dir, cn_dataset *ds, cn_frames *L, char *err
     char file[CN_PATH_MAX], imgdir[CN_PATH_MAX];
     cn_llff_cam *cams = NULL;
     int n = 0;
-    ds->ndc = 1;
     int rc = cn_join(file, dir, "poses_bounds.npy", "", err, errlen);
     if (rc == 0)
         rc = cn_llff_cameras(file, &cams, &n, ds, err, errlen);
@@ -1593,14 +1614,10 @@ static int cn_colmap_bounds(const cn_colmap *m, const cn_llff_cam *cam, double *
     return 1;
 }
 
-/* A capture whose cameras all look the same way (the mean of their viewing directions is
- * longer than this) is forward-facing and takes LLFF's conventions (NDC). */
-#define CN_COLMAP_FORWARD 0.9
-
 /* An inward capture: up (the mean of the cameras' up axes) becomes +z, the point nearest to
  * every optical axis (least squares; the mean camera centre when the axes are close to
  * parallel) the origin, and the mean camera distance 4, as for Blender's scenes. */
-static int cn_colmap_orient(cn_llff_cam *cams, int n, const char *file, double *scale,
+static int cn_orient_inward(cn_llff_cam *cams, int n, const char *file, double *scale,
                             char *err, size_t errlen)
 {
     double up[3] = {0, 0, 0}, A[3][3] = {{0}}, b[3] = {0, 0, 0}, mean[3] = {0, 0, 0};
@@ -1744,7 +1761,7 @@ static int cn_load_colmap(const char *dir, cn_dataset *ds, cn_frames *L, char *e
             bmax = fmax(bmax, cams[i].bfar);
         }
     }
-    const int forward = cn_normalize3(fwd) > CN_COLMAP_FORWARD;
+    const int forward = cn_normalize3(fwd) > CN_FORWARD;
     if (rc == 0 && forward) {
         /* LLFF's conventions, on bounds from the sparse points */
         if (!bounded)
@@ -1762,7 +1779,7 @@ static int cn_load_colmap(const char *dir, cn_dataset *ds, cn_frames *L, char *e
     }
     double sc = 1;
     if (rc == 0 && !forward)
-        rc = cn_colmap_orient(cams, n, sparse, &sc, err, errlen);
+        rc = cn_orient_inward(cams, n, sparse, &sc, err, errlen);
     for (int i = 0; rc == 0 && i < n; i++) {
         rc = cn_join(path, imgdir, m.imgs[i].name, "", err, errlen);
         if (rc == 0 && !cn_is_file(path))

@@ -1009,6 +1009,7 @@ static void test_llff_synthetic(void **state)
     load_ok(dir, NULL, &ds);
     /* Scaled by 1 / (0.75 * 2), recentred: both cameras axis-aligned at x = -/+ 1/1.5. */
     const double sc = 1 / 1.5;
+    assert_int_equal(ds.ndc, 1);
     assert_true(fabs(ds.near - 0.9 * 2 * sc) < 1e-12 && fabs(ds.far - 8 * sc) < 1e-12);
     assert_int_equal(ds.n_test, 1);
     assert_int_equal(ds.n_train, 1);
@@ -1039,6 +1040,54 @@ static void test_llff_synthetic(void **state)
     load_ok(dir, &(cn_dataset_opts){.downscale = 2}, &ds);
     assert_int_equal(ds.train[0].w, 6);
     assert_true(fabs(ds.train[0].fx - FERN_FOCAL * 6 / 4032) < 1e-9);
+    cn_dataset_free(&ds);
+    rm_tree(dir);
+}
+
+/* A capture around an object stored as poses_bounds.npy (as NeRF's own 360-degree real
+ * scenes and NeRD's are): four cameras 3 units from the origin on the x and z axes, all
+ * looking at it, up +y. NDC would put half of them behind the plane z = -1; the loader
+ * takes the inward conventions instead (up to +z, the origin where the optical axes meet,
+ * mean camera distance 4, near and far from the depth bounds, 0.9 and 1.1 times). */
+static void test_llff_inward(void **state)
+{
+    (void)state;
+    char dir[PATH_LEN], sub[PATH_LEN];
+    make_llff(dir, "llff_inward");
+    join(sub, dir, "images_8");
+    copy_file(FERN "/images_8/image002.png", sub, "c.png", SIZE_MAX);
+    copy_file(FERN "/images_8/image003.png", sub, "d.png", SIZE_MAX);
+    double rows[4 * 17];
+    const double pos[4][3] = {{3, 0, 0}, {0, 0, 3}, {-3, 0, 0}, {0, 0, -3}};
+    for (int k = 0; k < 4; k++) {
+        /* back = the centre's direction, up = +y, right = up x back */
+        const double *b = pos[k];
+        const double R[3][3] = {{b[2] / 3, 0, b[0] / 3}, {0, 1, 0}, {-b[0] / 3, 0, b[2] / 3}};
+        llff_row(rows + 17 * k, R, pos[k], 2.0, 4.0);
+    }
+    write_npy(dir, 1, "{'descr': '<f8', 'fortran_order': False, 'shape': (4, 17), }", rows,
+              4 * 17);
+    cn_dataset ds;
+    load_ok(dir, NULL, &ds);
+    assert_int_equal(ds.ndc, 0);
+    const double sc = 4.0 / 3.0;
+    assert_true(fabs(ds.near - 0.9 * 2 * sc) < 1e-9 && fabs(ds.far - 1.1 * 4 * sc) < 1e-9);
+    assert_int_equal(ds.n_test, 1);
+    assert_int_equal(ds.n_train, 3);
+    for (int k = 0; k < 4; k++) {
+        const cn_view *v = k ? &ds.train[k - 1] : &ds.test[0];
+        double cc[3], r = 0, dot = 0;
+        for (int i = 0; i < 3; i++) {
+            cc[i] = v->c2w[i][3];
+            r += cc[i] * cc[i];
+            dot += v->c2w[i][2] * cc[i]; /* back axis along the centre: looks at the origin */
+        }
+        r = sqrt(r);
+        assert_true(fabs(r - 4) < 1e-9);
+        assert_true(fabs(dot - 4) < 1e-9);
+        assert_true(fabs(cc[2]) < 1e-9);           /* every camera at the height of the origin */
+        assert_true(fabs(v->c2w[2][1] - 1) < 1e-9); /* up is +z */
+    }
     cn_dataset_free(&ds);
     rm_tree(dir);
 }
@@ -1173,6 +1222,7 @@ int main(void)
         cmocka_unit_test(test_lego),           cmocka_unit_test(test_fern),
         cmocka_unit_test(test_ngp),            cmocka_unit_test(test_blender_errors),
         cmocka_unit_test(test_ngp_errors),     cmocka_unit_test(test_llff_synthetic),
+        cmocka_unit_test(test_llff_inward),
         cmocka_unit_test(test_llff_errors),    cmocka_unit_test(test_read_limit),
     };
     return cmocka_run_group_tests(tests, NULL, remove_tmp_root);
