@@ -64,13 +64,17 @@ typedef struct cn_state {
     int32_t (*requant)(const int32_t *x, int16_t *xq, uint32_t n, unsigned s);
     void (*finish)(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
                    const int32_t *bq, int32_t *y, int relu);
-    const uint8_t *grid;    /* occupancy bitmap, bit (z g + y) g + x, LSB first; NULL: none */
-    uint32_t grid_occupied; /* occupied cells */
-    /* The grid's summary, made at open (open.c, build_summary): levels k = 1, 2, ... of
-     * ceil(g / 2^k)^3 cells down to one cell, stored one after another bit by bit, a cell
-     * set when any grid cell it covers is occupied. The renderer rules out a stretch of a
-     * ray with a few of its bits. */
+    /* The occupancy grid stored by blocks (cn_grid_model.h; NULL grid_slot: no grid): a
+     * record index per block of 8^3 cells, the records (cells and summary levels 1 and 2),
+     * and the summary's levels 3 and up, made at open (open.c, build_summary): level k of
+     * ceil(g / 2^k)^3 cells, each set when any grid cell it covers is occupied, stored one
+     * after another bit by bit down to one cell. The renderer rules out a stretch of a ray
+     * with a few of its bits. */
+    const uint16_t *grid_slot;
+    const uint8_t *grid_rec;
     const uint8_t *grid_summary;
+    uint32_t grid_occupied; /* occupied cells */
+    uint32_t grid_recs;     /* records */
 } cn_state;
 
 /* The state in dec's opaque part (whose union aligns it for pointers and 64-bit integers;
@@ -111,13 +115,33 @@ cnerf_status cn_rans_decode(const uint8_t *payload, size_t len, const uint32_t *
                             unsigned prec, int32_t offset, void *out, unsigned elem_bytes,
                             uint32_t count);
 
-/* Decodes a GRID payload[0..len): g^3 bits in raster order (x fastest, then y, then z),
- * each with binary rANS of precision `prec` under the context of its already decoded
- * neighbours (cn_grid_context), into the bitmap `bits` (bit i at bits[i >> 3],
- * 1 << (i & 7); the bits after the last cell are 0). Counts the occupied cells into *occupied. CNERF_E_PAYLOAD unless the
- * payload is consumed exactly and ends in the encoder's initial state. */
-cnerf_status cn_grid_decode(const uint8_t *payload, size_t len, uint32_t g, unsigned prec,
-                            const uint16_t *f1, uint8_t *bits, uint32_t *occupied);
+/* An occupancy grid's coding: GRID (fb1 NULL) or BGRD (docs/bitstream.md). */
+typedef struct cn_grid_code {
+    uint32_t g;
+    unsigned prec;
+    const uint16_t *f1;  /* the cells' "occupied" frequencies per context */
+    const uint16_t *fb1; /* BGRD: the blocks'; NULL for GRID */
+    uint32_t recs;       /* records: BGRD's occupied blocks, GRID's every block */
+} cn_grid_code;
+
+/* Decodes a GRID or BGRD payload[0..len) into the grid stored by blocks (cn_grid_model.h):
+ * slot[ceil(g / 8)^3] and gc->recs records' cells (their summary bits are left 0). GRID
+ * gives block b record b; BGRD gives the occupied blocks records 0, 1, ... in block order
+ * and the others CN_GRID_NO_BLOCK. Counts the occupied cells into *occupied.
+ * CNERF_E_PAYLOAD unless the payload is consumed exactly and ends in the encoder's initial
+ * state, and, for BGRD, gc->recs blocks are occupied and each has an occupied cell. */
+cnerf_status cn_grid_decode(const uint8_t *payload, size_t len, const cn_grid_code *gc,
+                            uint16_t *slot, uint8_t *rec, uint32_t *occupied);
+
+/* The coding of info's grid, gc's frequencies pointing into info. */
+static inline cn_grid_code cn_grid_code_of(const cnerf_info *info)
+{
+    const uint32_t nb = ((uint32_t)info->grid_g + CN_GRID_B - 1u) / CN_GRID_B;
+    cn_grid_code gc = {info->grid_g, info->grid_prec, info->grid_f1,
+                       info->grid_by_blocks ? info->grid_fb1 : (const uint16_t *)0,
+                       info->grid_by_blocks ? info->grid_blocks : nb * nb * nb};
+    return gc;
+}
 
 /* ---- HEAD and topology (head.c) ---- */
 

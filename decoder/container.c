@@ -169,37 +169,61 @@ static cnerf_status parse_shift(const uint8_t *buf, uint32_t off, uint32_t clen,
     return st;
 }
 
-/* A GRID chunk's fields (cnerf_info's grid_* fields). */
+/* A GRID or BGRD chunk's fields (cnerf_info's grid_* fields). */
 typedef struct grid_fields {
-    uint8_t g, prec;
-    uint16_t f1[CNERF_GRID_CONTEXTS];
+    uint8_t g, prec, by_blocks;
+    uint16_t blocks;
+    uint16_t f1[CNERF_GRID_CONTEXTS], fb1[CNERF_GRID_CONTEXTS];
     uint32_t payload_offset, payload_bytes;
 } grid_fields;
 
-/* Parses a GRID payload [off, off + clen) of the stream into gf. */
-static cnerf_status parse_grid(const uint8_t *buf, uint32_t off, uint32_t clen, grid_fields *gf)
+/* CNERF_GRID_CONTEXTS frequencies of "occupied" of precision prec: 1 <= f < 2^prec. */
+static cnerf_status grid_freqs(const uint32_t *f, unsigned prec, uint16_t *out)
+{
+    for (unsigned c = 0; c < CNERF_GRID_CONTEXTS; c++) {
+        if (f[c] < 1u || f[c] >= ((uint32_t)1u << prec))
+            return CNERF_E_TABLE; /* both symbols need a frequency of at least 1 */
+        out[c] = (uint16_t)f[c];
+    }
+    return CNERF_OK;
+}
+
+/* Parses a GRID (by_blocks 0) or BGRD (1) payload [off, off + clen) of the stream into gf:
+ * g, prec, for BGRD the occupied blocks and the blocks' frequencies, the cells'
+ * frequencies. */
+static cnerf_status parse_grid(const uint8_t *buf, uint32_t off, uint32_t clen, int by_blocks,
+                               grid_fields *gf)
 {
     cn_reader r;
     cn_rd_init(&r, buf + off, clen);
     const uint32_t g = cn_rd_u8(&r), prec = cn_rd_u8(&r);
-    uint32_t f1[CNERF_GRID_CONTEXTS];
+    const uint32_t blocks = by_blocks ? cn_rd_u16(&r) : 0u;
+    uint32_t f1[CNERF_GRID_CONTEXTS], fb1[CNERF_GRID_CONTEXTS];
+    for (unsigned c = 0; by_blocks && c < CNERF_GRID_CONTEXTS; c++)
+        fb1[c] = cn_rd_u16(&r);
     for (unsigned c = 0; c < CNERF_GRID_CONTEXTS; c++)
         f1[c] = cn_rd_u16(&r);
     if (r.err)
         return CNERF_E_CHUNK;
     if (g < 1u || g > CNERF_MAX_GRID)
         return CNERF_E_LIMIT;
+    const uint32_t nb = (g + CNERF_GRID_BLOCK - 1u) / CNERF_GRID_BLOCK;
+    if (blocks > nb * nb * nb)
+        return CNERF_E_LIMIT;
     if (prec < 1u || prec > CNERF_MAX_PREC)
         return CNERF_E_TABLE;
-    for (unsigned c = 0; c < CNERF_GRID_CONTEXTS; c++) {
-        if (f1[c] < 1u || f1[c] >= ((uint32_t)1u << prec))
-            return CNERF_E_TABLE; /* both symbols need a frequency of at least 1 */
-        gf->f1[c] = (uint16_t)f1[c];
-    }
+    cnerf_status st = by_blocks ? grid_freqs(fb1, prec, gf->fb1) : CNERF_OK;
+    if (st == CNERF_OK)
+        st = grid_freqs(f1, prec, gf->f1);
+    if (st != CNERF_OK)
+        return st;
     gf->g = (uint8_t)g;
     gf->prec = (uint8_t)prec;
-    gf->payload_offset = off + CNERF_GRID_FIXED_BYTES;
-    gf->payload_bytes = clen - CNERF_GRID_FIXED_BYTES;
+    gf->by_blocks = (uint8_t)by_blocks;
+    gf->blocks = (uint16_t)blocks;
+    const uint32_t fixed = by_blocks ? CNERF_BGRD_FIXED_BYTES : CNERF_GRID_FIXED_BYTES;
+    gf->payload_offset = off + fixed;
+    gf->payload_bytes = clen - fixed;
     return gf->payload_bytes < 4u ? CNERF_E_PAYLOAD : CNERF_OK;
 }
 
@@ -347,23 +371,29 @@ static cnerf_status on_unit(walk *w, const chunk *c)
     return CNERF_OK;
 }
 
-/* GRID: the scene's occupancy grid. At most one per scene, before its first layer (and
- * after the shifts). */
-static cnerf_status on_grid(walk *w, const chunk *c)
+/* GRID or BGRD (2.3): the scene's occupancy grid. At most one per scene, before its first
+ * layer (and after the shifts). A BGRD in a stream stamped below 2.3 is unknown there. */
+static cnerf_status on_grid(walk *w, const chunk *c, int by_blocks)
 {
     cnerf_info *info = w->info;
+    if (by_blocks && info->version_minor < CNERF_VERSION_MINOR_BLOCKS)
+        return CNERF_E_UNKNOWN_CHUNK;
     if (w->grid_seen || w->next_layer > 0u || !shared_done(w))
         return CNERF_E_CHUNK_ORDER;
     grid_fields gf;
-    const cnerf_status st = parse_grid(w->buf, c->poff, c->clen, &gf);
+    const cnerf_status st = parse_grid(w->buf, c->poff, c->clen, by_blocks, &gf);
     if (st != CNERF_OK)
         return st;
     w->grid_seen = 1;
     if (w->scene == w->want) {
         info->grid_g = gf.g;
         info->grid_prec = gf.prec;
-        for (unsigned i = 0; i < CNERF_GRID_CONTEXTS; i++)
+        info->grid_by_blocks = gf.by_blocks;
+        info->grid_blocks = gf.blocks;
+        for (unsigned i = 0; i < CNERF_GRID_CONTEXTS; i++) {
             info->grid_f1[i] = gf.f1[i];
+            info->grid_fb1[i] = by_blocks ? gf.fb1[i] : 0u;
+        }
         info->grid_payload_offset = gf.payload_offset;
         info->grid_payload_bytes = gf.payload_bytes;
         info->grid_bytes = c->cbytes;
@@ -466,7 +496,8 @@ cnerf_status cn_parse(const uint8_t *buf, size_t len, uint32_t want, cnerf_info 
         case CNERF_TAG_SHFT: st = on_shft(&w, &c); break;
         case CNERF_TAG_LAYR: st = on_layr(&w, &c); break;
         case CNERF_TAG_UNIT: st = on_unit(&w, &c); break;
-        case CNERF_TAG_GRID: st = on_grid(&w, &c); break;
+        case CNERF_TAG_GRID: st = on_grid(&w, &c, 0); break;
+        case CNERF_TAG_BGRD: st = on_grid(&w, &c, 1); break;
         case CNERF_TAG_DONE: return on_done(&w, &c, cn_rd_left(&r));
         default: st = on_other(&w, &c); break;
         }

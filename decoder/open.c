@@ -17,21 +17,33 @@ static uint32_t alphabet(const cnerf_layer_info *L)
     return L->kmin < L->kmax ? (uint32_t)(L->kmax - L->kmin) + 1u : 0u;
 }
 
-/* Bytes of the occupancy bitmap of g^3 cells (g <= CNERF_MAX_GRID: at most 2^18). */
-static size_t grid_bitmap_bytes(uint32_t g) { return ((size_t)g * g * g + 7u) >> 3; }
-
-/* Bits of the grid's summary (cn_grid_levels): level k >= 1 has ceil(g / 2^k)^3 cells, each
- * set when one of the 2x2x2 cells it covers at level k - 1 is, down to a single cell. At
- * most g^3 bits for g >= 2 (the levels of a cube of side 2^n sum to (8^n - 1) / 7 <= g^3,
- * and ceil adds at most that much again for other sides). */
+/* The grid stored by blocks (cn_grid_model.h) needs, for nb = ceil(g / 8) blocks per axis:
+ * a u16 record index per block, the summary's levels 3 and up (nb^3 bits and then the
+ * levels of that cube: at most 2 nb^3 bits, as the levels of a cube of side 2^n sum to
+ * (8^n - 1) / 7 and ceil adds at most that much again) and the records, 73 bytes each: at
+ * most 76 nb^3 + 24 bytes with the alignment (CNERF_WORKSPACE_BOUND). */
+static uint32_t grid_nb(uint32_t g) { return (g + CN_GRID_B - 1u) / CN_GRID_B; }
+static size_t grid_slot_bytes(uint32_t g)
+{
+    const size_t nb = grid_nb(g);
+    return nb * nb * nb * 2u;
+}
 static size_t grid_summary_bytes(uint32_t g)
 {
     size_t bits = 0;
-    for (uint32_t k = g; k > 1u;) {
-        k = (k + 1u) >> 1;
-        bits += (size_t)k * k * k;
+    for (uint32_t n = grid_nb(g);;) {
+        bits += (size_t)n * n * n;
+        if (n <= 1u)
+            break;
+        n = (n + 1u) >> 1;
     }
     return (bits + 7u) >> 3;
+}
+static size_t grid_bytes(const cnerf_info *info)
+{
+    const cn_grid_code gc = cn_grid_code_of(info);
+    return align8(grid_slot_bytes(gc.g)) + align8(grid_summary_bytes(gc.g)) +
+           align8((size_t)gc.recs * CN_GRID_REC_BYTES);
 }
 
 /* Inputs of a layer padded to whole pairs (the kernels take two at a time). */
@@ -77,8 +89,7 @@ size_t cnerf_workspace_size(const cnerf_info *info)
         scratch = rows4 > scratch ? rows4 : scratch;
     }
     if (info->grid_g)
-        total += align8(grid_bitmap_bytes(info->grid_g)) +
-                 align8(grid_summary_bytes(info->grid_g));
+        total += grid_bytes(info);
     return total + align8(scratch);
 }
 
@@ -365,24 +376,50 @@ static void prove_layer(cnerf_decoder *dec, uint32_t l, uint32_t maxsum, uint32_
 
 /* ---- the grid's summary ---- */
 
-/* Each level of the summary from the one below it (level 0: the grid itself), into `out`,
- * the levels one after another bit by bit (cn_grid_level_at). */
-static void build_summary(const uint8_t *grid, uint32_t g, uint8_t *out)
+/* Sets bit i of bits. */
+static void set_bit(uint8_t *bits, uint32_t i) { bits[i >> 3] = (uint8_t)(bits[i >> 3] | (1u << (i & 7u))); }
+
+/* The summary of the grid stored by blocks: in each record, levels 1 and 2 from its cells;
+ * a block without an occupied cell loses its record (GRID gives every block one), and level
+ * 3, one bit per block, is set for the others; then each level above from the one below,
+ * one after another bit by bit from `out`. */
+static void build_summary(uint32_t g, uint16_t *slot, uint8_t *rec, uint8_t *out)
 {
+    const uint32_t nb = grid_nb(g);
     cn_memzero(out, grid_summary_bytes(g));
-    const uint8_t *src = grid;
-    uint32_t src_off = 0, n = g, dst_off = 0;
+    for (uint32_t b = 0; b < nb * nb * nb; b++) {
+        const uint32_t r = slot[b];
+        if (r == CN_GRID_NO_BLOCK)
+            continue;
+        const uint32_t base = r * CN_GRID_REC_BITS;
+        uint32_t any = 0;
+        for (uint32_t l = 0; l < 512u; l++) {
+            /* a record starts at a bit offset of 8 r: whole bytes, so a row of 8 cells is
+             * one byte, skipped at once when empty */
+            if (!(l & 7u) && !rec[(base + l) >> 3]) {
+                l += 7u;
+                continue;
+            }
+            if (!cn_grid_bit(rec, base + l))
+                continue;
+            const uint32_t x = l & 7u, y = (l >> 3) & 7u, z = l >> 6;
+            set_bit(rec, base + 512u + (((z >> 1) * 4u + (y >> 1)) * 4u + (x >> 1)));
+            set_bit(rec, base + 576u + (((z >> 2) * 2u + (y >> 2)) * 2u + (x >> 2)));
+            any = 1;
+        }
+        if (any)
+            set_bit(out, b);
+        else
+            slot[b] = (uint16_t)CN_GRID_NO_BLOCK;
+    }
+    uint32_t src_off = 0, n = nb, dst_off = nb * nb * nb;
     while (n > 1u) {
         const uint32_t m = (n + 1u) >> 1;
         for (uint32_t z = 0; z < n; z++)
             for (uint32_t y = 0; y < n; y++)
-                for (uint32_t x = 0; x < n; x++) {
-                    if (!cn_grid_bit(src, src_off + (z * n + y) * n + x))
-                        continue;
-                    const uint32_t i = dst_off + ((z >> 1) * m + (y >> 1)) * m + (x >> 1);
-                    out[i >> 3] = (uint8_t)(out[i >> 3] | (1u << (i & 7u)));
-                }
-        src = out;
+                for (uint32_t x = 0; x < n; x++)
+                    if (cn_grid_bit(out, src_off + (z * n + y) * n + x))
+                        set_bit(out, dst_off + ((z >> 1) * m + (y >> 1)) * m + (x >> 1));
         src_off = dst_off;
         dst_off += m * m * m;
         n = m;
@@ -392,7 +429,8 @@ static void build_summary(const uint8_t *grid, uint32_t g, uint8_t *out)
 /* ---- cnerf_open ---- */
 
 /* The workspace's layout (cn_internal.h): per layer its packed latents (and shifts), bias
- * mantissas, Q16 biases and row order; then the grid's bitmap and summary. */
+ * mantissas, Q16 biases and row order; then the grid's record indices, summary and
+ * records. */
 uint8_t *cn_lay_out(cnerf_decoder *dec, uint8_t *w)
 {
     cn_state *ds = cn_state_of(dec);
@@ -414,10 +452,13 @@ uint8_t *cn_lay_out(cnerf_decoder *dec, uint8_t *w)
         ds->n_pairs[l] = (uint16_t)(in_pad(L) / 2u);
     }
     if (info->grid_g) {
-        ds->grid = w;
-        w += align8(grid_bitmap_bytes(info->grid_g));
+        ds->grid_slot = (const uint16_t *)(void *)w;
+        w += align8(grid_slot_bytes(info->grid_g));
         ds->grid_summary = w;
         w += align8(grid_summary_bytes(info->grid_g));
+        ds->grid_rec = w;
+        ds->grid_recs = cn_grid_code_of(info).recs;
+        w += align8((size_t)ds->grid_recs * CN_GRID_REC_BYTES);
     }
     return w;
 }
@@ -489,12 +530,15 @@ cnerf_status cn_open_with(cnerf_decoder *dec, const uint8_t *buf, size_t len, ui
         ds->layout8 = v->layout8;
         /* the layers' arrays, the grid, and open's scratch last */
         uint8_t *scratch = cn_lay_out(dec, (uint8_t *)ws);
-        if (info->grid_g)
-            st = cn_grid_decode(buf + info->grid_payload_offset, info->grid_payload_bytes,
-                                info->grid_g, info->grid_prec, info->grid_f1,
-                                (uint8_t *)(uintptr_t)ds->grid, &ds->grid_occupied);
-        if (info->grid_g && st == CNERF_OK)
-            build_summary(ds->grid, info->grid_g, (uint8_t *)(uintptr_t)ds->grid_summary);
+        if (info->grid_g) {
+            const cn_grid_code gc = cn_grid_code_of(info);
+            uint16_t *slot = (uint16_t *)(uintptr_t)ds->grid_slot;
+            uint8_t *rec = (uint8_t *)(uintptr_t)ds->grid_rec;
+            st = cn_grid_decode(buf + info->grid_payload_offset, info->grid_payload_bytes, &gc,
+                                slot, rec, &ds->grid_occupied);
+            if (st == CNERF_OK)
+                build_summary(gc.g, slot, rec, (uint8_t *)(uintptr_t)ds->grid_summary);
+        }
         for (uint32_t l = 0; st == CNERF_OK && l < info->n_layers; l++)
             st = open_layer(dec, buf, l, scratch, v);
     }
@@ -670,9 +714,15 @@ cnerf_status cn_open_packed_with(cnerf_decoder *dec, const uint8_t *image, size_
         st = packed_layer(dec, l, cn_le16(p), p[2], p[3]);
     }
     if (st == CNERF_OK && info->grid_g) {
-        const uint32_t cells = (uint32_t)info->grid_g * info->grid_g * info->grid_g;
-        for (uint32_t c = 0; c < cells; c++)
-            ds->grid_occupied += cn_grid_bit(ds->grid, c);
+        /* every record index in range (or none), and the occupied cells counted */
+        const uint32_t nb = grid_nb(info->grid_g);
+        for (uint32_t b = 0; st == CNERF_OK && b < nb * nb * nb; b++) {
+            const uint32_t r = ds->grid_slot[b];
+            if (r != CN_GRID_NO_BLOCK && r >= ds->grid_recs)
+                st = CNERF_E_IMAGE;
+            for (uint32_t l = 0; st == CNERF_OK && r != CN_GRID_NO_BLOCK && l < 512u; l++)
+                ds->grid_occupied += cn_grid_rec_bit(ds->grid_rec, r, l);
+        }
     }
     if (st == CNERF_OK) {
         ds->dot = v.fn;
@@ -756,9 +806,12 @@ int cnerf_cell_occupied(const cnerf_decoder *dec, uint32_t c)
         return 0;
     const uint32_t g = dec->info.grid_g;
     const cn_state *ds = cn_cstate_of(dec);
-    if (!g || !ds->grid)
+    if (!g || !ds->grid_slot)
         return 1;
-    return c < g * g * g ? (int)cn_grid_bit(ds->grid, c) : 0;
+    if (c >= g * g * g)
+        return 0;
+    return (int)cn_grid_block_bit(ds->grid_slot, ds->grid_rec, grid_nb(g), 0, c % g, c / g % g,
+                                  c / g / g);
 }
 
 /* The state fits cnerf_decoder's opaque part (C99 has no static assertion: an array of

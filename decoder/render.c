@@ -642,10 +642,11 @@ typedef struct march {
 
 /* The occupancy grid's integer cell mapping (docs/bitstream.md, GRID), set up per tile. */
 typedef struct gridmap {
-    const uint8_t *bits;    /* NULL: no grid, or ignored */
-    const uint8_t *summary; /* its summary (cn_state.grid_summary) */
+    const uint16_t *slot;   /* the grid stored by blocks (cn_state); NULL: no grid, or ignored */
+    const uint8_t *rec;
+    const uint8_t *summary; /* its summary's levels 3 and up (cn_state.grid_summary) */
     uint32_t g;
-    uint32_t n[9], off[9];  /* level k's cells per axis and its first bit (k >= 1: in summary) */
+    uint32_t n[9], off[9];  /* level k's cells per axis and, k >= 3, its first bit in summary */
     int64_t lo[3], hi[3];   /* box minimum and maximum, Q32 */
     uint64_t r[3];          /* floor(g 2^32 / w), w the box's width in Q16 */
 } gridmap;
@@ -654,33 +655,44 @@ static void gridmap_init(const cnerf_decoder *dec, int skip, gridmap *gm)
 {
     const cn_state *ds = cn_cstate_of(dec);
     const cnerf_info *I = &dec->info;
-    gm->bits = skip && I->grid_g ? ds->grid : (const uint8_t *)0;
+    gm->slot = skip && I->grid_g ? ds->grid_slot : (const uint16_t *)0;
+    gm->rec = ds->grid_rec;
     gm->summary = ds->grid_summary;
     gm->g = I->grid_g;
     gm->n[0] = gm->g;
     gm->off[0] = 0;
     for (unsigned k = 1; k < 9u; k++) { /* g <= 128: level 7 has one cell */
         gm->n[k] = (gm->n[k - 1u] + 1u) >> 1;
-        gm->off[k] = k == 1u ? 0u : gm->off[k - 1u] + gm->n[k - 1u] * gm->n[k - 1u] * gm->n[k - 1u];
+        gm->off[k] = k <= 3u ? 0u : gm->off[k - 1u] + gm->n[k - 1u] * gm->n[k - 1u] * gm->n[k - 1u];
     }
     for (unsigned a = 0; a < 3; a++) {
         gm->lo[a] = (int64_t)I->aabb_q16[a] * 65536;
         gm->hi[a] = (int64_t)I->aabb_q16[a + 3] * 65536;
         /* 0 < w < 2^32 by the header checks */
         const uint64_t w = (uint64_t)((int64_t)I->aabb_q16[a + 3] - I->aabb_q16[a]);
-        gm->r[a] = gm->bits ? cn_udiv_frac(gm->g, w, 32) : 0u;
+        gm->r[a] = gm->slot ? cn_udiv_frac(gm->g, w, 32) : 0u;
     }
+}
+
+/* Cell (x, y, z) of the grid's level k: 0 the cells, 1 and 2 in the blocks' records, 3
+ * and up in the summary. */
+static uint32_t grid_at(const gridmap *gm, unsigned k, uint32_t x, uint32_t y, uint32_t z)
+{
+    if (k < 3u)
+        return cn_grid_block_bit(gm->slot, gm->rec, gm->n[3], k, x, y, z);
+    const uint32_t n = gm->n[k];
+    return cn_grid_bit(gm->summary, gm->off[k] + (z * n + y) * n + x);
 }
 
 /* 1 when p (inside the bounds, Q32) lies in an occupied cell or there is no grid. */
 static int occupied(const gridmap *gm, const int64_t p[3])
 {
-    if (!gm->bits)
+    if (!gm->slot)
         return 1;
     uint32_t c[3];
     for (unsigned a = 0; a < 3; a++)
         c[a] = cn_grid_cell((uint64_t)(p[a] - gm->lo[a]) >> 16, gm->r[a], gm->g);
-    return (int)cn_grid_bit(gm->bits, (c[2] * gm->g + c[1]) * gm->g + c[0]);
+    return (int)grid_at(gm, 0, c[0], c[1], c[2]);
 }
 
 /* ---- ruling out stretches of a ray ---- */
@@ -702,12 +714,10 @@ static int cells_maybe(const gridmap *gm, const uint32_t c0[3], const uint32_t c
     while ((c1[0] >> k) - (c0[0] >> k) > 1u || (c1[1] >> k) - (c0[1] >> k) > 1u ||
            (c1[2] >> k) - (c0[2] >> k) > 1u)
         k++; /* at most twice; the last level has one cell */
-    const uint8_t *bits = k ? gm->summary : gm->bits;
-    const uint32_t n = gm->n[k], off = gm->off[k];
     for (uint32_t z = c0[2] >> k; z <= c1[2] >> k; z++)
         for (uint32_t y = c0[1] >> k; y <= c1[1] >> k; y++)
             for (uint32_t x = c0[0] >> k; x <= c1[0] >> k; x++)
-                if (cn_grid_bit(bits, off + (z * n + y) * n + x))
+                if (grid_at(gm, k, x, y, z))
                     return 1;
     return 0;
 }
@@ -730,14 +740,14 @@ static int box_maybe(const gridmap *gm, const int64_t mn[3], const int64_t mx[3]
     for (unsigned i = 0; i < 3; i++) {
         if (mx[i] < gm->lo[i] || mn[i] > gm->hi[i])
             return 0;
-        if (!gm->bits)
+        if (!gm->slot)
             continue;
         const int64_t a = mn[i] < gm->lo[i] ? gm->lo[i] : mn[i];
         const int64_t b = mx[i] > gm->hi[i] ? gm->hi[i] : mx[i];
         c0[i] = cn_grid_cell((uint64_t)(a - gm->lo[i]) >> 16, gm->r[i], gm->g);
         c1[i] = cn_grid_cell((uint64_t)(b - gm->lo[i]) >> 16, gm->r[i], gm->g);
     }
-    return gm->bits ? cells_maybe(gm, c0, c1) : 1;
+    return gm->slot ? cells_maybe(gm, c0, c1) : 1;
 }
 
 /* 0 when no sample of the bins lo..hi-1 can have a density: its position lies, axis by

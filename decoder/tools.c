@@ -25,13 +25,42 @@ cnerf_status cnerf_open_as(cnerf_decoder *dec, const uint8_t *buf, size_t len, u
     return cn_open_with(dec, buf, len, scene, ws, ws_size, &v);
 }
 
-cnerf_status cnerf_grid_bitmap(const uint8_t *payload, size_t len, uint32_t g, unsigned prec,
-                               const uint16_t *f1, uint8_t *bits, uint32_t *occupied)
+size_t cnerf_grid_workspace_size(const cnerf_info *info)
 {
-    if (!f1 || !bits || !occupied || (!payload && len))
+    if (!info || !info->grid_g)
+        return 0;
+    const cn_grid_code gc = cn_grid_code_of(info);
+    const size_t nb = (gc.g + CN_GRID_B - 1u) / CN_GRID_B;
+    return ((nb * nb * nb * 2u + 7u) & ~(size_t)7u) + (size_t)gc.recs * CN_GRID_REC_BYTES;
+}
+
+cnerf_status cnerf_grid_bitmap(const uint8_t *buf, const cnerf_info *info, void *ws,
+                               size_t ws_size, uint8_t *bits, uint32_t *occupied)
+{
+    if (!buf || !info || !ws || !bits || !occupied)
         return CNERF_E_NULL;
-    return cn_grid_decode(payload ? payload : (const uint8_t *)"", len, g, prec, f1, bits,
-                          occupied);
+    if (!info->grid_g)
+        return CNERF_E_ARG;
+    if ((uintptr_t)ws & (CNERF_WS_ALIGN - 1u))
+        return CNERF_E_WS_ALIGN;
+    if (ws_size < cnerf_grid_workspace_size(info))
+        return CNERF_E_WS_SMALL;
+    const cn_grid_code gc = cn_grid_code_of(info);
+    const uint32_t g = gc.g, nb = (g + CN_GRID_B - 1u) / CN_GRID_B;
+    uint16_t *slot = (uint16_t *)ws;
+    uint8_t *rec = (uint8_t *)ws + ((nb * nb * nb * 2u + 7u) & ~7u);
+    const cnerf_status st = cn_grid_decode(buf + info->grid_payload_offset,
+                                           info->grid_payload_bytes, &gc, slot, rec, occupied);
+    if (st != CNERF_OK)
+        return st;
+    for (uint32_t i = 0; i < (g * g * g + 7u) / 8u; i++)
+        bits[i] = 0;
+    for (uint32_t z = 0, i = 0; z < g; z++)
+        for (uint32_t y = 0; y < g; y++)
+            for (uint32_t x = 0; x < g; x++, i++)
+                if (cn_grid_block_bit(slot, rec, nb, 0, x, y, z))
+                    bits[i >> 3] = (uint8_t)(bits[i >> 3] | (1u << (i & 7u)));
+    return CNERF_OK;
 }
 
 /* Little-endian header fields of a packed image (docs/decoder.md, "Rendering from flash"). */

@@ -15,6 +15,9 @@ for p in tiny small paper; do
   "$cnerf" synth -o "$tmp" --preset $p > /dev/null
   "$cnerf" info "$tmp" | awk -v p=$p '
     /^parameters:/ {lat = $2; bias = $4}
-    /^decoder memory:/ {ws = $4; sc = $8}
+    /^decoder memory:/ {
+      ws = $4
+      for (i = 5; i < NF; i++) if ($i == "scratch") sc = $(i + 1)
+    }
     END {printf "| `%s` | %d | %d | %d | %d |\n", p, lat, bias, ws, sc}'
 done

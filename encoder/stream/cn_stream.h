@@ -35,10 +35,15 @@ int cn_rans_encode(const uint32_t *syms, size_t count, const uint32_t *freq, uin
                    unsigned prec, cn_buf *out);
 
 /* Codes an occupancy grid of g^3 cells (occ[i] != 0: occupied, i = (z g + y) g + x) as a
- * GRID payload (docs/bitstream.md): u8 g, u8 prec, the "occupied" frequency of each
- * neighbour context (u16 each, from the grid's own counts), then binary rANS. Appends to
- * `out`. Returns 0, or -1 on invalid input or allocation failure. */
+ * BGRD payload (docs/bitstream.md, 2.3): u8 g, u8 prec, u16 occupied blocks of 8^3 cells,
+ * the "occupied" frequency of each neighbour context for the blocks and then for the cells
+ * (u16 each, from the grid's own counts), then binary rANS: the blocks' bits, then the
+ * cells of the occupied blocks. Appends to `out`. Returns 0, or -1 on invalid input or
+ * allocation failure. */
 int cn_grid_encode(const uint8_t *occ, uint32_t g, unsigned prec, cn_buf *out);
+/* The same grid as a GRID payload (2.0 to 2.2; for tests of those streams): u8 g, u8 prec,
+ * the cells' frequencies, then every cell's bit in raster order. */
+int cn_grid_encode_raster(const uint8_t *occ, uint32_t g, unsigned prec, cn_buf *out);
 /* The precision the writer uses for grids. */
 #define CN_GRID_PREC 12u
 

@@ -130,13 +130,18 @@ void cn_print_info(FILE *f, const char *name, const uint8_t *buf, const cnerf_in
     }
     if (I->grid_g) {
         const size_t g = I->grid_g, bytes = (g * g * g + 7) / 8;
+        const size_t wsz = cnerf_grid_workspace_size(I);
         uint8_t *bits = malloc(bytes);
+        void *ws = aligned_alloc(CNERF_WS_ALIGN, (wsz + CNERF_WS_ALIGN - 1) / CNERF_WS_ALIGN *
+                                                    CNERF_WS_ALIGN);
         uint32_t occupied = 0;
-        const cnerf_status st =
-            bits ? cnerf_grid_bitmap(buf + I->grid_payload_offset, I->grid_payload_bytes, I->grid_g,
-                                  I->grid_prec, I->grid_f1, bits, &occupied)
-                 : CNERF_E_WS_SMALL;
+        const cnerf_status st = bits && ws ? cnerf_grid_bitmap(buf, I, ws, wsz, bits, &occupied)
+                                           : CNERF_E_WS_SMALL;
+        free(ws);
         fprintf(f, "occupancy grid: %zu^3 cells, %" PRIu32 " bytes", g, I->grid_bytes);
+        if (I->grid_by_blocks)
+            fprintf(f, " (by blocks: %u of %zu blocks of 8^3 occupied)", I->grid_blocks,
+                    ((g + 7) / 8) * ((g + 7) / 8) * ((g + 7) / 8));
         if (st == CNERF_OK)
             fprintf(f, ", %" PRIu32 " occupied (%.1f%%)\n", occupied,
                     100.0 * occupied / (double)(g * g * g));
@@ -190,7 +195,12 @@ void cn_print_info(FILE *f, const char *name, const uint8_t *buf, const cnerf_in
     else
         fprintf(f, "bits per parameter: %.3f payload only, %.3f whole file (float32: 32)\n",
                 8.0 * (double)t.payload / I->n_params, 8.0 * (double)t.total / I->n_params);
-    fprintf(f, "decoder memory: workspace %zu bytes, render scratch %zu bytes, decoder state "
-            "%zu bytes (this host)\n",
-            cnerf_workspace_size(I), cnerf_render_scratch_size(I), sizeof(cnerf_decoder));
+    cnerf_info nogrid = *I;
+    nogrid.grid_g = 0;
+    const size_t ws = cnerf_workspace_size(I), grid = ws - cnerf_workspace_size(&nogrid);
+    fprintf(f, "decoder memory: workspace %zu bytes", ws);
+    if (grid)
+        fprintf(f, " (the grid's %zu)", grid);
+    fprintf(f, ", render scratch %zu bytes, decoder state %zu bytes (this host)\n",
+            cnerf_render_scratch_size(I), sizeof(cnerf_decoder));
 }

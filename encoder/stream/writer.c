@@ -326,8 +326,11 @@ int cn_write_set(const cn_stream_src *scenes, unsigned n_scenes, const cn_shift_
     cn_buf_u16(out, CNERF_VERSION_MAJOR);
     unsigned minor = shift ? CNERF_VERSION_MINOR_SCENES : 0u; /* the lowest that fits */
     for (unsigned m = 0; m < n_scenes; m++)
-        if (scenes[m].hdr.coord == CNERF_COORD_CONTRACT)
+        if (scenes[m].hdr.coord == CNERF_COORD_CONTRACT && minor < CNERF_VERSION_MINOR_CONTRACT)
             minor = CNERF_VERSION_MINOR_CONTRACT;
+    for (unsigned m = 0; m < n_scenes; m++)
+        if (scenes[m].grid_g) /* grids are coded by blocks */
+            minor = CNERF_VERSION_MINOR_BLOCKS;
     cn_buf_u16(out, (uint16_t)minor);
     cn_buf c = {0};
     cn_put_head(&c, info);
@@ -368,7 +371,7 @@ int cn_write_set(const cn_stream_src *scenes, unsigned n_scenes, const cn_shift_
                           "scene %u: occupancy grid of %u cells per axis: invalid or out of memory",
                           m, src->grid_g);
             else
-                put_chunk(out, CNERF_TAG_GRID, &c);
+                put_chunk(out, CNERF_TAG_BGRD, &c);
         }
         for (unsigned l = 0; l < info->n_layers && rc == 0; l++) {
             c.n = 0;

@@ -132,13 +132,16 @@ typedef struct cnerf_info {
     uint32_t ancillary_bytes; /* all ancillary chunks including framing */
     uint32_t done_bytes;      /* DONE chunk */
     uint32_t meta_offset, meta_len; /* first 'meta' chunk's payload (text), 0 if none */
-    /* Occupancy grid (GRID chunk, minor >= 1): grid_g^3 cells over the scene bounds, x
+    /* Occupancy grid (GRID chunk, minor >= 1, or BGRD, minor >= 3): grid_g^3 cells over the scene bounds, x
      * fastest; a sample in an empty cell has density 0 and is not evaluated. grid_g = 0:
      * no grid (every cell occupied). */
     uint8_t grid_g;
     uint8_t grid_prec;                          /* probability precision in bits */
+    uint8_t grid_by_blocks;                     /* 1: a BGRD chunk (2.3), 0: GRID */
+    uint16_t grid_blocks; /* BGRD: occupied blocks of CNERF_GRID_BLOCK^3 cells */
     uint16_t grid_f1[CNERF_GRID_CONTEXTS];      /* frequency of "occupied" per context */
-    uint32_t grid_bytes;                        /* GRID chunk including framing */
+    uint16_t grid_fb1[CNERF_GRID_CONTEXTS];     /* BGRD: the same for the blocks */
+    uint32_t grid_bytes;                        /* GRID or BGRD chunk including framing */
     uint32_t grid_payload_offset, grid_payload_bytes;
     /* UNIT chunk (minor >= 2) including framing; 0 when every layer has its full width. */
     uint32_t unit_bytes;
@@ -184,12 +187,13 @@ size_t cnerf_workspace_size(const cnerf_info *info);
 /* Upper bound of cnerf_workspace_size over all streams whose layers are at most
  * `params` latents and `outputs` biases in total, with at most `layers` layers and an
  * occupancy grid of at most `grid` cells per axis (0: streams without a grid; the grid takes
- * its bitmap and a summary of at most as many bits);
+ * at most 76 bytes per block of 8^3 cells and 24 more, every block counted as occupied);
  * for static arrays (a compile-time constant when the arguments are). */
 #define CNERF_WORKSPACE_BOUND(params, outputs, layers, grid)                             \
     ((size_t)(params) * 2u + (size_t)(outputs) * 12u + (size_t)(layers) * 32u +            \
      ((size_t)65536u + 1u) * 4u + 16u +                                                    \
-     (((size_t)(grid) * (size_t)(grid) * (size_t)(grid) + 7u) / 8u + 8u) * 2u)
+     (((size_t)(grid) + 7u) / 8u) * (((size_t)(grid) + 7u) / 8u) *                         \
+         (((size_t)(grid) + 7u) / 8u) * 76u + 24u)
 
 /* The bound for streams of several scenes: one scene's latents and the shared shifts. */
 #define CNERF_WORKSPACE_BOUND_SCENES(params, outputs, layers, grid)                      \
@@ -350,7 +354,7 @@ cnerf_status cnerf_render_tile_stats(const cnerf_decoder *dec, const cnerf_camer
  * grid from the image, and needs no workspace. Rendering from it gives the same bytes as
  * rendering from the stream. The image must be aligned to CNERF_WS_ALIGN and must stay in
  * place, unchanged, while `dec` is used. */
-#define CNERF_IMAGE_VERSION 1u      /* changes whenever the workspace's layout does */
+#define CNERF_IMAGE_VERSION 2u      /* changes whenever the workspace's layout does */
 #define CNERF_IMAGE_HEADER_BYTES 48u
 
 /* Opens the image[0..len) (len may exceed the image, for a flash partition): checks its

@@ -18,11 +18,13 @@
 /* The newest minor revision this code knows. Version 2.0 changed the layers' arithmetic
  * (int16 inputs at a per-layer scale, LAYR's f_in) and holds the GRID and UNIT chunks that
  * 1.1 and 1.2 added; 1.x streams are refused (CNERF_E_VERSION). 2.1 adds several scenes in
- * one stream (SCNS, SHFT); 2.2 contracted scenes (HEAD coord 2). A writer stamps the lowest
- * minor whose chunks and values its stream holds. */
-#define CNERF_VERSION_MINOR 2u
+ * one stream (SCNS, SHFT); 2.2 contracted scenes (HEAD coord 2); 2.3 the occupancy grid
+ * coded by blocks (BGRD). A writer stamps the lowest minor whose chunks and values its
+ * stream holds. */
+#define CNERF_VERSION_MINOR 3u
 #define CNERF_VERSION_MINOR_SCENES 1u
 #define CNERF_VERSION_MINOR_CONTRACT 2u
+#define CNERF_VERSION_MINOR_BLOCKS 3u
 
 /* Chunk framing: tag[4], u32 length, payload[length], u32 CRC-32 of tag+payload. */
 #define CNERF_CHUNK_OVERHEAD 12u
@@ -36,6 +38,7 @@
 #define CNERF_TAG_DONE CNERF_TAG('D', 'O', 'N', 'E')
 #define CNERF_TAG_META CNERF_TAG('m', 'e', 't', 'a')
 #define CNERF_TAG_GRID CNERF_TAG('G', 'R', 'I', 'D') /* occupancy grid */
+#define CNERF_TAG_BGRD CNERF_TAG('B', 'G', 'R', 'D') /* occupancy grid by blocks (2.3) */
 #define CNERF_TAG_UNIT CNERF_TAG('U', 'N', 'I', 'T') /* units per layer */
 #define CNERF_TAG_SCNS CNERF_TAG('S', 'C', 'N', 'S') /* scene count (2.1) */
 #define CNERF_TAG_SHFT CNERF_TAG('S', 'H', 'F', 'T') /* a layer's shared shift (2.1) */
@@ -50,6 +53,12 @@
 #define CNERF_MAX_GRID 128u
 #define CNERF_GRID_CONTEXTS 8u
 #define CNERF_GRID_FIXED_BYTES (2u + 2u * CNERF_GRID_CONTEXTS)
+/* BGRD (2.3): the same cells, grouped in blocks of CNERF_GRID_BLOCK^3: first one bit per
+ * block (any cell occupied), then the cells of the occupied blocks only, each level with
+ * its own CNERF_GRID_CONTEXTS frequencies. Fixed fields: g, prec, u16 occupied blocks, the
+ * blocks' and the cells' frequencies. */
+#define CNERF_GRID_BLOCK 8u
+#define CNERF_BGRD_FIXED_BYTES (4u + 4u * CNERF_GRID_CONTEXTS)
 
 /* HEAD payload size in bytes (fixed layout, see docs/bitstream.md). */
 #define CNERF_HEAD_FIXED_BYTES 44u

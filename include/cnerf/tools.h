@@ -16,11 +16,14 @@ extern "C" {
  * topology. info->version_minor says which values the HEAD may hold (docs/bitstream.md). */
 cnerf_status cnerf_parse_head(const uint8_t *p, uint32_t n, cnerf_info *info);
 
-/* Decodes a GRID chunk's payload[0..len) (g^3 cells, precision prec, the context model's
- * frequencies f1[8]) into the bitmap bits ((g^3 + 7) / 8 bytes: cell i at bit i & 7 of
- * bits[i >> 3]) and counts the occupied cells into *occupied. */
-cnerf_status cnerf_grid_bitmap(const uint8_t *payload, size_t len, uint32_t g, unsigned prec,
-                               const uint16_t *f1, uint8_t *bits, uint32_t *occupied);
+/* Bytes of workspace cnerf_grid_bitmap needs for the grid info describes (0: no grid). */
+size_t cnerf_grid_workspace_size(const cnerf_info *info);
+/* Decodes the occupancy grid (GRID or BGRD) of the scene that info describes (cnerf_peek_scene
+ * of buf) into the bitmap bits ((g^3 + 7) / 8 bytes: cell i, x fastest, at bit i & 7 of
+ * bits[i >> 3]) and counts the occupied cells into *occupied, with ws (CNERF_WS_ALIGN-aligned,
+ * cnerf_grid_workspace_size bytes) for the blocks. */
+cnerf_status cnerf_grid_bitmap(const uint8_t *buf, const cnerf_info *info, void *ws,
+                               size_t ws_size, uint8_t *bits, uint32_t *occupied);
 
 /* Opens scene `scene` of buf as a device whose kernel set is `set` would ("dsp": Cortex-M4,
  * M7, M33; "mve": Cortex-M55; "neon": aarch64; "avx2"; "c": the portable C): each layer

@@ -1,13 +1,17 @@
 /* Occupancy-grid codings side by side (docs/bitstream.md, GRID): for each stream given, the
- * grid it carries coded five ways, in bytes:
+ * grid it carries coded six ways, in bytes (the two rANS codings as their chunks' payloads,
+ * fixed fields included):
  *   raw          one bit per cell
  *   run-length   alternating runs in raster order (x fastest), first run empty, each length
  *                as an order-0 Exp-Golomb code
  *   octree       top-down from the whole box (g padded to a power of two), one byte of child
  *                flags per node that is partly occupied
  *   order-0      the ideal code length of the cells under one probability (entropy)
- *   context      the stream's GRID payload: binary rANS under the 8 neighbour contexts
- *                (what the format keeps)
+ *   context      GRID's payload (2.0 to 2.2): every cell's bit in raster order, binary
+ *                rANS under the 8 neighbour contexts
+ *   blocks       BGRD's payload (2.3, what the writer keeps): one bit per block of 8^3 cells
+ *                under the blocks' neighbour contexts, then the cells of the occupied blocks
+ *                under the cells' (docs/bitstream.md)
  *   bench_grid_coding STREAM...
  * Prints one markdown row per stream. */
 #include <math.h>
@@ -17,6 +21,8 @@
 
 #include "../../decoder/cn_internal.h"
 #include "cn_file.h"
+#include "cn_stream.h"
+#include "cnerf/tools.h"
 
 static unsigned eg0_bits(uint64_t v) /* order-0 Exp-Golomb of v >= 0 */
 {
@@ -64,7 +70,7 @@ int main(int argc, char **argv)
         return 2;
     }
     printf("| stream | grid | occupied | raw | run-length | octree | order-0 entropy | "
-           "context rANS (kept) |\n|---|---|---|---|---|---|---|---|\n");
+           "context rANS | by blocks (kept) |\n|---|---|---|---|---|---|---|---|---|\n");
     for (int a = 1; a < argc; a++) {
         uint8_t *buf;
         size_t len;
@@ -81,12 +87,12 @@ int main(int argc, char **argv)
             return 1;
         }
         const uint32_t g = info.grid_g;
-        const size_t cells = (size_t)g * g * g;
+        const size_t cells = (size_t)g * g * g, wsz = cnerf_grid_workspace_size(&info);
         uint8_t *bits = malloc((cells + 7) / 8), *occ = malloc(cells);
+        void *ws = aligned_alloc(CNERF_WS_ALIGN, (wsz + 7) / 8 * 8);
         uint32_t n1 = 0;
-        if (!bits || !occ ||
-            cn_grid_decode(buf + info.grid_payload_offset, info.grid_payload_bytes, g,
-                           info.grid_prec, info.grid_f1, bits, &n1) != CNERF_OK) {
+        if (!bits || !occ || !ws ||
+            cnerf_grid_bitmap(buf, &info, ws, wsz, bits, &n1) != CNERF_OK) {
             fprintf(stderr, "%s: the grid does not decode\n", argv[a]);
             return 1;
         }
@@ -110,10 +116,20 @@ int main(int argc, char **argv)
         const double p = (double)n1 / (double)cells;
         const double h0 = p > 0 && p < 1 ? -(p * log2(p) + (1 - p) * log2(1 - p)) : 0;
         const char *name = strrchr(argv[a], '/');
-        printf("| %s | %u³ | %.1f%% | %zu | %llu | %zu | %.0f | %u |\n", name ? name + 1 : argv[a],
-               g, 100.0 * p, (cells + 7) / 8, (unsigned long long)((rle + 7) / 8), oct,
-               ceil(h0 * (double)cells / 8), info.grid_bytes - CNERF_CHUNK_OVERHEAD);
+        cn_buf raster = {0}, blocked = {0};
+        if (cn_grid_encode_raster(occ, g, CN_GRID_PREC, &raster) ||
+            cn_grid_encode(occ, g, CN_GRID_PREC, &blocked)) {
+            fprintf(stderr, "%s: out of memory\n", argv[a]);
+            return 1;
+        }
+        printf("| %s | %u³ | %.1f%% | %zu | %llu | %zu | %.0f | %zu | %zu |\n",
+               name ? name + 1 : argv[a], g, 100.0 * p, (cells + 7) / 8,
+               (unsigned long long)((rle + 7) / 8), oct, ceil(h0 * (double)cells / 8), raster.n,
+               blocked.n);
+        free(raster.p);
+        free(blocked.p);
         free(bits);
+        free(ws);
         free(occ);
         free(buf);
     }

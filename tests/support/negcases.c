@@ -290,17 +290,21 @@ static void e_no_chunks(chunks *c) { c->n = 0; }
 
 /* ---- occupancy grids ---- */
 
-/* A valid GRID payload of g^3 cells (a ball in the middle) into chunk-sized data. */
-static uint32_t grid_payload(uint32_t g, uint8_t *data)
+/* A valid GRID (blocks 0) or BGRD (blocks 1) payload of g^3 cells (a ball in the middle)
+ * into chunk-sized data. */
+static uint32_t grid_payload(uint32_t g, int blocks, uint8_t *data)
 {
-    uint8_t occ[8 * 8 * 8];
+    uint8_t occ[16 * 16 * 16];
     for (uint32_t i = 0; i < g * g * g; i++) {
         const int x = (int)(i % g) * 2 - (int)g + 1, y = (int)(i / g % g) * 2 - (int)g + 1,
                   z = (int)(i / g / g) * 2 - (int)g + 1;
         occ[i] = x * x + y * y + z * z <= (int)(g * g);
     }
     cn_buf b = {0};
-    if (g > 8 || cn_grid_encode(occ, g, CN_GRID_PREC, &b) || b.n > sizeof(((chunk *)0)->data)) {
+    if (g > 16 ||
+        (blocks ? cn_grid_encode(occ, g, CN_GRID_PREC, &b)
+                : cn_grid_encode_raster(occ, g, CN_GRID_PREC, &b)) ||
+        b.n > sizeof(((chunk *)0)->data)) {
         cn_buf_free(&b);
         return 0;
     }
@@ -314,8 +318,17 @@ static uint32_t grid_payload(uint32_t g, uint8_t *data)
 static chunk *add_grid(chunks *c, uint32_t g)
 {
     uint8_t data[256];
-    const uint32_t n = grid_payload(g, data);
+    const uint32_t n = grid_payload(g, 0, data);
     insert_chunk(c, 1, "GRID", data, n);
+    return &c->c[1];
+}
+/* The same coded by blocks (BGRD), in a stream stamped 2.3. */
+static chunk *add_bgrd(chunks *c, uint32_t g)
+{
+    uint8_t data[256];
+    const uint32_t n = grid_payload(g, 1, data);
+    insert_chunk(c, 1, "BGRD", data, n);
+    put16(c->sig + 6, CNERF_VERSION_MINOR_BLOCKS);
     return &c->c[1];
 }
 static void e_grid_ok(chunks *c) { add_grid(c, 4); }
@@ -349,6 +362,37 @@ static void behind_first_layer(chunks *c)
 static void e_grid_after_layer(chunks *c)
 {
     add_grid(c, 4);
+    behind_first_layer(c);
+}
+static void e_bgrd_ok(chunks *c) { add_bgrd(c, 12); }
+static void e_bgrd_old(chunks *c)
+{
+    add_bgrd(c, 12);
+    put16(c->sig + 6, CNERF_VERSION_MINOR_BLOCKS - 1);
+}
+static void e_bgrd_g0(chunks *c) { add_bgrd(c, 12)->data[0] = 0; }
+static void e_bgrd_blocks(chunks *c) { put16(add_bgrd(c, 12)->data + 2, 9); } /* 2^3 blocks */
+static void e_bgrd_fewer(chunks *c) { put16(add_bgrd(c, 12)->data + 2, 1); }
+static void e_bgrd_size(chunks *c) { add_bgrd(c, 12)->data[0] = 20; }
+static void e_bgrd_fb0(chunks *c) { put16(add_bgrd(c, 12)->data + 4 + 2 * 2, 0); }
+static void e_bgrd_f0(chunks *c)
+{
+    put16(add_bgrd(c, 12)->data + 4 + 2 * CNERF_GRID_CONTEXTS + 2 * 6, 0);
+}
+static void e_bgrd_cut(chunks *c) { add_bgrd(c, 12)->len = CNERF_BGRD_FIXED_BYTES - 1; }
+static void e_bgrd_short(chunks *c) { add_bgrd(c, 12)->len = CNERF_BGRD_FIXED_BYTES + 3; }
+static void e_bgrd_twice(chunks *c)
+{
+    add_bgrd(c, 12);
+    insert_chunk(c, 2, "GRID", c->c[1].data, c->c[1].len);
+    uint8_t data[256];
+    const uint32_t n = grid_payload(4, 0, data);
+    memcpy(c->c[2].data, data, n);
+    c->c[2].len = n;
+}
+static void e_bgrd_after_layer(chunks *c)
+{
+    add_bgrd(c, 12);
     behind_first_layer(c);
 }
 
@@ -545,6 +589,25 @@ const neg_case neg_cases[] = {
     {"grid payload with an extra byte", e_grid_extra, NULL, CNERF_OK, CNERF_E_PAYLOAD, 0, 0},
     {"two grids", e_grid_twice, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER, 0, 0},
     {"grid after a layer", e_grid_after_layer, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER, 0, 0},
+    {"grid by blocks is accepted", e_bgrd_ok, NULL, CNERF_OK, CNERF_OK, 0, 0},
+    {"grid by blocks in a 2.2 stream", e_bgrd_old, NULL, CNERF_E_UNKNOWN_CHUNK,
+     CNERF_E_UNKNOWN_CHUNK, 0, 0},
+    {"grid by blocks of 0 cells", e_bgrd_g0, NULL, CNERF_E_LIMIT, CNERF_E_LIMIT, 0, 0},
+    {"grid by blocks: more occupied blocks than blocks", e_bgrd_blocks, NULL, CNERF_E_LIMIT,
+     CNERF_E_LIMIT, 0, 0},
+    {"grid by blocks: fewer occupied blocks than its payload", e_bgrd_fewer, NULL, CNERF_OK,
+     CNERF_E_PAYLOAD, 0, 0},
+    {"grid by blocks: size disagrees with its payload", e_bgrd_size, NULL, CNERF_OK,
+     CNERF_E_PAYLOAD, 0, 0},
+    {"grid by blocks: block frequency 0", e_bgrd_fb0, NULL, CNERF_E_TABLE, CNERF_E_TABLE, 0, 0},
+    {"grid by blocks: cell frequency 0", e_bgrd_f0, NULL, CNERF_E_TABLE, CNERF_E_TABLE, 0, 0},
+    {"grid by blocks cut in its tables", e_bgrd_cut, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK, 0, 0},
+    {"grid by blocks: payload under 4 bytes", e_bgrd_short, NULL, CNERF_E_PAYLOAD,
+     CNERF_E_PAYLOAD, 0, 0},
+    {"grid by blocks and a grid", e_bgrd_twice, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER,
+     0, 0},
+    {"grid by blocks after a layer", e_bgrd_after_layer, NULL, CNERF_E_CHUNK_ORDER,
+     CNERF_E_CHUNK_ORDER, 0, 0},
     {"units are accepted", e_units_ok, NULL, CNERF_OK, CNERF_OK, 0, 0},
     {"units disagree with the layers", e_units_layer, NULL, CNERF_E_LAYER, CNERF_E_LAYER, 0, 0},
     {"a layer of 0 units", e_units_zero, NULL, CNERF_E_HEADER, CNERF_E_HEADER, 0, 0},

@@ -248,17 +248,26 @@ static void test_workspace_rules(void **state)
     assert_int_equal(cnerf_peek(NULL, 0, &info), CNERF_E_TRUNCATED);
     assert_int_equal(cnerf_open(&dec, NULL, 0, mem, need), CNERF_E_TRUNCATED);
     assert_int_equal(cnerf_workspace_size(NULL), 0);
-    /* An occupancy grid adds its bitmap and its summary (cnerf_open builds it), which
-     * CNERF_WORKSPACE_BOUND covers at every resolution. */
+    /* An occupancy grid adds its blocks' records and its summary (cnerf_open builds it):
+     * GRID a record per block, BGRD one per occupied block; CNERF_WORKSPACE_BOUND covers
+     * both at every resolution. */
     cnerf_info plain;
     assert_int_equal(cnerf_peek(b.p, b.n, &plain), CNERF_OK);
     assert_int_equal(plain.grid_g, 0);
     for (uint32_t g = 1; g <= CNERF_MAX_GRID; g++) {
+        const size_t nb = (g + 7) / 8;
         cnerf_info gi = plain;
         gi.grid_g = g;
         const size_t ws = cnerf_workspace_size(&gi);
-        assert_true(ws >= need + ((size_t)g * g * g + 7) / 8);
+        assert_true(ws >= need + nb * nb * nb * (CN_GRID_REC_BYTES + 2));
         assert_true(ws <= CNERF_WORKSPACE_BOUND(gi.n_params, gi.n_biases, gi.n_layers, g));
+        gi.grid_by_blocks = 1;
+        gi.grid_blocks = (uint16_t)(nb * nb * nb);
+        assert_int_equal(cnerf_workspace_size(&gi), ws);
+        gi.grid_blocks = 1;
+        assert_true(cnerf_workspace_size(&gi) ==
+                    ws - ((nb * nb * nb * CN_GRID_REC_BYTES + 7) & ~(size_t)7) +
+                        ((CN_GRID_REC_BYTES + 7) & ~(size_t)7));
     }
     /* The stream buffer is not needed after open: wipe it and read latents. */
     int32_t before = cnerf_latent(&dec, 1, 3, 2);

@@ -170,58 +170,155 @@ static void test_encoder_rejects_bad_input(void **state)
 
 /* ---- occupancy grids: context-coded bits ---- */
 
-/* Codes occ (g^3 flags) with cn_grid_encode, reads the fixed fields back and decodes with
- * the decoder's cn_grid_decode; returns the payload size and checks every bit and the count. */
-static size_t grid_roundtrip(const uint8_t *occ, uint32_t g, unsigned prec)
+/* Decodes a grid payload of the coding gc into the grid stored by blocks; returns the
+ * status, with the cells in `cells` (g^3 flags) and their count in *occupied. */
+static cnerf_status grid_decode_flat(const uint8_t *payload, size_t len, const cn_grid_code *gc,
+                                     uint8_t *cells, uint32_t *occupied)
+{
+    const uint32_t g = gc->g, nb = (g + 7) / 8;
+    uint16_t *slot = malloc(sizeof *slot * nb * nb * nb);
+    uint8_t *rec = malloc((size_t)gc->recs * CN_GRID_REC_BYTES + 1);
+    memset(slot, 0xA5, sizeof *slot * nb * nb * nb); /* the decoder needs nothing zeroed */
+    memset(rec, 0xA5, (size_t)gc->recs * CN_GRID_REC_BYTES + 1);
+    const cnerf_status st = cn_grid_decode(payload, len, gc, slot, rec, occupied);
+    for (uint32_t z = 0, i = 0; st == CNERF_OK && z < g; z++)
+        for (uint32_t y = 0; y < g; y++)
+            for (uint32_t x = 0; x < g; x++, i++)
+                cells[i] = (uint8_t)cn_grid_block_bit(slot, rec, nb, 0, x, y, z);
+    for (uint32_t b = 0; st == CNERF_OK && b < nb * nb * nb; b++)
+        assert_true(slot[b] == CN_GRID_NO_BLOCK || slot[b] < gc->recs);
+    free(slot);
+    free(rec);
+    return st;
+}
+
+static uint16_t le16(const uint8_t *p) { return (uint16_t)(p[0] | p[1] << 8); }
+
+/* Codes occ (g^3 flags) with cn_grid_encode (BGRD, blocks 1) or cn_grid_encode_raster
+ * (GRID), reads the fixed fields back and decodes with the decoder's cn_grid_decode; returns
+ * the payload size and checks every cell and the count. */
+static size_t grid_roundtrip(const uint8_t *occ, uint32_t g, unsigned prec, int blocks)
 {
     cn_buf b = {0};
-    assert_int_equal(cn_grid_encode(occ, g, prec, &b), 0);
-    assert_true(b.n >= CNERF_GRID_FIXED_BYTES + 4);
+    assert_int_equal(blocks ? cn_grid_encode(occ, g, prec, &b)
+                            : cn_grid_encode_raster(occ, g, prec, &b),
+                     0);
+    const size_t fixed = blocks ? CNERF_BGRD_FIXED_BYTES : CNERF_GRID_FIXED_BYTES;
+    assert_true(b.n >= fixed + 4);
     assert_int_equal(b.p[0], g);
     assert_int_equal(b.p[1], prec);
-    uint16_t f1[CNERF_GRID_CONTEXTS];
+    uint16_t f1[CNERF_GRID_CONTEXTS], fb1[CNERF_GRID_CONTEXTS];
+    const uint8_t *f = b.p + (blocks ? 4 + 2 * CNERF_GRID_CONTEXTS : 2);
     for (unsigned c = 0; c < CNERF_GRID_CONTEXTS; c++) {
-        f1[c] = (uint16_t)(b.p[2 + 2 * c] | b.p[3 + 2 * c] << 8);
+        f1[c] = le16(f + 2 * c);
+        fb1[c] = blocks ? le16(b.p + 4 + 2 * c) : 0;
         assert_true(f1[c] >= 1 && f1[c] < (1u << prec));
+        assert_true(!blocks || (fb1[c] >= 1 && fb1[c] < (1u << prec)));
     }
-    const size_t cells = (size_t)g * g * g, nbytes = (cells + 7) / 8;
-    uint8_t *bits = malloc(nbytes);
-    memset(bits, 0xA5, nbytes); /* the decoder needs no zeroed bitmap */
-    uint32_t occupied = 12345, want = 0;
-    assert_int_equal(cn_grid_decode(b.p + CNERF_GRID_FIXED_BYTES, b.n - CNERF_GRID_FIXED_BYTES,
-                                    g, prec, f1, bits, &occupied),
-                     CNERF_OK);
+    const uint32_t nb = (g + 7) / 8;
+    /* the occupied blocks, as the encoder counts them */
+    uint32_t want_blocks = 0, want = 0;
+    for (uint32_t B = 0; B < nb * nb * nb; B++) {
+        const uint32_t X = B % nb, Y = B / nb % nb, Z = B / nb / nb;
+        int any = 0;
+        for (uint32_t z = Z * 8; z < Z * 8 + 8 && z < g; z++)
+            for (uint32_t y = Y * 8; y < Y * 8 + 8 && y < g; y++)
+                for (uint32_t x = X * 8; x < X * 8 + 8 && x < g; x++)
+                    any |= occ[((size_t)z * g + y) * g + x] != 0;
+        want_blocks += (uint32_t)any;
+    }
+    if (blocks)
+        assert_int_equal(le16(b.p + 2), want_blocks);
+    cn_grid_code gc = {g, prec, f1, blocks ? fb1 : NULL, blocks ? want_blocks : nb * nb * nb};
+    const size_t cells = (size_t)g * g * g;
+    uint8_t *got = malloc(cells);
+    uint32_t occupied = 12345;
+    assert_int_equal(grid_decode_flat(b.p + fixed, b.n - fixed, &gc, got, &occupied), CNERF_OK);
     for (size_t i = 0; i < cells; i++) {
-        assert_int_equal(cn_grid_bit(bits, (uint32_t)i), occ[i] != 0);
+        assert_int_equal(got[i], occ[i] != 0);
         want += occ[i] != 0;
     }
-    for (size_t i = cells; i < nbytes * 8; i++)
-        assert_int_equal(cn_grid_bit(bits, (uint32_t)i), 0);
     assert_int_equal(occupied, want);
-    /* One cell more or fewer than coded: the payload is not consumed exactly. */
+    /* One cell more or fewer per axis than coded: the payload is not consumed exactly. */
     if (g > 1) {
-        uint8_t *big = malloc(((size_t)(g + 1) * (g + 1) * (g + 1) + 7) / 8);
-        assert_int_equal(cn_grid_decode(b.p + CNERF_GRID_FIXED_BYTES,
-                                        b.n - CNERF_GRID_FIXED_BYTES, g + 1, prec, f1, big,
-                                        &occupied),
-                         CNERF_E_PAYLOAD);
-        assert_int_equal(cn_grid_decode(b.p + CNERF_GRID_FIXED_BYTES,
-                                        b.n - CNERF_GRID_FIXED_BYTES, g - 1, prec, f1, big,
-                                        &occupied),
-                         CNERF_E_PAYLOAD);
-        free(big);
+        cn_grid_code other = gc;
+        for (int d = -1; d <= 1; d += 2) {
+            other.g = (uint32_t)((int)g + d);
+            const uint32_t onb = (other.g + 7) / 8;
+            if (!blocks)
+                other.recs = onb * onb * onb;
+            uint8_t *big = malloc((size_t)(g + 1) * (g + 1) * (g + 1));
+            /* BGRD codes no cell of an empty block: another g of the same blocks may
+             * decode (the grid is then another one) */
+            if (other.recs <= onb * onb * onb && (!blocks || onb != nb))
+                assert_int_equal(grid_decode_flat(b.p + fixed, b.n - fixed, &other, big,
+                                                  &occupied),
+                                 CNERF_E_PAYLOAD);
+            free(big);
+        }
+    }
+    /* BGRD: a count of occupied blocks other than the payload's */
+    if (blocks) {
+        cn_grid_code other = gc;
+        for (int d = -1; d <= 1; d += 2) {
+            if ((d < 0 && !want_blocks) || (d > 0 && want_blocks == nb * nb * nb))
+                continue;
+            other.recs = (uint32_t)((int)want_blocks + d);
+            assert_int_equal(grid_decode_flat(b.p + fixed, b.n - fixed, &other, got, &occupied),
+                             CNERF_E_PAYLOAD);
+        }
     }
     const size_t len = b.n;
     cn_buf_free(&b);
-    free(bits);
+    free(got);
     return len;
+}
+
+/* A BGRD payload of chosen bits: every frequency one half, so that cn_rans_encode's
+ * two-symbol table codes them. */
+static void grid_bits(const uint32_t *bits, size_t n, cn_buf *out)
+{
+    const uint32_t half[2] = {1u << (CN_GRID_PREC - 1), 1u << (CN_GRID_PREC - 1)};
+    assert_int_equal(cn_rans_encode(bits, n, half, 2, CN_GRID_PREC, out), 0);
+}
+
+/* BGRD's rules on the blocks: a block said to be occupied must have an occupied cell. */
+static void test_grid_blocks_rules(void **state)
+{
+    (void)state;
+    uint16_t f[CNERF_GRID_CONTEXTS];
+    for (unsigned c = 0; c < CNERF_GRID_CONTEXTS; c++)
+        f[c] = 1u << (CN_GRID_PREC - 1);
+    const cn_grid_code gc = {8, CN_GRID_PREC, f, f, 1};
+    uint32_t bits[1 + 512] = {1}; /* the one block occupied, then its cells */
+    uint8_t cells[512];
+    uint32_t occupied;
+    cn_buf b = {0};
+    grid_bits(bits, 513, &b);
+    assert_int_equal(grid_decode_flat(b.p, b.n, &gc, cells, &occupied), CNERF_E_PAYLOAD);
+    bits[1 + 300] = 1; /* one cell: valid */
+    b.n = 0;
+    grid_bits(bits, 513, &b);
+    assert_int_equal(grid_decode_flat(b.p, b.n, &gc, cells, &occupied), CNERF_OK);
+    assert_int_equal(occupied, 1);
+    assert_int_equal(cells[300], 1);
+    /* g = 9: 8 blocks; only block 7's one cell (8, 8, 8) lies in the grid */
+    const cn_grid_code g9 = {9, CN_GRID_PREC, f, f, 1};
+    uint32_t b9[8 + 1] = {0, 0, 0, 0, 0, 0, 0, 1, 1};
+    uint8_t c9[729];
+    b.n = 0;
+    grid_bits(b9, 9, &b);
+    assert_int_equal(grid_decode_flat(b.p, b.n, &g9, c9, &occupied), CNERF_OK);
+    assert_int_equal(occupied, 1);
+    assert_int_equal(c9[728], 1);
+    cn_buf_free(&b);
 }
 
 static void test_grid_roundtrip(void **state)
 {
     (void)state;
     cn_rng r = cn_rng_seed(41);
-    const uint32_t gs[] = {1, 2, 3, 7, 16, 33};
+    const uint32_t gs[] = {1, 2, 3, 7, 8, 9, 16, 33};
     const double p1[] = {0.0, 0.02, 0.5, 0.97, 1.0};
     for (size_t a = 0; a < sizeof gs / sizeof gs[0]; a++)
         for (size_t b = 0; b < sizeof p1 / sizeof p1[0]; b++) {
@@ -230,9 +327,11 @@ static void test_grid_roundtrip(void **state)
             uint8_t *occ = malloc(cells);
             for (size_t i = 0; i < cells; i++)
                 occ[i] = cn_rng_uniform(&r) < p1[b];
-            grid_roundtrip(occ, g, CN_GRID_PREC);
-            grid_roundtrip(occ, g, 2);
-            grid_roundtrip(occ, g, CNERF_MAX_PREC);
+            for (int blocks = 0; blocks < 2; blocks++) {
+                grid_roundtrip(occ, g, CN_GRID_PREC, blocks);
+                grid_roundtrip(occ, g, 2, blocks);
+                grid_roundtrip(occ, g, CNERF_MAX_PREC, blocks);
+            }
             free(occ);
         }
 }
@@ -252,15 +351,22 @@ static void test_grid_coding_cost(void **state)
         occ[i] = x * x + y * y + z * z < 20.0 * 20.0;
         n1 += occ[i];
     }
-    const size_t ball = grid_roundtrip(occ, g, CN_GRID_PREC);
-    memset(occ, 0, cells);
-    const size_t empty = grid_roundtrip(occ, g, CN_GRID_PREC);
-    memset(occ, 1, cells);
-    const size_t full = grid_roundtrip(occ, g, CN_GRID_PREC);
-    print_message("# grid 64^3: ball of %zu cells %zu bytes (%.4f bits per cell), empty %zu, "
-                  "full %zu\n", n1, ball, 8.0 * (double)ball / (double)cells, empty, full);
-    assert_true(8 * ball < cells / 10);
-    assert_true(empty < 128 && full < 128);
+    uint8_t *ball_occ = malloc(cells);
+    memcpy(ball_occ, occ, cells);
+    for (int blocks = 0; blocks < 2; blocks++) {
+        memcpy(occ, ball_occ, cells);
+        const size_t ball = grid_roundtrip(occ, g, CN_GRID_PREC, blocks);
+        memset(occ, 0, cells);
+        const size_t empty = grid_roundtrip(occ, g, CN_GRID_PREC, blocks);
+        memset(occ, 1, cells);
+        const size_t full = grid_roundtrip(occ, g, CN_GRID_PREC, blocks);
+        print_message("# grid 64^3 %s: ball of %zu cells %zu bytes (%.4f bits per cell), "
+                      "empty %zu, full %zu\n", blocks ? "BGRD" : "GRID", n1, ball,
+                      8.0 * (double)ball / (double)cells, empty, full);
+        assert_true(8 * ball < cells / 10);
+        assert_true(empty < 128 && full < 128);
+    }
+    free(ball_occ);
     free(occ);
 }
 
@@ -273,6 +379,8 @@ static void test_grid_encoder_rejects(void **state)
     assert_int_equal(cn_grid_encode(occ, CNERF_MAX_GRID + 1, CN_GRID_PREC, &b), -1);
     assert_int_equal(cn_grid_encode(occ, 2, 1, &b), -1);
     assert_int_equal(cn_grid_encode(occ, 2, CNERF_MAX_PREC + 1, &b), -1);
+    assert_int_equal(cn_grid_encode_raster(occ, 0, CN_GRID_PREC, &b), -1);
+    assert_int_equal(cn_grid_encode_raster(occ, 2, 1, &b), -1);
     assert_int_equal(b.n, 0);
     cn_buf_free(&b);
 }
@@ -288,6 +396,7 @@ int main(void)
         cmocka_unit_test(test_corrupt_payload_detected),
         cmocka_unit_test(test_encoder_rejects_bad_input),
         cmocka_unit_test(test_grid_roundtrip),
+        cmocka_unit_test(test_grid_blocks_rules),
         cmocka_unit_test(test_grid_coding_cost),
         cmocka_unit_test(test_grid_encoder_rejects),
     };

@@ -788,7 +788,8 @@ static void test_grid(void **state)
     memset(grid_cells, 1, sizeof grid_cells);
     scene full;
     make_scene_edit(&full, &hdr, 3.0, 21, dense_grid);
-    assert_int_equal(full.dec.info.version_minor, 0);
+    assert_int_equal(full.dec.info.version_minor, CNERF_VERSION_MINOR_BLOCKS);
+    assert_int_equal(full.dec.info.grid_by_blocks, 1);
     assert_int_equal(full.dec.info.grid_g, GRID_G);
     assert_int_equal(cn_cstate_of(&full.dec)->grid_occupied, GRID_G * GRID_G * GRID_G);
     uint8_t *px = render_counted(&full, &cam, 0, &st);
