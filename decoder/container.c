@@ -251,6 +251,7 @@ typedef struct walk {
     uint32_t next_layer, next_shift; /* the scene's layers and the shifts read so far */
     uint32_t head0_off, head0_len;   /* the first HEAD's payload */
     int seen_head, grid_seen, set;   /* set: a SCNS chunk was read */
+    uint32_t chunks;                 /* chunks read, this one included */
 } walk;
 
 /* One chunk: its tag, its offset in the stream, its payload's offset and length, and its
@@ -435,6 +436,52 @@ static cnerf_status on_other(walk *w, const chunk *c)
     return CNERF_OK;
 }
 
+/* levl (2.3, ancillary): the stream's level, 1 byte, right after the first HEAD. A level
+ * this decoder does not know is kept (a decoder without CNERF_MAX_LEVEL renders it). */
+static cnerf_status on_levl(walk *w, const chunk *c)
+{
+    cnerf_info *info = w->info;
+    if (w->chunks != 2u)
+        return CNERF_E_CHUNK_ORDER;
+    if (c->clen != 1u)
+        return CNERF_E_CHUNK;
+    if (w->buf[c->poff] == 0u)
+        return CNERF_E_HEADER;
+    info->level = w->buf[c->poff];
+    info->ancillary_bytes += c->cbytes;
+    return CNERF_OK;
+}
+
+#if CNERF_MAX_LEVEL < 0 || CNERF_MAX_LEVEL > CNERF_MAX_LEVELS
+#error "CNERF_MAX_LEVEL: 0 (any stream) or a level from 1 to CNERF_MAX_LEVELS"
+#endif
+
+/* The described scene against the level its stream declares (docs/bitstream.md, levl),
+ * and the stream's level against this decoder's (CNERF_MAX_LEVEL). */
+static cnerf_status check_level(const cnerf_info *info)
+{
+    const uint32_t L = info->level;
+#if CNERF_MAX_LEVEL > 0
+    if (L == 0u || L > (uint32_t)CNERF_MAX_LEVEL)
+        return CNERF_E_LEVEL;
+#endif
+    if (L == 0u || L > CNERF_MAX_LEVELS)
+        return CNERF_OK; /* none, or a later level's caps, which this decoder does not know */
+    uint32_t macs[CNERF_MAX_NETS] = {0};
+    for (uint32_t l = 0; l < info->n_layers; l++) /* < 2^26 latents: no overflow */
+        macs[info->layer[l].net % CNERF_MAX_NETS] +=
+            (uint32_t)info->layer[l].n_in * info->layer[l].n_out;
+    for (uint32_t n = 0; n < CNERF_MAX_NETS; n++)
+        if (macs[n] > CNERF_LEVEL_MACS(L))
+            return CNERF_E_LEVEL_EXCEEDED;
+    if (cnerf_workspace_size(info) > CNERF_LEVEL_WORKSPACE(L) ||
+        cnerf_render_scratch_size(info) > CNERF_LEVEL_SCRATCH(L) ||
+        info->grid_g > CNERF_LEVEL_GRID(L) ||
+        (uint32_t)info->n_coarse + info->n_fine > CNERF_LEVEL_SAMPLES(L))
+        return CNERF_E_LEVEL_EXCEEDED;
+    return CNERF_OK;
+}
+
 cnerf_status cn_parse(const uint8_t *buf, size_t len, uint32_t want, cnerf_info *info)
 {
     cn_memzero(info, sizeof *info);
@@ -464,6 +511,7 @@ cnerf_status cn_parse(const uint8_t *buf, size_t len, uint32_t want, cnerf_info 
     w.want = want;
     w.scene = w.next_layer = w.next_shift = w.head0_off = w.head0_len = 0;
     w.seen_head = w.grid_seen = w.set = 0;
+    w.chunks = 0;
     for (;;) {
         chunk c;
         c.off = (uint32_t)(r.p - buf);
@@ -489,6 +537,7 @@ cnerf_status cn_parse(const uint8_t *buf, size_t len, uint32_t want, cnerf_info 
             return CNERF_E_CHUNK;
         if (!w.seen_head && c.tag != CNERF_TAG_HEAD)
             return CNERF_E_CHUNK_ORDER;
+        w.chunks++;
         cnerf_status st;
         switch (c.tag) {
         case CNERF_TAG_HEAD: st = on_head(&w, &c); break;
@@ -498,7 +547,10 @@ cnerf_status cn_parse(const uint8_t *buf, size_t len, uint32_t want, cnerf_info 
         case CNERF_TAG_UNIT: st = on_unit(&w, &c); break;
         case CNERF_TAG_GRID: st = on_grid(&w, &c, 0); break;
         case CNERF_TAG_BGRD: st = on_grid(&w, &c, 1); break;
-        case CNERF_TAG_DONE: return on_done(&w, &c, cn_rd_left(&r));
+        case CNERF_TAG_LEVL: st = on_levl(&w, &c); break;
+        case CNERF_TAG_DONE:
+            st = on_done(&w, &c, cn_rd_left(&r));
+            return st == CNERF_OK ? check_level(info) : st;
         default: st = on_other(&w, &c); break;
         }
         if (st != CNERF_OK)

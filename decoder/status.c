@@ -32,6 +32,8 @@ const char *cnerf_status_str(cnerf_status s)
     case CNERF_E_IMAGE_TARGET: return "CNERF_E_IMAGE_TARGET";
     case CNERF_E_IMAGE_CRC: return "CNERF_E_IMAGE_CRC";
     case CNERF_E_IMAGE: return "CNERF_E_IMAGE";
+    case CNERF_E_LEVEL: return "CNERF_E_LEVEL";
+    case CNERF_E_LEVEL_EXCEEDED: return "CNERF_E_LEVEL_EXCEEDED";
     }
     return "CNERF_E_UNKNOWN_STATUS";
 }

@@ -54,11 +54,23 @@ typedef struct cn_grid_choice {
     double psnr_drop;      /* training views: PSNR without the grid minus with it (dB) */
 } cn_grid_choice;
 
+/* What a stream's level leaves for its grid (docs/bitstream.md, levl): at most max_g cells
+ * per axis and max_ws bytes of the decoder's workspace (the grid stored by blocks). */
+typedef struct cn_grid_limits {
+    int max_g;
+    size_t max_ws;
+} cn_grid_limits;
+
+/* Workspace bytes a decoder takes for the grid occ of g^3 cells coded by blocks. */
+size_t cn_grid_workspace(int g, const uint8_t *occ);
+
 /* Steps 1-4 above on the model (already snapped to the stream's numbers). stream_bytes is
- * the size of the stream without a grid; force_g > 0 skips step 4 and takes that resolution; `log` (may be NULL) receives one line per trial.
- * Returns 0, or -1 with a message. */
+ * the size of the stream without a grid; force_g > 0 skips step 4 and takes that resolution;
+ * lim (NULL: none) rules out the resolutions over its caps; `log` (may be NULL) receives
+ * one line per trial. Returns 0, or -1 with a message. */
 int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes, int force_g,
-                   cn_grid_choice *out, void (*say)(const char *line), char *err, size_t errlen);
+                   const cn_grid_limits *lim, cn_grid_choice *out,
+                   void (*say)(const char *line), char *err, size_t errlen);
 void cn_grid_choice_free(cn_grid_choice *c);
 
 #endif /* CNERF_ENC_GRID_H */

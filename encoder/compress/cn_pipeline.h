@@ -58,6 +58,8 @@ typedef struct cn_encode_job {
     size_t scale_points;
     int prune;  /* step 3 (one compressed scene only) */
     int grid_g; /* step 5: -1 chosen, 0 none, G forced; needs models and views */
+    unsigned level; /* the stream's level (0: none): declared, and its caps on the grid; a
+                       stream over it is refused with what exceeds it */
     const cn_dataset *const *views; /* per scene: the training views the grid is judged on */
     void (*grid_log)(const char *line); /* the grid's trials, one line each; may be NULL */
     void (*report)(void *ctx, cn_encode_stage stage, const struct cn_encoded *out);

@@ -193,8 +193,31 @@ void cn_grid_choice_free(cn_grid_choice *c)
 #define GRID_TRIES 7 /* the undilated lattice, then six thresholds on the dilated one */
 #define GRID_GAIN_PER_BYTE 4.0
 
+size_t cn_grid_workspace(int g, const uint8_t *occ)
+{
+    const int nb = (g + CNERF_GRID_BLOCK - 1) / CNERF_GRID_BLOCK;
+    uint8_t *on = calloc((size_t)nb * nb * nb, 1);
+    if (!on)
+        return SIZE_MAX;
+    for (int z = 0; z < g; z++)
+        for (int y = 0; y < g; y++)
+            for (int x = 0; x < g; x++)
+                if (occ[((size_t)z * g + y) * g + x])
+                    on[((size_t)(z / CNERF_GRID_BLOCK) * nb + y / CNERF_GRID_BLOCK) * nb +
+                       x / CNERF_GRID_BLOCK] = 1;
+    cnerf_info gi; /* a grid and nothing else: the workspace is the grid's */
+    memset(&gi, 0, sizeof gi);
+    gi.grid_g = (uint8_t)g;
+    gi.grid_by_blocks = 1;
+    for (size_t b = 0; b < (size_t)nb * nb * nb; b++)
+        gi.grid_blocks = (uint16_t)(gi.grid_blocks + on[b]);
+    free(on);
+    return cnerf_workspace_size(&gi);
+}
+
 int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes, int force_g,
-                   cn_grid_choice *out, void (*say)(const char *line), char *err, size_t errlen)
+                   const cn_grid_limits *lim, cn_grid_choice *out,
+                   void (*say)(const char *line), char *err, size_t errlen)
 {
     memset(out, 0, sizeof *out);
     const cnerf_info *T = &m->topo;
@@ -233,9 +256,19 @@ int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes,
         double e_best = 1, frac_best = 0;
         size_t b_best = 0;
         for (int g = 16; g <= GRID_M; g *= 2) {
-            if (force_g > 0 && g != force_g)
+            if ((force_g > 0 && g != force_g) || (lim && g > lim->max_g))
                 continue;
             const size_t occupied = cn_grid_from_lattice(lat, GRID_M, g, thr, occ);
+            if (lim && cn_grid_workspace(g, occ) > lim->max_ws) {
+                if (say) {
+                    snprintf(line, sizeof line,
+                             "grid: threshold %.3g, dilation %d, %d^3: %zu bytes of the "
+                             "decoder's workspace, over the %zu the level leaves",
+                             thr, dil, g, cn_grid_workspace(g, occ), lim->max_ws);
+                    say(line);
+                }
+                continue;
+            }
             cn_buf b = {0};
             const int bad = cn_grid_encode(occ, (uint32_t)g, CN_GRID_PREC, &b);
             const size_t bytes = b.n;

@@ -115,7 +115,9 @@ int cn_encode_finish(const cn_encode_job *j, cn_encoded *out, char *err, size_t 
         if (rc == 0 && j->report)
             j->report(j->report_ctx, CN_STAGE_PRUNED, out);
     }
-    /* 4. The stream. */
+    /* 4. The stream, at its level. */
+    if (rc == 0 && j->level)
+        S[0].hdr.level = (uint8_t)j->level;
     if (rc == 0)
         rc = cn_write_set(S, n, shift, &out->stream, n == 1 ? &out->rep : NULL, NULL, err,
                           errlen);
@@ -125,9 +127,21 @@ int cn_encode_finish(const cn_encode_job *j, cn_encoded *out, char *err, size_t 
         if (j->report)
             j->report(j->report_ctx, CN_STAGE_GRID_START, out);
         int any = 0;
+        cnerf_info *info = malloc(sizeof *info);
+        if (!info)
+            rc = cn_fail(err, errlen, "out of memory");
         for (unsigned m = 0; rc == 0 && m < n; m++) {
+            /* a level leaves the grid what the scene's workspace does not take */
+            cn_grid_limits lim = {0, 0};
+            if (j->level) {
+                const cnerf_status st = cnerf_peek_scene(out->stream.p, out->stream.n, m, info);
+                const size_t ws = st == CNERF_OK ? cnerf_workspace_size(info) : SIZE_MAX;
+                const size_t cap = CNERF_LEVEL_WORKSPACE(j->level);
+                lim.max_g = (int)CNERF_LEVEL_GRID(j->level);
+                lim.max_ws = ws < cap ? cap - ws : 0;
+            }
             if (cn_grid_choose(j->models[m], j->views[m], out->stream.n / n, j->grid_g,
-                               &out->grid[m], j->grid_log, err, errlen))
+                               j->level ? &lim : NULL, &out->grid[m], j->grid_log, err, errlen))
                 rc = in_set(err, errlen, m, n);
             else if (out->grid[m].g) {
                 S[m].grid = out->grid[m].occ;
@@ -135,6 +149,7 @@ int cn_encode_finish(const cn_encode_job *j, cn_encoded *out, char *err, size_t 
                 any = 1;
             }
         }
+        free(info);
         if (rc == 0 && any)
             rc = cn_write_set(S, n, shift, &out->stream, n == 1 ? &out->rep : NULL, NULL, err,
                               errlen);

@@ -62,7 +62,7 @@ static int rate_control_step(cn_trainer *t)
     if (!err && grid_now) {
         cn_grid_choice g;
         memset(&g, 0, sizeof g);
-        err = cn_grid_choose(m, t->ds, bytes, t->rc_grid_g, &g, NULL, t->err, sizeof t->err);
+        err = cn_grid_choose(m, t->ds, bytes, t->rc_grid_g, NULL, &g, NULL, t->err, sizeof t->err);
         if (!err) {
             rc->reserved += (double)g.bytes - rc->grid;
             rc->grid = (double)g.bytes;

@@ -60,6 +60,31 @@ double cn_from_m24e8(int32_t m, int8_t e);
 int cn_quantize_biases(const float *b, uint32_t n, unsigned nbits, int32_t *m, uint8_t *bits,
                        int8_t *e);
 
+/* ---- levels (docs/bitstream.md, levl) ---- */
+
+/* What a decoder needs for the scene info describes, in the terms of the levels' caps. */
+typedef struct cn_level_needs {
+    size_t workspace, scratch; /* bytes */
+    uint32_t grid;             /* cells per axis (0: no grid) */
+    uint32_t samples;          /* coarse + fine per ray */
+    uint32_t macs;             /* per evaluation of the larger network */
+} cn_level_needs;
+void cn_level_needs_of(const cnerf_info *I, cn_level_needs *n);
+/* The caps of level L (1..CNERF_MAX_LEVELS) that the scene exceeds, as text into why ("" for
+ * none, e.g. "workspace 94720 bytes > 73728"); returns how many. */
+int cn_level_excess(const cnerf_info *I, unsigned L, char *why, size_t n);
+/* The lowest level the scene fits, 0 for none. */
+unsigned cn_level_lowest(const cnerf_info *I);
+
+/* Re-codes the stream buf[0..len) into out (reset first), chunk by chunk: each GRID becomes
+ * a BGRD of the same cells; the level declared becomes `level` (1..CNERF_MAX_LEVELS; 0 none,
+ * -1 the stream's own), in a levl chunk right after the first HEAD; every other chunk is
+ * copied as it is, so every scene renders the same pixels. The minor version becomes 2.3
+ * when the result holds a BGRD or a levl. The result is parsed back: -1 with a message
+ * when the input is not a valid stream or a scene does not fit the level (what exceeds
+ * it), else 0. */
+int cn_recode(const uint8_t *buf, size_t len, int level, cn_buf *out, char *err, size_t errlen);
+
 /* ---- the stream writer ---- */
 
 enum cn_table_source { CN_TABLE_NONE = 0, CN_TABLE_COUNTS = 1, CN_TABLE_PRIOR = 2 };
@@ -81,8 +106,9 @@ typedef struct cn_layer_src {
 
 typedef struct cn_stream_src {
     /* Render parameters and topology: coord, l_pos, l_dir, pe_flags, near_q16, far_q16,
-     * aabb_q16, background, n_coarse, n_fine, n_nets, net[].depth/width/skip/view_width.
-     * Everything else is derived. */
+     * aabb_q16, background, n_coarse, n_fine, n_nets, net[].depth/width/skip/view_width;
+     * and scene 0's level: the stream's (a levl chunk; 0 none). Everything else is
+     * derived. */
     cnerf_info hdr;
     cn_layer_src layer[CNERF_MAX_LAYERS];
     const char *meta; /* optional provenance text for the 'meta' chunk */

@@ -6,6 +6,7 @@
 #include "cnerf/tools.h"
 
 #include "cn_report.h"
+#include "cn_stream.h"
 
 const char *cn_role_name(unsigned role)
 {
@@ -203,4 +204,22 @@ void cn_print_info(FILE *f, const char *name, const uint8_t *buf, const cnerf_in
         fprintf(f, " (the grid's %zu)", grid);
     fprintf(f, ", render scratch %zu bytes, decoder state %zu bytes (this host)\n",
             cnerf_render_scratch_size(I), sizeof(cnerf_decoder));
+    /* the level: the one declared, else the lowest the scene fits */
+    cn_level_needs n;
+    cn_level_needs_of(I, &n);
+    const unsigned L = I->level ? I->level : cn_level_lowest(I);
+    if (I->level)
+        fprintf(f, "level: %u (declared)", I->level);
+    else if (L)
+        fprintf(f, "level: none declared; the scene fits level %u", L);
+    else
+        fprintf(f, "level: none declared, and the scene fits none (level %u's caps exceeded)",
+                CNERF_MAX_LEVELS);
+    if (L >= 1 && L <= CNERF_MAX_LEVELS)
+        fprintf(f, ": workspace %zu of %u bytes, render scratch %zu of %u, grid %u of %u, "
+                "%u of %u samples per ray, %u of %u multiply-accumulates per evaluation",
+                n.workspace, CNERF_LEVEL_WORKSPACE(L), n.scratch, CNERF_LEVEL_SCRATCH(L), n.grid,
+                CNERF_LEVEL_GRID(L), n.samples, CNERF_LEVEL_SAMPLES(L), n.macs,
+                CNERF_LEVEL_MACS(L));
+    fprintf(f, "\n");
 }

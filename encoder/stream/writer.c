@@ -331,10 +331,17 @@ int cn_write_set(const cn_stream_src *scenes, unsigned n_scenes, const cn_shift_
     for (unsigned m = 0; m < n_scenes; m++)
         if (scenes[m].grid_g) /* grids are coded by blocks */
             minor = CNERF_VERSION_MINOR_BLOCKS;
+    if (scenes[0].hdr.level) /* levl is 2.3's */
+        minor = CNERF_VERSION_MINOR_BLOCKS;
     cn_buf_u16(out, (uint16_t)minor);
     cn_buf c = {0};
     cn_put_head(&c, info);
     put_chunk(out, CNERF_TAG_HEAD, &c);
+    if (scenes[0].hdr.level) { /* right after the first HEAD */
+        c.n = 0;
+        cn_buf_u8(&c, scenes[0].hdr.level);
+        put_chunk(out, CNERF_TAG_LEVL, &c);
+    }
     if (shift) {
         c.n = 0;
         cn_buf_u8(&c, n_scenes);
@@ -388,11 +395,22 @@ int cn_write_set(const cn_stream_src *scenes, unsigned n_scenes, const cn_shift_
     cn_buf_free(&c);
     if (rc == 0 && oom)
         rc = cn_fail(err, errlen, "out of memory");
-    for (unsigned m = 0; m < n_scenes && rc == 0; m++)
-        if ((st = cnerf_peek_scene(out->p, out->n, m, info)) != CNERF_OK)
+    for (unsigned m = 0; m < n_scenes && rc == 0; m++) {
+        st = cnerf_peek_scene(out->p, out->n, m, info);
+        if (st == CNERF_E_LEVEL_EXCEEDED) {
+            char why[256];
+            cn_level_excess(info, info->level, why, sizeof why);
+            char scene[32] = "";
+            if (n_scenes > 1)
+                snprintf(scene, sizeof scene, "scene %u: ", m);
+            rc = cn_fail(err, errlen, "%sthe stream does not fit level %u: %s", scene,
+                         info->level, why);
+        } else if (st != CNERF_OK) {
             rc = cn_fail(err, errlen,
                       "the written stream does not parse (%s): invalid header fields?",
                       cnerf_status_str(st));
+        }
+    }
     free(info);
     free(other);
     return rc;

@@ -51,8 +51,19 @@ typedef enum cnerf_status {
     CNERF_E_IMAGE_VERSION = -23, /* an image of another decoder version (CNERF_IMAGE_VERSION) */
     CNERF_E_IMAGE_TARGET = -24,  /* an image for other kernels (another core) or byte order */
     CNERF_E_IMAGE_CRC = -25,     /* the image's CRC-32 does not match */
-    CNERF_E_IMAGE = -26          /* the image's contents disagree with its stream or bounds */
+    CNERF_E_IMAGE = -26,         /* the image's contents disagree with its stream or bounds */
+    /* Levels (format.h, CNERF_MAX_LEVEL): */
+    CNERF_E_LEVEL = -27,        /* the stream's level is above this decoder's, or it has none */
+    CNERF_E_LEVEL_EXCEEDED = -28 /* the stream needs more than the level it declares */
 } cnerf_status;
+
+/* A decoder for streams of level CNERF_MAX_LEVEL and below (1 .. CNERF_MAX_LEVELS; define it
+ * when compiling the decoder): it refuses any other stream with CNERF_E_LEVEL, and a static
+ * workspace of CNERF_LEVEL_WORKSPACE(CNERF_MAX_LEVEL) bytes opens every stream it accepts.
+ * 0, the default: streams of any level, or none. */
+#ifndef CNERF_MAX_LEVEL
+#define CNERF_MAX_LEVEL 0
+#endif
 
 /* Workspace alignment in bytes. */
 #define CNERF_WS_ALIGN 8u
@@ -132,6 +143,7 @@ typedef struct cnerf_info {
     uint32_t ancillary_bytes; /* all ancillary chunks including framing */
     uint32_t done_bytes;      /* DONE chunk */
     uint32_t meta_offset, meta_len; /* first 'meta' chunk's payload (text), 0 if none */
+    uint8_t level; /* the level the stream declares (levl chunk, 2.3), 0: none */
     /* Occupancy grid (GRID chunk, minor >= 1, or BGRD, minor >= 3): grid_g^3 cells over the scene bounds, x
      * fastest; a sample in an empty cell has density 0 and is not evaluated. grid_g = 0:
      * no grid (every cell occupied). */

@@ -42,6 +42,24 @@
 #define CNERF_TAG_UNIT CNERF_TAG('U', 'N', 'I', 'T') /* units per layer */
 #define CNERF_TAG_SCNS CNERF_TAG('S', 'C', 'N', 'S') /* scene count (2.1) */
 #define CNERF_TAG_SHFT CNERF_TAG('S', 'H', 'F', 'T') /* a layer's shared shift (2.1) */
+#define CNERF_TAG_LEVL CNERF_TAG('l', 'e', 'v', 'l') /* the stream's level (2.3, ancillary) */
+
+/* Levels (docs/bitstream.md, levl): what a decoder needs for a stream of level L = 1, 2, 3
+ * at most. Each caps the workspace (cnerf_workspace_size) and render scratch
+ * (cnerf_render_scratch_size) in bytes, the grid's cells per axis, the samples per ray
+ * (coarse + fine) and the multiply-accumulates of one evaluation of a network (the sum of
+ * n_in n_out over its layers as the stream stores them). With a Cortex-M4 build's decoder
+ * state (5,744 bytes) and 2,048 bytes of stack, level 1 needs at most 85,616 bytes of RAM,
+ * 2 223,856 and 3 478,832: a 128, 256 and 512 KB part with 32 KB left for the application.
+ * Compile-time constants for static arenas; 0 for any other L. */
+#define CNERF_MAX_LEVELS 3u
+#define CNERF_LEVEL_WORKSPACE(L)                                                         \
+    ((L) == 1 ? 73728u : (L) == 2 ? 209920u : (L) == 3 ? 458752u : 0u)
+#define CNERF_LEVEL_SCRATCH(L) ((L) == 1 ? 4096u : (L) == 2 ? 6144u : (L) == 3 ? 12288u : 0u)
+#define CNERF_LEVEL_GRID(L) ((L) == 1 ? 64u : (L) == 2 || (L) == 3 ? 128u : 0u)
+#define CNERF_LEVEL_SAMPLES(L) ((L) == 1 ? 128u : (L) == 2 ? 256u : (L) == 3 ? 512u : 0u)
+#define CNERF_LEVEL_MACS(L)                                                              \
+    ((L) == 1 ? 32768u : (L) == 2 ? 131072u : (L) == 3 ? 262144u : 0u)
 
 /* Scenes in one stream: 1 without a SCNS chunk, 1..CNERF_MAX_SCENES with one. */
 #define CNERF_MAX_SCENES 255u

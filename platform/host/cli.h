@@ -15,6 +15,7 @@ struct cn_train_opts;
 
 int cmd_info(int argc, char **argv);
 int cmd_pack(int argc, char **argv);
+int cmd_recode(int argc, char **argv);
 int cmd_synth(int argc, char **argv);
 int cmd_train(int argc, char **argv);
 int cmd_eval(int argc, char **argv);

@@ -14,7 +14,7 @@ typedef struct encode_args {
     const char *prune, *coarse_color, *scheme, *preset;
     double coarse_weight, ckpt_secs, lambda, levels, size, bpp, quality, lr_shift;
     long iters, downscale, max_size, threads, batch, every, depth, width, coarse, fine;
-    long ckpt_every, log_every, view_width, eval_every, grid_g, precrop, val_views;
+    long ckpt_every, log_every, view_width, eval_every, grid_g, precrop, val_views, level;
     uint64_t seed;
     int black, n_pos, grid_verbose, force;
     int controlled; /* --size or --bits-per-param: lambda follows rate control */

@@ -10,6 +10,7 @@
 #include "cli.h"
 #include "cli_args.h"
 #include "cli_encode.h"
+#include "cn_stream.h"
 #include "progress.h"
 #include "cn_export.h"
 #include "cn_pipeline.h"
@@ -38,7 +39,7 @@
     "       [--skip-saturated EPS] [--grid G|0] [--grid-verbose] [--random-bg auto|on|off]\n" \
     "       [--background auto|constant|contract]\n"                                               \
     "       [--prune on|off] [--group-penalty MU] [--coarse-color off|on] [--coarse-weight W]\n" \
-    "       [--val-views N]"
+    "       [--val-views N] [--level L]"
 
 /* --size and --bits-per-param: the file may miss its target by this fraction. */
 #define CLI_SIZE_TOLERANCE 0.03
@@ -191,6 +192,9 @@ static int check_args(encode_args *A)
     if (A->grid_g > 0 && (A->grid_g < 16 || (A->grid_g & (A->grid_g - 1))))
         return cli_usage("encode", "--grid takes 16, 32, 64 or 128 cells per axis, or 0 for no "
                         "grid, not %ld", A->grid_g);
+    if (A->level && A->grid_g > (long)CNERF_LEVEL_GRID(A->level))
+        return cli_usage("encode", "--grid %ld is finer than level %ld allows (%u cells per "
+                         "axis)", A->grid_g, A->level, CNERF_LEVEL_GRID(A->level));
     if (strcmp(A->latent_lr, "latent") && strcmp(A->latent_lr, "weight"))
         return cli_usage("encode", "--latent-lr takes 'latent' (Adam's step in latent units, "
                         "the paper's) or 'weight' (in weight units), not '%s'", A->latent_lr);
@@ -280,6 +284,7 @@ static int parse_args(int argc, char **argv, encode_args *A)
         {"--scale-lr", CLI_DOUBLE, &A->o.lr_scale, 0, 1},
         {"--grid", CLI_LONG, &A->grid_g, -1, CNERF_MAX_GRID},
         {"--grid-verbose", CLI_FLAG, &A->grid_verbose, 0, 0},
+        {"--level", CLI_LONG, &A->level, 1, CNERF_MAX_LEVELS},
         {"--random-bg", CLI_STR, &A->random_bg, 0, 0},
         {"--background", CLI_STR, &A->background, 0, 0},
         {"--prune", CLI_STR, &A->prune, 0, 0},
@@ -354,6 +359,37 @@ static int start_rate_control(encode_args *A, cn_trainer *t, const cn_dataset *d
     return 0;
 }
 
+/* 1 when a topology (its expanded layers, before training) is over level L in a way no
+ * training changes: its samples, its multiply-accumulates, its render scratch, or its
+ * workspace with every latent in int8 and no grid (the least a stream of it can take); the
+ * caps it exceeds into why. */
+static int topology_over_level(const cnerf_info *topo, unsigned L, char *why, size_t n)
+{
+    cnerf_info least = *topo;
+    least.grid_g = 0;
+    least.level = 0;
+    for (uint32_t l = 0; l < least.n_layers; l++)
+        least.layer[l].kmin = least.layer[l].kmax = 0;
+    return cn_level_excess(&least, L, why, n) > 0;
+}
+
+/* The same for a preset with the options' overrides (cn_preset_header). */
+static int preset_over_level(const char *preset, const cn_train_opts *o, unsigned L, char *why,
+                             size_t n)
+{
+    cnerf_info *T = calloc(1, sizeof *T);
+    int over = 0;
+    if (T && cn_preset_header(preset, T) == 0) {
+        if (o->n_coarse > 0)
+            T->n_coarse = (uint16_t)o->n_coarse;
+        if (o->n_fine >= 0)
+            T->n_fine = (uint16_t)o->n_fine;
+        over = cnerf_expand_topology(T) == CNERF_OK && topology_over_level(T, L, why, n);
+    }
+    free(T);
+    return over;
+}
+
 /* --preset auto's trials of the rule's choice against tiny (cn_preset_trial), once.
  * Returns 1 when tiny is taken instead, 0 to go on, -1 with a message. */
 static int auto_trials(encode_args *A, const cn_dataset *ds, int *trials_done, char *err,
@@ -393,6 +429,9 @@ static int write_and_report(encode_args *A, cn_trainer *t, const cn_dataset *ds,
     cn_encoded enc;
     memset(&enc, 0, sizeof enc);
     char meta[1024], sizebuf[64] = "";
+    char levelbuf[16] = "";
+    if (A->level)
+        snprintf(levelbuf, sizeof levelbuf, "; level=%ld", A->level);
     if (t->rate_control)
         snprintf(sizebuf, sizeof sizebuf, "size=%.0f; ", t->rc.target);
     else if (A->quality >= 0)
@@ -400,19 +439,22 @@ static int write_and_report(encode_args *A, cn_trainer *t, const cn_dataset *ds,
     snprintf(meta, sizeof meta,
              "encoder=cnerf %s; command=encode; dataset=%s; preset=%s; iters=%ld; %slambda=%g; "
              "downscale=%ld; seed=%llu; levels=%g; latent-lr=%s; coarse-color=%s; "
-             "coarse-weight=%g%s%s",
+             "coarse-weight=%g%s%s%s",
              CNERF_VERSION_STRING, A->pos[0], A->o.preset, t->step, sizebuf, t->opts.lambda,
              (long)ds->downscale, (unsigned long long)A->seed, A->levels, A->latent_lr, A->coarse_color,
-             A->o.coarse_weight, A->init ? "; init=" : "", A->init ? A->init : "");
+             A->o.coarse_weight, A->init ? "; init=" : "", A->init ? A->init : "", levelbuf);
     if (rc == 0) {
         cn_model *model = &t->model;
         const cn_dataset *views = ds;
         const cn_encode_job job = {.models = &model, .n = 1, .meta = meta, .seed = A->seed,
                                    .prune = !strcmp(A->prune, "on"), .grid_g = (int)A->grid_g,
+                                   .level = (unsigned)A->level,
                                    .views = &views, .grid_log = A->grid_verbose ? say : NULL,
                                    .report = report_stage, .report_ctx = &t->model.topo};
         if (cn_encode_finish(&job, &enc, err, sizeof err))
-            rc = cli_fail("encode", "%s", err);
+            rc = A->level ? cli_fail("encode", "%s; the trained model is in %s: --resume it "
+                                     "with another --level, or none", err, A->ckpt)
+                          : cli_fail("encode", "%s", err);
     }
     const cn_grid_choice *grid = &enc.grid[0];
     if (rc == 0 && grid->g) {
@@ -559,6 +601,13 @@ int cmd_encode(int argc, char **argv)
         }
         printf("preset auto: %s (%.2f bits per latent beyond the topology's floor; small from "
                "%.2f)\n", A->o.preset, bits, CN_AUTO_BITS);
+        /* a level: the largest preset within it, at most the rule's */
+        while (A->level && strcmp(A->o.preset, "tiny") &&
+               preset_over_level(A->o.preset, &A->o, (unsigned)A->level, NULL, 0)) {
+            const char *down = !strcmp(A->o.preset, "paper") ? "small" : "tiny";
+            printf("preset auto: %s is over level %ld; %s\n", A->o.preset, A->level, down);
+            A->o.preset = down;
+        }
     }
     int rc = 0, stopped = 0;
 step_down: /* --preset auto encodes again with tiny when the rate collapses a larger preset */
@@ -571,6 +620,15 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
         return cli_fail("encode", "%s", err);
     }
     cli_say_random_bg(&t);
+    char why[320];
+    if (A->level && topology_over_level(&t.model.topo, (unsigned)A->level, why, sizeof why)) {
+        cn_trainer_free(&t);
+        cn_dataset_free(&ds);
+        cli_unlock_outputs(&locks);
+        return cli_fail("encode", "the model is over level %ld before any training: %s (a "
+                        "smaller preset, --width or fewer --coarse and --fine samples)",
+                        A->level, why);
+    }
     int bad = start_rate_control(A, &t, &ds, err, sizeof err);
     if (bad == 0 && !A->resume && !A->init)
         bad = auto_trials(A, &ds, &trials_done, err, sizeof err);

@@ -59,6 +59,10 @@ static const struct {
      "pack scene.cnrf --target CORE -o scene.bin\n"
      "                                  the decoded workspace for one core, read in place\n"
      "                                  from flash by cnerf_open_packed"},
+    {"recode", cmd_recode,
+     "recode scene.cnrf -o out.cnrf [--level L | --no-level]\n"
+     "                                  the stream re-coded without training: its grid by\n"
+     "                                  blocks (less decoder RAM), its level; the same pixels"},
     {"views", cmd_views,
      "views DATASET -o DIR [--split train] [--downscale F]\n"
      "                                  a split's views as trained on, as PNGs, and a path\n"

@@ -15,6 +15,7 @@ fail() { echo "FAIL: $*" >&2; exit 1; }
   > "$work/fixture.log" || fail "fixture: train"
 "$cnerf" synth -o "$work/s.cnrf" --preset tiny > /dev/null || fail "fixture: synth"
 "$cnerf" pack "$work/s.cnrf" --target x86-64 -o "$work/p.bin" > /dev/null || fail "fixture: pack"
+"$cnerf" synth -o "$work/small.cnrf" --preset small > /dev/null || fail "fixture: synth small"
 head -c 100 "$work/p.bin" > "$work/p_cut.bin"
 "$cnerf" encode "$data/lego" -o "$work/e.cnrf" --lambda 1 --preset tiny --downscale 16 --iters 2 \
   --every 200 > "$work/fixture-e.log" || fail "fixture: encode"
@@ -300,6 +301,12 @@ rows=(
   "1|a 2500-byte file is too small for preset tiny on this scene|encode $D -o $work/x.cnrf --size 2500 --downscale 16 --iters 100000"
   "1|a 1000000-byte file is more than preset tiny can use on this scene: 193618 bytes hold its 47936 latents at 32 bits each, as float32 weights|encode $D -o $work/x.cnrf --size 1000000 ${T[*]}"
   "1|a 900000000-byte file is more than preset small can use on this scene|encode $D -o $work/x.cnrf --size 9e8 --downscale 16 --iters 100000"
+  "1|the model is over level 1 before any training: workspace 200192 bytes > 73728, render scratch 4872 bytes > 4096, multiply-accumulates per evaluation 91904 > 32768|encode $D -o $work/x.cnrf --lambda 1 --preset small --level 1 --downscale 16"
+  "1|the model is over level 1 before any training: render scratch 6472 bytes > 4096, samples per ray 192 > 128|encode $D -o $work/x.cnrf --lambda 1 --preset tiny --coarse 96 --fine 96 --level 1 --downscale 16"
+  "2|--grid 128 is finer than level 1 allows (64 cells per axis)|encode $D -o $work/x.cnrf --lambda 1 --grid 128 --level 1"
+  "2|--level: expected|encode $D -o $work/x.cnrf --lambda 1 --level 4"
+  "2|--level and --no-level together|recode $work/s.cnrf -o $work/y.cnrf --level 1 --no-level"
+  "1|does not fit level 1: workspace|recode $work/small.cnrf -o $work/y.cnrf --level 1"
   "2|--preset auto chooses the model from the file's size: give --size BYTES|encode $D -o $work/x.cnrf --preset auto --lambda 1"
   "2|--preset auto chooses the model from the file's size: give --size BYTES|encode $D -o $work/x.cnrf --preset auto --bits-per-param 2"
   "2|--preset auto chooses depth, width and samples itself|encode $D -o $work/x.cnrf --size 9000 --width 32"
@@ -465,7 +472,7 @@ grep -q "^check: every payload decodes" <<<"$("$cnerf" info --check "$work/s.cnr
   fail "info --check of a good stream"
 # a packed image: its header, its CRC, whether this machine opens it, then its stream
 out=$("$cnerf" info "$work/p.bin") || fail "info of a packed image"
-grep -q "packed image (cnerf pack), version 1, kernels avx2, little-endian, scene 0: .* CRC-32 ok" \
+grep -q "packed image (cnerf pack), version 2, kernels avx2, little-endian, scene 0: .* CRC-32 ok" \
   <<<"$out" && grep -q "this machine's decoder: CNERF_" <<<"$out" &&
   grep -q "cnerf stream, format version" <<<"$out" || fail "info of a packed image: $out"
 n=$((n + 1))

@@ -396,6 +396,36 @@ static void e_bgrd_after_layer(chunks *c)
     behind_first_layer(c);
 }
 
+/* ---- levels ---- */
+
+/* A levl chunk declaring level L right after HEAD (chunk 1), in a stream stamped 2.3. */
+static chunk *add_level(chunks *c, uint8_t L)
+{
+    insert_chunk(c, 1, "levl", &L, 1);
+    put16(c->sig + 6, CNERF_VERSION_MINOR_BLOCKS);
+    return &c->c[1];
+}
+static void e_level_ok(chunks *c) { add_level(c, 1); }
+static void e_level_unknown(chunks *c) { add_level(c, CNERF_MAX_LEVELS + 6); }
+static void e_level_zero(chunks *c) { add_level(c, 0); }
+static void e_level_long(chunks *c) { add_level(c, 1)->len = 2; }
+static void e_level_late(chunks *c)
+{
+    add_level(c, 1);
+    behind_first_layer(c);
+}
+static void e_level_twice(chunks *c)
+{
+    add_level(c, 1);
+    add_level(c, 1);
+}
+/* 200 coarse samples, over level 1's 128 */
+static void e_level_exceeded(chunks *c)
+{
+    add_level(c, 1);
+    put16(c->c[HEAD].data + H_NCOARSE, 200);
+}
+
 /* ---- units per layer ---- */
 
 /* Inserts after HEAD a UNIT chunk that keeps every layer's full width (valid: the same
@@ -608,6 +638,16 @@ const neg_case neg_cases[] = {
      0, 0},
     {"grid by blocks after a layer", e_bgrd_after_layer, NULL, CNERF_E_CHUNK_ORDER,
      CNERF_E_CHUNK_ORDER, 0, 0},
+    {"level 1 declared and met", e_level_ok, NULL, CNERF_OK, CNERF_OK, 0, 0},
+    {"a level this decoder does not know is accepted", e_level_unknown, NULL, CNERF_OK,
+     CNERF_OK, 0, 0},
+    {"level 0", e_level_zero, NULL, CNERF_E_HEADER, CNERF_E_HEADER, 0, 0},
+    {"level chunk of 2 bytes", e_level_long, NULL, CNERF_E_CHUNK, CNERF_E_CHUNK, 0, 0},
+    {"level chunk after a layer", e_level_late, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER,
+     0, 0},
+    {"two level chunks", e_level_twice, NULL, CNERF_E_CHUNK_ORDER, CNERF_E_CHUNK_ORDER, 0, 0},
+    {"more samples than the level declared", e_level_exceeded, NULL, CNERF_E_LEVEL_EXCEEDED,
+     CNERF_E_LEVEL_EXCEEDED, 0, 0},
     {"units are accepted", e_units_ok, NULL, CNERF_OK, CNERF_OK, 0, 0},
     {"units disagree with the layers", e_units_layer, NULL, CNERF_E_LAYER, CNERF_E_LAYER, 0, 0},
     {"a layer of 0 units", e_units_zero, NULL, CNERF_E_HEADER, CNERF_E_HEADER, 0, 0},

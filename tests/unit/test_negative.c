@@ -113,7 +113,7 @@ static void test_every_bit_flip(void **state)
 static void test_status_strings(void **state)
 {
     (void)state;
-    for (int s = 0; s >= CNERF_E_IMAGE; s--) {
+    for (int s = 0; s >= CNERF_E_LEVEL_EXCEEDED; s--) {
         const char *name = cnerf_status_str((cnerf_status)s);
         assert_non_null(name);
         assert_true(strncmp(name, "CNERF_", 6) == 0);
@@ -126,6 +126,8 @@ static void test_status_strings(void **state)
     assert_int_equal(CNERF_E_BUF_SMALL, -21);
     assert_int_equal(CNERF_E_IMAGE_ALIGN, -22);
     assert_int_equal(CNERF_E_IMAGE, -26);
+    assert_int_equal(CNERF_E_LEVEL, -27);
+    assert_int_equal(CNERF_E_LEVEL_EXCEEDED, -28);
 }
 
 int main(void)

@@ -31,6 +31,8 @@ export const STATUS = {
   CNERF_E_IMAGE_TARGET: [-24, 'a packed image for other kernels or byte order'],
   CNERF_E_IMAGE_CRC: [-25, "a packed image whose CRC-32 does not match"],
   CNERF_E_IMAGE: [-26, "a packed image whose contents disagree with its stream"],
+  CNERF_E_LEVEL: [-27, "a stream above the decoder's level, or of no level"],
+  CNERF_E_LEVEL_EXCEEDED: [-28, 'a stream that needs more than the level it declares'],
 };
 
 // cw_summary's fields, in platform/web/cnerf_web.c's order ([name, count]).
