@@ -467,7 +467,9 @@ static cnerf_status check_level(const cnerf_info *info)
 #endif
     if (L == 0u || L > CNERF_MAX_LEVELS)
         return CNERF_OK; /* none, or a later level's caps, which this decoder does not know */
-    uint32_t macs[CNERF_MAX_NETS] = {0};
+    uint32_t macs[CNERF_MAX_NETS]; /* element by element: an initializer may become memset */
+    for (uint32_t n = 0; n < CNERF_MAX_NETS; n++)
+        macs[n] = 0;
     for (uint32_t l = 0; l < info->n_layers; l++) /* < 2^26 latents: no overflow */
         macs[info->layer[l].net % CNERF_MAX_NETS] +=
             (uint32_t)info->layer[l].n_in * info->layer[l].n_out;
