@@ -76,14 +76,15 @@ int cn_level_excess(const cnerf_info *I, unsigned L, char *why, size_t n);
 /* The lowest level the scene fits, 0 for none. */
 unsigned cn_level_lowest(const cnerf_info *I);
 
-/* Re-codes the stream buf[0..len) into out (reset first), chunk by chunk: each GRID becomes
- * a BGRD of the same cells; the level declared becomes `level` (1..CNERF_MAX_LEVELS; 0 none,
- * -1 the stream's own), in a levl chunk right after the first HEAD; every other chunk is
- * copied as it is, so every scene renders the same pixels. The minor version becomes 2.3
- * when the result holds a BGRD or a levl. The result is parsed back: -1 with a message
- * when the input is not a valid stream or a scene does not fit the level (what exceeds
- * it), else 0. */
-int cn_recode(const uint8_t *buf, size_t len, int level, cn_buf *out, char *err, size_t errlen);
+/* Re-codes the stream buf[0..len) into out (reset first), chunk by chunk: each grid becomes
+ * a BGRD of the same cells, or a GRID with `cells` (for decoders of 2.2 and before); the
+ * level declared becomes `level` (1..CNERF_MAX_LEVELS; 0 none, -1 the stream's own), in a
+ * levl chunk right after the first HEAD; every other chunk is copied as it is, so every
+ * scene renders the same pixels. The minor version becomes the lowest whose chunks and
+ * values the result holds. The result is parsed back: -1 with a message when the input is
+ * not a valid stream or a scene does not fit the level (what exceeds it), else 0. */
+int cn_recode(const uint8_t *buf, size_t len, int level, int cells, cn_buf *out, char *err,
+              size_t errlen);
 
 /* ---- the stream writer ---- */
 

@@ -21,9 +21,9 @@ static void put_raw_chunk(cn_buf *out, uint32_t tag, const uint8_t *p, size_t n)
     cn_buf_u32(out, cnerf_crc32(cnerf_crc32(0, t, 4), p, n));
 }
 
-/* Scene m's grid (described by I) as a BGRD payload into c. */
-static int grid_by_blocks(const uint8_t *buf, const cnerf_info *I, cn_buf *c, char *err,
-                          size_t errlen)
+/* Scene m's grid (described by I) as a BGRD payload into c, or a GRID one (cells). */
+static int grid_payload(const uint8_t *buf, const cnerf_info *I, int cells_coding, cn_buf *c,
+                        char *err, size_t errlen)
 {
     const size_t g = I->grid_g, cells = g * g * g, wsz = cnerf_grid_workspace_size(I);
     uint8_t *bits = malloc((cells + 7) / 8), *occ = malloc(cells);
@@ -37,7 +37,8 @@ static int grid_by_blocks(const uint8_t *buf, const cnerf_info *I, cn_buf *c, ch
         rc = cn_fail(err, errlen, "the grid does not decode (%s)", cnerf_status_str(st));
     for (size_t i = 0; rc == 0 && i < cells; i++)
         occ[i] = (uint8_t)(bits[i >> 3] >> (i & 7) & 1u);
-    if (rc == 0 && cn_grid_encode(occ, (uint32_t)g, CN_GRID_PREC, c))
+    if (rc == 0 && (cells_coding ? cn_grid_encode_raster(occ, (uint32_t)g, CN_GRID_PREC, c)
+                                 : cn_grid_encode(occ, (uint32_t)g, CN_GRID_PREC, c)))
         rc = cn_fail(err, errlen, "out of memory");
     free(bits);
     free(occ);
@@ -45,7 +46,8 @@ static int grid_by_blocks(const uint8_t *buf, const cnerf_info *I, cn_buf *c, ch
     return rc;
 }
 
-int cn_recode(const uint8_t *buf, size_t len, int level, cn_buf *out, char *err, size_t errlen)
+int cn_recode(const uint8_t *buf, size_t len, int level, int cells, cn_buf *out, char *err,
+              size_t errlen)
 {
     out->n = 0;
     cnerf_info *I = malloc(sizeof *I);
@@ -58,9 +60,8 @@ int cn_recode(const uint8_t *buf, size_t len, int level, cn_buf *out, char *err,
     if (st != CNERF_OK && st != CNERF_E_LEVEL_EXCEEDED)
         rc = cn_fail(err, errlen, "not a valid stream: %s", cnerf_status_str(st));
     const unsigned scenes = rc == 0 ? I->n_scenes : 0;
-    const unsigned minor_in = rc == 0 ? I->version_minor : 0;
     const int declare = level < 0 ? I->level : level;
-    int grids = 0;
+    int blocks = 0, scns = 0, contract = 0;
     cn_buf c = {0};
     if (rc == 0) {
         cn_buf_put(out, buf, 4);
@@ -74,6 +75,7 @@ int cn_recode(const uint8_t *buf, size_t len, int level, cn_buf *out, char *err,
         off += CNERF_CHUNK_OVERHEAD + n;
         if (tag == CNERF_TAG_HEAD) {
             scene = heads++;
+            contract |= n > 0 && p[0] == CNERF_COORD_CONTRACT;
             put_raw_chunk(out, tag, p, n);
             if (heads == 1 && declare) {
                 const uint8_t L = (uint8_t)declare;
@@ -81,18 +83,18 @@ int cn_recode(const uint8_t *buf, size_t len, int level, cn_buf *out, char *err,
             }
         } else if (tag == CNERF_TAG_LEVL) {
             /* replaced by the one written after HEAD */
-        } else if (tag == CNERF_TAG_GRID) {
+        } else if (tag == CNERF_TAG_GRID || tag == CNERF_TAG_BGRD) {
             st = cnerf_peek_scene(buf, len, scene, I);
             if (st != CNERF_OK && st != CNERF_E_LEVEL_EXCEEDED)
                 rc = cn_fail(err, errlen, "scene %u: %s", scene, cnerf_status_str(st));
             c.n = 0;
             if (rc == 0)
-                rc = grid_by_blocks(buf, I, &c, err, errlen);
+                rc = grid_payload(buf, I, cells, &c, err, errlen);
             if (rc == 0)
-                put_raw_chunk(out, CNERF_TAG_BGRD, c.p, c.n);
-            grids++;
+                put_raw_chunk(out, cells ? CNERF_TAG_GRID : CNERF_TAG_BGRD, c.p, c.n);
+            blocks |= !cells;
         } else {
-            grids += tag == CNERF_TAG_BGRD;
+            scns |= tag == CNERF_TAG_SCNS;
             put_raw_chunk(out, tag, p, n);
         }
     }
@@ -100,11 +102,11 @@ int cn_recode(const uint8_t *buf, size_t len, int level, cn_buf *out, char *err,
     if (rc == 0 && out->oom)
         rc = cn_fail(err, errlen, "out of memory");
     if (rc == 0) {
-        /* 2.3 for a grid by blocks or a level, else the input's own */
-        const unsigned minor = grids || declare ? (minor_in > CNERF_VERSION_MINOR_BLOCKS
-                                                       ? minor_in
-                                                       : CNERF_VERSION_MINOR_BLOCKS)
-                                                : minor_in;
+        /* the lowest minor whose chunks and values the result holds, as the writer stamps */
+        const unsigned minor = blocks || declare ? CNERF_VERSION_MINOR_BLOCKS
+                               : contract        ? CNERF_VERSION_MINOR_CONTRACT
+                               : scns            ? CNERF_VERSION_MINOR_SCENES
+                                                 : 0u;
         out->p[6] = (uint8_t)minor;
         out->p[7] = (uint8_t)(minor >> 8);
     }

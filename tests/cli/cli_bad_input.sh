@@ -306,6 +306,7 @@ rows=(
   "2|--grid 128 is finer than level 1 allows (64 cells per axis)|encode $D -o $work/x.cnrf --lambda 1 --grid 128 --level 1"
   "2|--level: expected|encode $D -o $work/x.cnrf --lambda 1 --level 4"
   "2|--level and --no-level together|recode $work/s.cnrf -o $work/y.cnrf --level 1 --no-level"
+  "2|--grid-coding takes blocks or cells, not 'octree'|recode $work/s.cnrf -o $work/y.cnrf --grid-coding octree"
   "1|does not fit level 1: workspace|recode $work/small.cnrf -o $work/y.cnrf --level 1"
   "2|--preset auto chooses the model from the file's size: give --size BYTES|encode $D -o $work/x.cnrf --preset auto --lambda 1"
   "2|--preset auto chooses the model from the file's size: give --size BYTES|encode $D -o $work/x.cnrf --preset auto --bits-per-param 2"

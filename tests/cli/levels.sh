@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Levels end to end (docs/bitstream.md, levl): cnerf recode declares them on the README main
-# job's reference stream and codes its grid by blocks, with the same pixels; a decoder built
+# job's reference stream and codes its grid by blocks, with the same pixels (and back, to the
+# same bytes); a decoder built
 # with CNERF_MAX_LEVEL=1 and static arenas of level 1 (tests/level/max_level.c) opens and
 # renders the level-1 stream as the library decoder does, and refuses the others with
 # CNERF_E_LEVEL; a level the stream cannot meet is refused by recode with what exceeds it.
@@ -26,6 +27,9 @@ for f in l1 l2 none; do
   got=$("$conform" tiles "$out/$f.cnrf" "$cams" 16 32 32 262144 | md5sum)
   [ "$got" = "$want" ] || fail "$f.cnrf renders other pixels than the stream it re-codes"
 done
+# and back: cell by cell, no level, the original stream byte for byte (what a 2.2 decoder reads)
+"$cnerf" recode "$out/l1.cnrf" -o "$out/back.cnrf" --grid-coding cells --no-level > /dev/null
+cmp "$out/back.cnrf" "$s" || fail "recoding back gives other bytes than the original"
 # the level-1 decoder: static arenas of level 1, the same pixels as the library's
 "$l1" "$out/l1.cnrf" 0 "$out/l1.rgb"
 "$ref" "$out/l1.cnrf" 0 "$out/ref.rgb"
