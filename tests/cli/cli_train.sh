@@ -109,8 +109,8 @@ out=$("$cnerf" encode "$data/lego" -o "$work/gr.cnrf" --lambda 1e-3 --iters 3 --
 grep -q "^occupancy grid: 16^3, [0-9.]*% of the cells occupied, [0-9]* bytes" <<<"$out" \
   || fail "encode --grid 16: $out"
 info=$("$cnerf" info "$work/gr.cnrf")
-grep -q "format version 2.0" <<<"$info" || fail "info: version of a stream with a grid: $info"
-grep -q "^occupancy grid: 16^3 cells, [0-9]* bytes, [0-9]* occupied" <<<"$info" \
+grep -q "format version 2.3" <<<"$info" || fail "info: version of a stream with a grid: $info"
+grep -q "^occupancy grid: 16^3 cells, [0-9]* bytes (by blocks: [0-9] of 8 blocks of 8^3 occupied), [0-9]* occupied" <<<"$info" \
   || fail "info: grid line: $info"
 enc_psnr=$(sed -n 's/^test: 2 views, psnr \([0-9.]*\) dB.*/\1/p' <<<"$out")
 out=$("$cnerf" eval "$work/gr.cnrf" "$data/lego" --downscale 16 --every 100)
