@@ -45,6 +45,9 @@
 #                  each tile's stream is embedded as its packed image for that set (cnerf
 #                  pack), which the firmware opens in place in flash (cnerf_open_packed), with
 #                  no workspace in RAM; the MD5s must be the stream's
+#   FW_LEVEL       a level (1..3): the decoder built with CNERF_MAX_LEVEL, its workspace and
+#                  scratch the level's (CNERF_LEVEL_WORKSPACE, CNERF_LEVEL_SCRATCH), whatever
+#                  the streams need; a stream above the level fails to open
 #   FW_WORK        0: no second, untimed render of each tile to count its work (evaluations,
 #                  MACs): half the run, for a check that needs only the MD5s; first: the
 #                  first job's work only (the check that the host's count, which the cost
@@ -164,7 +167,8 @@ esac
 if ! { cmake -S . -B "$bdir" -DCMAKE_TOOLCHAIN_FILE="$toolchain" -DCNERF_FW_BOARD="$board" \
          -DCMAKE_BUILD_TYPE="$btype" -DCNERF_FW_JOBS="$jobs" -DCNERF_FW_STACK="$stack" \
          -DCNERF_AMALGAMATED="${FW_AMALGAMATED:-0}" -DCNERF_FW_WORK="$fw_work" \
-         -DCNERF_FW_WORK_FIRST="$fw_work_first" -DCNERF_FW_PACK="${FW_PACK:-}" &&
+         -DCNERF_FW_WORK_FIRST="$fw_work_first" -DCNERF_FW_PACK="${FW_PACK:-}" \
+         -DCNERF_MAX_LEVEL="${FW_LEVEL:-0}" &&
        cmake --build "$bdir" -j1 --target cnerf_fw; } > "$log" 2>&1; then
   cat "$log" >&2
   echo "firmware.sh: the firmware build failed (log: $log)" >&2

@@ -73,8 +73,14 @@ void SysTick_Handler(void);
 extern uint32_t __stack_limit[], __stack_top[]; /* fw-sections.ld */
 
 static cnerf_decoder dec;
+#if CNERF_MAX_LEVEL > 0
+/* A decoder of one level: its arenas are the level's, whatever stream comes. */
+static uint64_t ws[CNERF_LEVEL_WORKSPACE(CNERF_MAX_LEVEL) / 8u];
+static uint64_t scratch[CNERF_LEVEL_SCRATCH(CNERF_MAX_LEVEL) / 8u];
+#else
 static uint64_t ws[(CNERF_FW_WS_BYTES + 7u) / 8u];
 static uint64_t scratch[(CNERF_FW_SCRATCH_BYTES + 7u) / 8u];
+#endif
 static uint8_t tile[CNERF_FW_TILE_BYTES + 1u];
 
 /* ---- instruction counting: SysTick on the processor clock, wraps counted ---- */
