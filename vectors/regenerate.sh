@@ -76,6 +76,7 @@ vector() {
     echo "tiles: $tiles MD5s (16x16 tiles; the stream's knobs on every camera, $hc+$hf samples and t_stop 2^20 on the first)"
     echo "fixed point against the float reference: $(sed 's/^inf$/inf/' <<< "$worst") dB (mean over the cameras, this decoder$([ -z "${SCENES:-}" ] || echo ", the worst scene"))"
     echo "min_psnr: $min"
+    echo "level: $($cnerf info "vectors/valid/$name.cnrf" | sed -n 's/^level: \([0-9]*\) (declared).*/\1/p; s/^level: none.*/none/p')"
   } > "vectors/valid/$name.txt"
   echo "$name" >> vectors/valid/LIST
 }
@@ -172,16 +173,33 @@ vector 028-lego-encode-contract "a real scene encoded contracted (Lego, 50x50, l
   $cnerf encode "$data/lego" -o "$tmp/s.cnrf" --lambda 3 --preset tiny --downscale 8 \
   --iters 300 --seed $seed --threads 2 --every 100 --background contract --coarse-color on
 
+# Levels (format 2.3): streams that declare one (levl), for decoders built for a level, and
+# grids coded cell by cell (GRID) as the streams of formats 2.0 to 2.2 hold them.
+CAMS="--orbit 2 --size 24"
+vector 029-level-1 "a stream that declares level 1 (levl), its grid coded by blocks: a decoder of level 1 renders it" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --grid 32 --level 1
+vector 030-level-2 "a stream that declares level 2 (the small preset's 4x128 networks): a decoder of level 1 refuses it with CNERF_E_LEVEL" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset small --seed $seed --level 2
+CAMS="--dataset $data/lego --downscale 8 --every 100"
+vector 031-lego-encode-level-1 "a real scene encoded for level 1 by cnerf encode --level 1 (Lego, 50x50, lambda 3, 300 iterations, the automatic grid)" \
+  $cnerf encode "$data/lego" -o "$tmp/s.cnrf" --lambda 3 --preset tiny --downscale 8 \
+  --iters 300 --seed $seed --threads 2 --every 100 --coarse-color on --level 1
+vector 032-lego-grid-cells "vector 013's grid coded cell by cell (GRID), re-coded by cnerf recode: the same pixels" \
+  $cnerf recode vectors/valid/013-lego-encode-grid.cnrf -o "$tmp/s.cnrf" --grid-coding cells
+CAMS="--orbit 2 --size 24"
+vector 033-grid-128-cells "vector 015's 128^3 grid coded cell by cell (GRID), re-coded by cnerf recode" \
+  $cnerf recode vectors/valid/015-grid-128-ball.cnrf -o "$tmp/s.cnrf" --grid-coding cells
+
 # The table of docs/conformance.md, between its markers.
 python3 - <<'PY'
 import os, re
-rows = ["| vector | feature | bytes | cameras | tile MD5s | fixed vs float reference |", "|---|---|---|---|---|---|"]
+rows = ["| vector | feature | bytes | level | cameras | tile MD5s | fixed vs float reference |", "|---|---|---|---|---|---|---|"]
 for name in open("vectors/valid/LIST").read().split():
     t = dict(l.split(": ", 1) for l in open(f"vectors/valid/{name}.txt").read().splitlines() if ": " in l)
     size = os.path.getsize(f"vectors/valid/{name}.cnrf")
     tiles = t["tiles"].split()[0]
     vs = t["fixed point against the float reference"].split(" (")[0].replace("inf dB", "identical")
-    rows.append(f"| `{name}` | {t['feature']} | {size:,} | {t['cameras']} | {tiles} | {vs} |")
+    rows.append(f"| `{name}` | {t['feature']} | {size:,} | {t['level']} | {t['cameras']} | {tiles} | {vs} |")
 n_inv = sum(1 for l in open("vectors/invalid/expected.txt") if not l.startswith("#"))
 doc = open("docs/conformance.md").read()
 table = "\n".join(rows) + f"\n\nand {n_inv} broken streams in `invalid/`."

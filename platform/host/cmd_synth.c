@@ -14,7 +14,8 @@
     "usage: cnerf synth -o FILE.cnrf [--preset tiny|small|paper] [--seed S] [--spread X]\n" \
     "       [--depth D] [--width W] [--view-width V] [--coarse N] [--fine N] [--lpos L]\n"  \
     "       [--ldir L] [--ndc|--contract] [--black] [--grid G [--grid-shape ball|full|empty]]\n"     \
-    "       [--units U1,U2,...[:V]] [--scenes N [--shift-spread X] [--shift-gain G]]"
+    "       [--units U1,U2,...[:V]] [--scenes N [--shift-spread X] [--shift-gain G]]\n"   \
+    "       [--level L]"
 
 /* --units "U1,...,UD[:V]": units of each trunk layer (and of the view layer) of every
  * network, as a pruned stream's UNIT chunk gives them. Returns 0 or 1 (error printed). */
@@ -118,6 +119,7 @@ int cmd_synth(int argc, char **argv)
     int ndc = 0, contract = 0, black = 0, n_pos;
     long scenes = 0; /* 0: a one-scene stream; N: a set of N scenes with shared shifts */
     double shift_spread = 1.0, shift_gain = 0.5;
+    long level = 0; /* the level declared (levl), 0 for none */
     const cli_opt opts[] = {
         {"-o", CLI_STR, &out, 0, 0},
         {"--preset", CLI_STR, &preset, 0, 0},
@@ -139,6 +141,7 @@ int cmd_synth(int argc, char **argv)
         {"--scenes", CLI_LONG, &scenes, 1, CNERF_MAX_SCENES},
         {"--shift-spread", CLI_DOUBLE, &shift_spread, 0, 40000},
         {"--shift-gain", CLI_DOUBLE, &shift_gain, -1e6, 1e6},
+        {"--level", CLI_LONG, &level, 1, CNERF_MAX_LEVELS},
     };
     if (cli_parse("synth", SYNTH_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], NULL, 0,
                   &n_pos))
@@ -208,7 +211,7 @@ int cmd_synth(int argc, char **argv)
     cn_encoded enc;
     memset(&enc, 0, sizeof enc);
     const cn_encode_job job = {.src = src, .shift_src = scenes ? sh.src : NULL, .n = M,
-                               .seed = seed};
+                               .seed = seed, .level = (unsigned)level};
     if (rc == 0)
         rc = cn_encode_finish(&job, &enc, err, sizeof err);
     const cn_buf b = enc.stream;

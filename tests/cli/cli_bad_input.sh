@@ -308,6 +308,8 @@ rows=(
   "2|--level and --no-level together|recode $work/s.cnrf -o $work/y.cnrf --level 1 --no-level"
   "2|--grid-coding takes blocks or cells, not 'octree'|recode $work/s.cnrf -o $work/y.cnrf --grid-coding octree"
   "1|does not fit level 1: workspace|recode $work/small.cnrf -o $work/y.cnrf --level 1"
+  "1|the stream does not fit level 1: workspace 200192 bytes > 73728, render scratch 4872 bytes > 4096, multiply-accumulates per evaluation 91904 > 32768|synth -o $work/x.cnrf --preset small --level 1"
+  "2|--level: expected|synth -o $work/x.cnrf --level 0"
   "2|--preset auto chooses the model from the file's size: give --size BYTES|encode $D -o $work/x.cnrf --preset auto --lambda 1"
   "2|--preset auto chooses the model from the file's size: give --size BYTES|encode $D -o $work/x.cnrf --preset auto --bits-per-param 2"
   "2|--preset auto chooses depth, width and samples itself|encode $D -o $work/x.cnrf --size 9000 --width 32"

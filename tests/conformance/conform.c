@@ -10,6 +10,10 @@
  *       A stream of several scenes checks scene 0 with NAME.cam, NAME.md5 and
  *       NAME.<camera>.ref.png, and each other scene m that has a NAME.s<m>.cam with
  *       NAME.s<m>.cam, NAME.s<m>.md5 and NAME.s<m>.<camera>.ref.png.
+ *       A decoder of one level (built with CNERF_MAX_LEVEL=L) checks the valid vectors
+ *       whose NAME.txt declares a level of at most L; every other valid vector, and every
+ *       broken stream that cnerf_peek accepts, it must refuse with CNERF_E_LEVEL from both
+ *       cnerf_peek and cnerf_open.
  *       Prints one line per check and closes with "N passed, M failed".
  *   conform tiles STREAM CAMERAS TILE NC NF TSTOP [SCENE]
  *       prints NAME.md5 lines for every camera of CAMERAS tiled TILE x TILE (the edge tiles
@@ -236,6 +240,49 @@ static double min_psnr_of(const char *txt)
     return v;
 }
 
+/* NAME.txt's declared level ("level: N"; 0 for "level: none"). */
+static unsigned level_of(const char *txt)
+{
+    FILE *f = fopen(txt, "r");
+    char line[1024];
+    unsigned v = 0;
+    while (f && fgets(line, sizeof line, f))
+        if (sscanf(line, "level: %u", &v) == 1)
+            break;
+    if (f)
+        fclose(f);
+    return v;
+}
+
+/* 1 when this decoder's level (CNERF_MAX_LEVEL; 0 for a decoder of every level) is below a
+ * stream declaring `level` (0 for none): it must refuse the stream with CNERF_E_LEVEL. */
+static int above_this_decoder(unsigned level)
+{
+#if CNERF_MAX_LEVEL > 0
+    return level == 0 || level > (unsigned)CNERF_MAX_LEVEL;
+#else
+    (void)level;
+    return 0;
+#endif
+}
+
+/* cnerf_peek and cnerf_open (with a workspace of 64 bytes, or as large as peek asks) of
+ * scene `scene` of buf[0..len). */
+static void peek_and_open(const uint8_t *buf, size_t len, unsigned scene, cnerf_status *p,
+                          cnerf_status *op)
+{
+    cnerf_info *info = malloc(sizeof *info);
+    *p = info ? cnerf_peek_scene(buf, len, scene, info) : CNERF_E_NULL;
+    const size_t ws_n = info && *p == CNERF_OK ? cnerf_workspace_size(info) : 64;
+    free(info);
+    opened o;
+    memset(&o, 0, sizeof o);
+    o.dec = calloc(1, sizeof *o.dec);
+    o.ws = aligned_alloc(CNERF_WS_ALIGN, (ws_n + 7) & ~(size_t)7);
+    *op = o.dec && o.ws ? cnerf_open_scene(o.dec, buf, len, scene, o.ws, ws_n) : CNERF_E_NULL;
+    close_stream(&o);
+}
+
 /* The MD5 of the tile x0, y0, w, h of camera `cname` (one of cams[n]) rendered with k: over
  * rows of w * 3 bytes, or w * 2 when k asks for RGB565. CNERF_E_ARG for an unknown camera. */
 static cnerf_status tile_md5(const opened *o, const camera *cams, int n, const char *cname,
@@ -390,9 +437,33 @@ static unsigned check_scene(const char *dir, const char *name, unsigned scene, c
 /* Scene 0 of vector NAME, then every other scene that has cameras of its own. */
 static void check_valid(const char *dir, const char *name)
 {
+    char path[4096];
+    snprintf(path, sizeof path, "%s/valid/%s.txt", dir, name);
+    const unsigned level = level_of(path);
+    if (above_this_decoder(level)) { /* a decoder of a lower level refuses it */
+        uint8_t *buf;
+        size_t len;
+        char what[300];
+        snprintf(what, sizeof what, "valid/%s", name);
+        snprintf(path, sizeof path, "%s/valid/%s.cnrf", dir, name);
+        if (read_file(path, &buf, &len)) {
+            result(0, what, "%s", strerror(errno));
+            return;
+        }
+        cnerf_status p, op;
+        peek_and_open(buf, len, 0, &p, &op);
+        free(buf);
+        char declared[32] = "declares no level";
+        if (level)
+            snprintf(declared, sizeof declared, "declares level %u", level);
+        result(p == CNERF_E_LEVEL && op == CNERF_E_LEVEL, what,
+               "%s: peek %s, open %s (want CNERF_E_LEVEL from a decoder of level %d)",
+               declared, cnerf_status_str(p), cnerf_status_str(op), CNERF_MAX_LEVEL);
+        return;
+    }
     const unsigned n = check_scene(dir, name, 0, "");
     for (unsigned m = 1; m < n; m++) {
-        char path[4096], sfx[16];
+        char sfx[16];
         snprintf(sfx, sizeof sfx, ".s%u", m);
         snprintf(path, sizeof path, "%s/valid/%s%s.cam", dir, name, sfx);
         FILE *f = fopen(path, "r");
@@ -435,23 +506,15 @@ static void check_invalid(const char *dir)
             result(0, what, "%s", strerror(errno));
             continue;
         }
-        cnerf_info *info = malloc(sizeof *info);
-        const cnerf_status p = info ? cnerf_peek_scene(buf, len, scene, info) : CNERF_E_NULL;
-        free(info);
-        opened o;
-        memset(&o, 0, sizeof o);
-        o.dec = calloc(1, sizeof *o.dec);
-        /* open with a workspace as large as peek asks, or a small one when peek refuses */
-        size_t ws_n = 64;
-        cnerf_info *i2 = malloc(sizeof *i2);
-        if (i2 && cnerf_peek_scene(buf, len, scene, i2) == CNERF_OK)
-            ws_n = cnerf_workspace_size(i2);
-        free(i2);
-        o.ws = aligned_alloc(CNERF_WS_ALIGN, (ws_n + 7) & ~(size_t)7);
-        const cnerf_status op =
-            o.dec && o.ws ? cnerf_open_scene(o.dec, buf, len, scene, o.ws, ws_n) : CNERF_E_NULL;
-        close_stream(&o);
+        cnerf_status p, op;
+        peek_and_open(buf, len, scene, &p, &op);
         free(buf);
+        /* what peek accepts, a decoder of a lower level than the stream's refuses (the
+         * broken streams that peek accepts declare no level) */
+        if (status_of(peek_s) == CNERF_OK && above_this_decoder(0)) {
+            snprintf(peek_s, sizeof peek_s, "%s", "CNERF_E_LEVEL");
+            snprintf(open_s, sizeof open_s, "%s", "CNERF_E_LEVEL");
+        }
         const int ok = p == status_of(peek_s) && op == status_of(open_s);
         result(ok, what, "peek %s, open %s (want %s, %s)", cnerf_status_str(p),
                cnerf_status_str(op), peek_s, open_s);
