@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# A device of level 1 (docs/bitstream.md, levl): the Cortex-M4 firmware with the decoder
+# A device of level 1 (docs/bitstream.md, levl): the firmware of a core (FW_CORE, as
+# scripts/firmware.sh takes it; m4 by default) with the decoder
 # built with CNERF_MAX_LEVEL=1 and its workspace and scratch the level's
 # (CNERF_LEVEL_WORKSPACE(1), CNERF_LEVEL_SCRATCH(1)), rendering a 16x16 tile of the README
 # main job's reference stream re-coded at level 1 (cnerf recode) with the host's MD5, in at
@@ -11,7 +12,8 @@ cnerf=$1 out=$2
 root=$(cd "$(dirname "$0")/../.." && pwd)
 mkdir -p "$out"
 "$cnerf" recode "$root/experiments/data/lego-c070829.cnrf" -o "$out/l1.cnrf" --level 1 > /dev/null
-log=$(FW_BOARD=an386 FW_LEVEL=1 FW_WORK=0 FW_BUILD_DIR="$out/fw" \
+core=${FW_CORE:-m4}
+log=$(FW_CORE=$core FW_BOARD= FW_LEVEL=1 FW_WORK=0 FW_BUILD_DIR="$out/fw" \
       "$root/scripts/firmware.sh" "$out/l1.cnrf" "$root/experiments/data/lego-c070829.r_0.cam" \
       "40 40 16 16" 32 32 262144 2>&1) || { echo "$log"; exit 1; }
 echo "$log" | grep -E "^(RAM|flash|firmware.sh: OK)"
@@ -22,4 +24,4 @@ if [ "$ram" -gt 96000 ]; then
   echo "FAIL: $ram bytes of RAM, over the 96,000 of level 1" >&2
   exit 1
 fi
-echo "level 1 on the Cortex-M4: $ram bytes of RAM in all"
+echo "level 1 on FW_CORE=$core: $ram bytes of RAM in all"
