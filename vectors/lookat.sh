@@ -11,5 +11,5 @@ cc -std=c99 -O2 -Wall -Wextra -Werror -pedantic -Iinclude decoder/*.c vectors/to
   -o "$tool/lookat"
 "$tool/lookat" > vectors/valid/LOOKAT.new
 mv vectors/valid/LOOKAT.new vectors/valid/LOOKAT
-(cd vectors && find valid invalid -type f | LC_ALL=C sort | xargs sha256sum > MANIFEST.sha256)
+(cd vectors && find valid invalid $([ -d packed ] && echo packed) -type f | LC_ALL=C sort | xargs sha256sum > MANIFEST.sha256)
 echo "vectors/lookat.sh: $(wc -l < vectors/valid/LOOKAT) look-at cases in vectors/valid/LOOKAT" >&2

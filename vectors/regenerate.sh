@@ -16,7 +16,7 @@ version=$($cnerf --version)
 rev=$(git rev-parse --short HEAD 2> /dev/null || echo unknown)
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-rm -rf vectors/valid vectors/invalid
+rm -rf vectors/valid vectors/invalid vectors/packed
 mkdir -p vectors/valid vectors/invalid
 : > vectors/valid/LIST
 
@@ -189,6 +189,9 @@ vector 032-lego-grid-cells "vector 013's grid coded cell by cell (GRID), re-code
 CAMS="--orbit 2 --size 24"
 vector 033-grid-128-cells "vector 015's 128^3 grid coded cell by cell (GRID), re-coded by cnerf recode" \
   $cnerf recode vectors/valid/015-grid-128-ball.cnrf -o "$tmp/s.cnrf" --grid-coding cells
+# A small network of level 1 whose images for every kernel set are in packed/ (packed.sh).
+vector 034-level-1-small "a small network of level 1 (4x16, view 8) with a 16^3 grid by blocks: packed for every kernel set in packed/" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --width 16 --view-width 8 --grid 16 --level 1
 
 # The table of docs/conformance.md, between its markers.
 python3 - <<'PY'
@@ -210,6 +213,7 @@ PY
 
 bash vectors/rgb565.sh # valid/RGB565, the first tiles in RGB565 (and the manifest)
 bash vectors/lookat.sh # valid/LOOKAT, the look-at cameras (and the manifest)
-(cd vectors && find valid invalid -type f | LC_ALL=C sort | xargs sha256sum > MANIFEST.sha256)
+bash vectors/packed.sh 034-level-1-small # packed/, images for every kernel set and broken ones
+(cd vectors && find valid invalid packed -type f | LC_ALL=C sort | xargs sha256sum > MANIFEST.sha256)
 echo "vectors: $(wc -l < vectors/valid/LIST) valid, $(grep -vc '^#' vectors/invalid/expected.txt) invalid; checking" >&2
 $conform check vectors | tail -n 1

@@ -25,5 +25,5 @@ for md5 in vectors/valid/*.md5; do
   done
 done
 mv "$out.new" "$out"
-(cd vectors && find valid invalid -type f | LC_ALL=C sort | xargs sha256sum > MANIFEST.sha256)
+(cd vectors && find valid invalid $([ -d packed ] && echo packed) -type f | LC_ALL=C sort | xargs sha256sum > MANIFEST.sha256)
 echo "vectors/rgb565.sh: $(wc -l < "$out") RGB565 tiles in $out" >&2

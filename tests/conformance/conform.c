@@ -14,6 +14,7 @@
  *       whose NAME.txt declares a level of at most L; every other valid vector, and every
  *       broken stream that cnerf_peek accepts, it must refuse with CNERF_E_LEVEL from both
  *       cnerf_peek and cnerf_open.
+ *       packed/expected.txt: a valid vector's packed images and broken ones (check_packed).
  *       Prints one line per check and closes with "N passed, M failed".
  *   conform tiles STREAM CAMERAS TILE NC NF TSTOP [SCENE]
  *       prints NAME.md5 lines for every camera of CAMERAS tiled TILE x TILE (the edge tiles
@@ -303,6 +304,46 @@ static cnerf_status tile_md5(const opened *o, const camera *cams, int n, const c
     return st;
 }
 
+/* Every tile of valid/NAME<sfx>.md5 rendered by the opened decoder o with cameras cams[n]:
+ * one result, named `what`. */
+static void check_tiles(const char *dir, const char *name, const char *sfx, const opened *o,
+                        const camera *cams, int n, const char *what)
+{
+    char path[4096];
+    cnerf_status st;
+    snprintf(path, sizeof path, "%s/valid/%s%s.md5", dir, name, sfx);
+    FILE *f = fopen(path, "r");
+    char line[512];
+    int tiles = 0, bad = 0;
+    while (f && fgets(line, sizeof line, f)) {
+        char cname[64], want[40], got[33];
+        unsigned x0, y0, w, h, nc, nf, ts;
+        if (sscanf(line, "%63s %u %u %u %u %u %u %u %39s", cname, &x0, &y0, &w, &h, &nc, &nf,
+                   &ts, want) != 9) {
+            bad++;
+            continue;
+        }
+        const cnerf_render_opts k = {(uint16_t)nc, (uint16_t)nf, ts, 0};
+        st = tile_md5(o, cams, n, cname, &k, x0, y0, w, h, got);
+        if (st == CNERF_OK) {
+            if (strcmp(got, want)) {
+                if (bad < 3)
+                    printf("  %s%s tile %s (%u,%u %ux%u, %u+%u, t_stop %u): md5 %s, want %s\n",
+                           name, sfx, cname, x0, y0, w, h, nc, nf, ts, got, want);
+                bad++;
+            }
+        } else {
+            printf("  %s%s tile %s (%u,%u %ux%u): %s\n", name, sfx, cname, x0, y0, w, h,
+                   cnerf_status_str(st));
+            bad++;
+        }
+        tiles++;
+    }
+    if (f)
+        fclose(f);
+    result(tiles > 0 && bad == 0, what, "%d tile MD5s, %d differ", tiles, bad);
+}
+
 /* One valid vector: its tiles' MD5s and each camera's PSNR against the float reference. */
 /* Checks scene `scene` of vector NAME with its files NAME<sfx>.*; returns the stream's scene
  * count (0 when it does not open). */
@@ -327,38 +368,10 @@ static unsigned check_scene(const char *dir, const char *name, unsigned scene, c
         close_stream(&o);
         return n_scenes;
     }
-    /* Tiles. */
-    snprintf(path, sizeof path, "%s/valid/%s%s.md5", dir, name, sfx);
-    FILE *f = fopen(path, "r");
+    check_tiles(dir, name, sfx, &o, cams, n, what);
+    FILE *f;
     char line[512];
-    int tiles = 0, bad = 0;
-    while (f && fgets(line, sizeof line, f)) {
-        char cname[64], want[40], got[33];
-        unsigned x0, y0, w, h, nc, nf, ts;
-        if (sscanf(line, "%63s %u %u %u %u %u %u %u %39s", cname, &x0, &y0, &w, &h, &nc, &nf,
-                   &ts, want) != 9) {
-            bad++;
-            continue;
-        }
-        const cnerf_render_opts k = {(uint16_t)nc, (uint16_t)nf, ts, 0};
-        st = tile_md5(&o, cams, n, cname, &k, x0, y0, w, h, got);
-        if (st == CNERF_OK) {
-            if (strcmp(got, want)) {
-                if (bad < 3)
-                    printf("  %s%s tile %s (%u,%u %ux%u, %u+%u, t_stop %u): md5 %s, want %s\n",
-                           name, sfx, cname, x0, y0, w, h, nc, nf, ts, got, want);
-                bad++;
-            }
-        } else {
-            printf("  %s%s tile %s (%u,%u %ux%u): %s\n", name, sfx, cname, x0, y0, w, h,
-                   cnerf_status_str(st));
-            bad++;
-        }
-        tiles++;
-    }
-    if (f)
-        fclose(f);
-    result(tiles > 0 && bad == 0, what, "%d tile MD5s, %d differ", tiles, bad);
+    int tiles, bad;
 
     /* Its tiles in RGB565 (valid/RGB565, one line a tile: NAME CAMERA X0 Y0 W H N_COARSE
      * N_FINE T_STOP FLAGS MD5, the MD5 over rows of w * 2 bytes). */
@@ -522,6 +535,105 @@ static void check_invalid(const char *dir)
     fclose(f);
 }
 
+/* packed/expected.txt (vectors/packed.sh): images of a valid vector packed for each kernel
+ * set, and broken ones. Per line: FILE, its status on a decoder of the image's kernel set,
+ * on a decoder of any other set, the image's set. This decoder must open the image of
+ * exactly one set (its own) and render the vector's tiles from it as from the stream, refuse
+ * that image one byte short and one byte off alignment, and refuse every other set's image with the second
+ * status; a broken image gets the first status when it is of this decoder's set. */
+static void check_packed(const char *dir)
+{
+    char path[4096], line[1024], own[16] = "";
+    snprintf(path, sizeof path, "%s/packed/expected.txt", dir);
+    FILE *f = fopen(path, "r");
+    if (!f) {
+        result(0, "packed/expected.txt", "%s", strerror(errno));
+        return;
+    }
+    int owned = 0;
+    for (int pass = 0; pass < 2; pass++) { /* the images that open, then the broken ones */
+        rewind(f);
+        while (fgets(line, sizeof line, f)) {
+            char file[256], st_own[64], st_other[64], set[16], what[300];
+            if (line[0] == '#' ||
+                sscanf(line, "%255s %63s %63s %15s", file, st_own, st_other, set) != 4)
+                continue;
+            const int good = status_of(st_own) == CNERF_OK;
+            if (good != (pass == 0))
+                continue;
+            snprintf(path, sizeof path, "%s/packed/%s", dir, file);
+            snprintf(what, sizeof what, "packed/%s", file);
+            uint8_t *raw;
+            size_t len;
+            if (read_file(path, &raw, &len)) {
+                result(0, what, "%s", strerror(errno));
+                continue;
+            }
+            opened o;
+            memset(&o, 0, sizeof o);
+            o.buf = aligned_alloc(CNERF_WS_ALIGN, (len + 8u + 7u) & ~(size_t)7u);
+            o.dec = calloc(1, sizeof *o.dec);
+            if (!o.buf || !o.dec) {
+                result(0, what, "out of memory");
+                free(raw);
+                close_stream(&o);
+                continue;
+            }
+            memcpy(o.buf, raw, len);
+            free(raw);
+            const cnerf_status st = cnerf_open_packed(o.dec, o.buf, len);
+            if (pass == 1) {
+                const char *want = !strcmp(set, own) ? st_own : st_other;
+                result(st == status_of(want), what, "%s (want %s on a decoder of set %s)",
+                       cnerf_status_str(st), want, own[0] ? own : "unknown");
+            } else if (st == status_of(st_other)) {
+                result(1, what, "%s: an image for other kernels", cnerf_status_str(st));
+            } else {
+                /* this decoder's set: the vector's tiles, from the image in place */
+                char name[256];
+                snprintf(name, sizeof name, "%s", file);
+                char *dot = strstr(name, ".");
+                if (dot)
+                    *dot = 0;
+                snprintf(path, sizeof path, "%s/valid/%s.txt", dir, name);
+                const cnerf_status want =
+                    above_this_decoder(level_of(path)) ? CNERF_E_LEVEL : CNERF_OK;
+                result(st == want, what, "%s (want %s or, for another set's image, %s)",
+                       cnerf_status_str(st), cnerf_status_str(want), st_other);
+                if (st == want) {
+                    snprintf(own, sizeof own, "%s", set);
+                    owned++;
+                }
+                camera cams[MAX_CAMS];
+                int n = 0;
+                snprintf(path, sizeof path, "%s/valid/%s.cam", dir, name);
+                if (st == CNERF_OK && (read_cameras(path, cams, &n) || n == 0))
+                    result(0, what, "no cameras in %s", path);
+                else if (st == CNERF_OK) {
+                    o.scratch_n = cnerf_render_scratch_size(&o.dec->info);
+                    o.scratch = aligned_alloc(CNERF_WS_ALIGN, (o.scratch_n + 7) & ~(size_t)7);
+                    if (o.scratch)
+                        check_tiles(dir, name, "", &o, cams, n, what);
+                }
+                /* the same image one byte short, and one byte off alignment */
+                cnerf_decoder *d2 = calloc(1, sizeof *d2);
+                const cnerf_status cut = d2 ? cnerf_open_packed(d2, o.buf, len - 1u) : CNERF_E_NULL;
+                memmove(o.buf + 1, o.buf, len);
+                const cnerf_status al = d2 ? cnerf_open_packed(d2, o.buf + 1, len) : CNERF_E_NULL;
+                free(d2);
+                result(cut == CNERF_E_TRUNCATED && al == CNERF_E_IMAGE_ALIGN, what,
+                       "one byte short: %s; one byte off alignment: %s", cnerf_status_str(cut),
+                       cnerf_status_str(al));
+            }
+            close_stream(&o);
+        }
+        if (pass == 0)
+            result(owned == 1, "packed/", "%d images of this decoder's kernel set (%s) opened, "
+                                          "want 1", owned, own[0] ? own : "none");
+    }
+    fclose(f);
+}
+
 /* valid/LOOKAT: cnerf_camera_look_at on each line's inputs must give the line's status and,
  * when CNERF_OK, its camera's 18 integers (vectors/tools/lookat.c writes the lines). */
 static void check_lookat(const char *dir)
@@ -610,6 +722,7 @@ static int cmd_check(const char *dir)
     }
     check_lookat(dir);
     check_invalid(dir);
+    check_packed(dir);
     printf("%d passed, %d failed\n", passed, failed);
     return failed || passed == 0 ? 1 : 0;
 }
