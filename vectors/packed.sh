@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Writes vectors/packed/ (docs/conformance.md, "Packed images"): valid vector NAME packed by
-# cnerf pack for each kernel set, and broken images, with packed/expected.txt.
+# cnerf pack for each kernel set, and broken images, with packed/expected.txt; then
+# MANIFEST.sha256 again.
 #   vectors/packed.sh NAME     (vectors/regenerate.sh runs it; $CNERF_BUILD or build/)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -57,4 +58,5 @@ write("header-cut.img", img[:20], "CNERF_E_TRUNCATED", "CNERF_E_TRUNCATED", "c",
 write("a-stream.img", open(f"vectors/valid/{name}.cnrf", "rb").read(), "CNERF_E_MAGIC",
       "CNERF_E_MAGIC", "c", "a stream, not an image")
 PY
+(cd vectors && find valid invalid packed -type f | LC_ALL=C sort | xargs sha256sum > MANIFEST.sha256)
 echo "vectors/packed.sh: $(grep -vc '^#' "$out/expected.txt") images of $name in $out" >&2
