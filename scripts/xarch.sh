@@ -6,7 +6,8 @@
 # under Node (platform/web/wasi_run.mjs), and checks that every tile's MD5 is the same
 # everywhere. Streams: synthetic 360-degree and NDC models from `cnerf synth` (built in
 # build/ by scripts/test.sh), two of them with occupancy grids, one with narrower layers, and the demo stream
-# out/lego.cnrf when it exists.
+# out/lego.cnrf when it exists; and the first tile of every conformance vector, which must
+# also have the MD5 the vector lists.
 #   scripts/xarch.sh [--size PX]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -121,6 +122,19 @@ for s in "${streams[@]}"; do
     done
   done
 done
+# The conformance vectors' first tiles (the first line of each valid/NAME.md5, and of each
+# NAME.s<m>.md5 for scene m), which every architecture must render with the vector's MD5.
+: > "$work/vector_md5"
+for md5f in vectors/valid/*.md5; do
+  base=$(basename "$md5f" .md5) # NAME, or NAME.s<m>
+  scene=0
+  [[ $base == *.s* ]] && scene=${base##*.s}
+  read -r cname x0 y0 w h nc nf ts want < "$md5f"
+  grep -E "[[:space:]]$cname\$" "vectors/valid/$base.cam" > "$work/vcam.$base"
+  echo "$PWD/vectors/valid/${base%%.*}.cnrf|$scene|vcam.$base|$x0 $y0 $w $h|$nc $nf $ts" >> "$work/tiles"
+  echo "$(wc -l < "$work/tiles") $want $base" >> "$work/vector_md5"
+done
+
 render_all() { # NAME RUN: every tile's MD5, a line each, into $work/md5.NAME
   local name=$1 run=$2 s scene cam tile knobs exe=$work/render_tile.$1
   while IFS='|' read -r s scene cam tile knobs; do
@@ -158,4 +172,12 @@ if [ $bad -ne 0 ]; then
   echo "xarch.sh: MD5s differ between architectures" >&2
   exit 1
 fi
-echo "xarch.sh: $n tiles, the same MD5 on ${#targets[@]} architectures"
+while read -r line want base; do
+  got=$(sed -n "${line}p" "$work/md5.x86-64")
+  [ "$got" = "$want" ] || { echo "xarch.sh: vector $base's first tile: $got, the vector lists $want" >&2; bad=1; }
+done < "$work/vector_md5"
+if [ $bad -ne 0 ]; then
+  echo "xarch.sh: a vector's tile differs from its MD5" >&2
+  exit 1
+fi
+echo "xarch.sh: $n tiles, the same MD5 on ${#targets[@]} architectures, $(wc -l < "$work/vector_md5") of them the conformance vectors' first tiles with the MD5s they list"
