@@ -7,7 +7,8 @@
 # everywhere. Streams: synthetic 360-degree and NDC models from `cnerf synth` (built in
 # build/ by scripts/test.sh), two of them with occupancy grids, one with narrower layers, and the demo stream
 # out/lego.cnrf when it exists; and the first tile of every conformance vector, which must
-# also have the MD5 the vector lists.
+# also have the MD5 the vector lists. Last, each little-endian architecture renders vector
+# 034's tiles from its packed image for the kernels it chose (vectors/packed/).
 #   scripts/xarch.sh [--size PX]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -67,6 +68,7 @@ for t in "${targets[@]}"; do
     out=$("$run" "$work/check_kernels.$name" 1)
   fi
   echo "$name: $(head -n 1 <<< "$out"); $(tail -n 1 <<< "$out")"
+  sed -n '1s/.*(chosen: \([a-z0-9]*\)).*/\1/p' <<< "$out" > "$work/set.$name"
   tail -n 1 <<< "$out" | grep -q " 0 failed$" || { echo "$out" >&2; exit 1; }
 done
 
@@ -180,4 +182,25 @@ if [ $bad -ne 0 ]; then
   echo "xarch.sh: a vector's tile differs from its MD5" >&2
   exit 1
 fi
-echo "xarch.sh: $n tiles, the same MD5 on ${#targets[@]} architectures, $(wc -l < "$work/vector_md5") of them the conformance vectors' first tiles with the MD5s they list"
+# Vector 034 packed for the kernels each little-endian architecture chose (vectors/packed/,
+# read in place by cnerf_open_packed): every tile of the vector, with its MD5s.
+packed=0
+v=034-level-1-small
+for t in "${targets[@]}"; do
+  read -r name cc run <<< "$t"
+  set=$(cat "$work/set.$name")
+  img=$PWD/vectors/packed/$v.$set.img
+  [ "$name" != s390x ] && [ -f "$img" ] || continue # images are little-endian
+  while read -r cname x0 y0 w h nc nf ts want; do
+    grep -E "[[:space:]]$cname\$" "vectors/valid/$v.cam" > "$work/pcam"
+    if [ "$run" = "-" ]; then
+      got=$("$work/render_tile.$name" "$img" "$work/pcam" $x0 $y0 $w $h $nc $nf $ts | md5sum | cut -c1-32)
+    else
+      got=$("$run" "$work/render_tile.$name" "$img" "$work/pcam" $x0 $y0 $w $h $nc $nf $ts | md5sum | cut -c1-32)
+    fi
+    [ "$got" = "$want" ] || { echo "xarch.sh: $name: $v.$set.img, tile $cname $x0 $y0: $got, the vector lists $want" >&2; exit 1; }
+    packed=$((packed + 1))
+  done < "vectors/valid/$v.md5"
+  echo "$name: vector $v's $(wc -l < "vectors/valid/$v.md5") tiles from its image for $set (packed/), with the vector's MD5s"
+done
+echo "xarch.sh: $n tiles, the same MD5 on ${#targets[@]} architectures, $(wc -l < "$work/vector_md5") of them the conformance vectors' first tiles with the MD5s they list; $packed tiles from packed images"

@@ -2,6 +2,7 @@
  * stdout, row by row. Hosted C99 and the decoder only, so that it cross-compiles for any
  * Linux target; scripts/xarch.sh runs it under qemu-user and compares the MD5s.
  *   render_tile STREAM CAMERA X0 Y0 W H [N_COARSE N_FINE T_STOP [FLAGS]]
+ * STREAM may be a packed image (cnerf pack), opened in place by cnerf_open_packed.
  * CAMERA is a text file of 18 integers: rot[9] (Q30), pos[3] (Q32), fx fy cx cy (Q16),
  * width height.
  * Built with CNERF_COST_MODEL and platform/host/cost_model.c (scripts/firmware.sh does), and
@@ -82,24 +83,37 @@ int main(int argc, char **argv)
         perror(argv[1]);
         return 1;
     }
-    static uint8_t buf[1 << 22];
-    const size_t len = fread(buf, 1, sizeof buf, f);
+    static uint64_t words[(1 << 22) / 8]; /* aligned for a packed image */
+    uint8_t *const buf = (uint8_t *)words;
+    const size_t len = fread(buf, 1, sizeof words, f);
     fclose(f);
     /* CNERF_SCENE in the environment: the scene of a stream of several (0 when unset) */
     const char *scene_env = getenv("CNERF_SCENE");
     const uint32_t scene = scene_env ? (uint32_t)strtoul(scene_env, NULL, 10) : 0u;
     static cnerf_decoder dec;
-    cnerf_status st = cnerf_peek_scene(buf, len, scene, &dec.info);
-    if (st != CNERF_OK)
-        return fail(argv[1], st);
-    const size_t ws_n = cnerf_workspace_size(&dec.info);
-    const size_t sc_n = cnerf_render_scratch_size(&dec.info);
-    uint64_t *ws = malloc(ws_n + 8), *sc = malloc(sc_n + 8);
-    if (!ws || !sc)
-        return 1;
-    st = cnerf_open_scene(&dec, buf, len, scene, ws, ws_n);
-    if (st != CNERF_OK)
-        return fail(argv[1], st);
+    uint64_t *ws = NULL, *sc;
+    size_t sc_n;
+    cnerf_status st;
+    if (len >= 4 && memcmp(buf, "CNPK", 4) == 0) { /* a packed image, read in place */
+        st = cnerf_open_packed(&dec, buf, len);
+        if (st != CNERF_OK)
+            return fail(argv[1], st);
+        sc_n = cnerf_render_scratch_size(&dec.info);
+        if (!(sc = malloc(sc_n + 8)))
+            return 1;
+    } else {
+        st = cnerf_peek_scene(buf, len, scene, &dec.info);
+        if (st != CNERF_OK)
+            return fail(argv[1], st);
+        const size_t ws_n = cnerf_workspace_size(&dec.info);
+        sc_n = cnerf_render_scratch_size(&dec.info);
+        ws = malloc(ws_n + 8), sc = malloc(sc_n + 8);
+        if (!ws || !sc)
+            return 1;
+        st = cnerf_open_scene(&dec, buf, len, scene, ws, ws_n);
+        if (st != CNERF_OK)
+            return fail(argv[1], st);
+    }
 
     cnerf_camera cam;
     long long v[18];
