@@ -28,6 +28,12 @@ targets=("x86-64 gcc -")
 # wasi-libc and compiler-rt, run by Node
 wasm32-wasi-cc() { clang --target=wasm32-wasi -msimd128 "$@"; }
 node-wasi() { node "$PWD/platform/web/wasi_run.mjs" "$@"; }
+# on RUN CMD...: CMD on the host (RUN "-") or under RUN (qemu-user, node-wasi)
+on() {
+  local run=$1
+  shift
+  if [ "$run" = "-" ]; then "$@"; else "$run" "$@"; fi
+}
 for t in "aarch64 aarch64-linux-gnu-gcc qemu-aarch64" "armhf arm-linux-gnueabihf-gcc qemu-arm" \
          "s390x s390x-linux-gnu-gcc qemu-s390x" "wasm32 wasm32-wasi-cc node-wasi"; do
   read -r name cc run <<< "$t"
@@ -54,7 +60,7 @@ done
 # The look-at cameras of the vectors (valid/LOOKAT), made on each architecture.
 for t in "${targets[@]}"; do
   read -r name cc run <<< "$t"
-  if [ "$run" = "-" ]; then "$work/lookat.$name"; else "$run" "$work/lookat.$name"; fi > "$work/lookat.$name.txt"
+  on "$run" "$work/lookat.$name" > "$work/lookat.$name.txt"
   cmp -s "$work/lookat.$name.txt" vectors/valid/LOOKAT ||
     { echo "xarch.sh: $name's look-at cameras differ from vectors/valid/LOOKAT" >&2; exit 1; }
   echo "$name: the $(wc -l < vectors/valid/LOOKAT) look-at cases of vectors/valid/LOOKAT, line for line"
@@ -62,11 +68,7 @@ done
 # Each architecture's kernels against its portable C (tests/xarch/check_kernels.c).
 for t in "${targets[@]}"; do
   read -r name cc run <<< "$t"
-  if [ "$run" = "-" ]; then
-    out=$("$work/check_kernels.$name" 1)
-  else
-    out=$("$run" "$work/check_kernels.$name" 1)
-  fi
+  out=$(on "$run" "$work/check_kernels.$name" 1)
   echo "$name: $(head -n 1 <<< "$out"); $(tail -n 1 <<< "$out")"
   sed -n '1s/.*(chosen: \([a-z0-9]*\)).*/\1/p' <<< "$out" > "$work/set.$name"
   tail -n 1 <<< "$out" | grep -q " 0 failed$" || { echo "$out" >&2; exit 1; }
@@ -140,11 +142,7 @@ done
 render_all() { # NAME RUN: every tile's MD5, a line each, into $work/md5.NAME
   local name=$1 run=$2 s scene cam tile knobs exe=$work/render_tile.$1
   while IFS='|' read -r s scene cam tile knobs; do
-    if [ "$run" = "-" ]; then
-      CNERF_SCENE=$scene "$exe" "$s" "$work/$cam" $tile $knobs | md5sum | cut -c1-32
-    else
-      CNERF_SCENE=$scene "$run" "$exe" "$s" "$work/$cam" $tile $knobs | md5sum | cut -c1-32
-    fi
+    CNERF_SCENE=$scene on "$run" "$exe" "$s" "$work/$cam" $tile $knobs | md5sum | cut -c1-32
   done < "$work/tiles" > "$work/md5.$name"
 }
 jobs_max=$(nproc 2>/dev/null || echo 2)
@@ -193,11 +191,8 @@ for t in "${targets[@]}"; do
   [ "$name" != s390x ] && [ -f "$img" ] || continue # images are little-endian
   while read -r cname x0 y0 w h nc nf ts want; do
     grep -E "[[:space:]]$cname\$" "vectors/valid/$v.cam" > "$work/pcam"
-    if [ "$run" = "-" ]; then
-      got=$("$work/render_tile.$name" "$img" "$work/pcam" $x0 $y0 $w $h $nc $nf $ts | md5sum | cut -c1-32)
-    else
-      got=$("$run" "$work/render_tile.$name" "$img" "$work/pcam" $x0 $y0 $w $h $nc $nf $ts | md5sum | cut -c1-32)
-    fi
+    got=$(on "$run" "$work/render_tile.$name" "$img" "$work/pcam" $x0 $y0 $w $h $nc $nf $ts |
+          md5sum | cut -c1-32)
     [ "$got" = "$want" ] || { echo "xarch.sh: $name: $v.$set.img, tile $cname $x0 $y0: $got, the vector lists $want" >&2; exit 1; }
     packed=$((packed + 1))
   done < "vectors/valid/$v.md5"

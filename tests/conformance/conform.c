@@ -228,32 +228,30 @@ static void result(int ok, const char *what, const char *fmt, ...)
     ok ? passed++ : failed++;
 }
 
-static double min_psnr_of(const char *txt)
+/* The number after "KEY: " on NAME.txt's first line that starts so, or `none` when there is
+ * no such line or no number ("level: none"). */
+static double txt_value(const char *txt, const char *key, double none)
 {
     FILE *f = fopen(txt, "r");
     char line[1024];
-    double v = -1;
+    const size_t k = strlen(key);
+    double v = none;
     while (f && fgets(line, sizeof line, f))
-        if (sscanf(line, "min_psnr: %lf", &v) == 1)
+        if (strncmp(line, key, k) == 0 && line[k] == ':' && line[k + 1] == ' ') {
+            char *end;
+            const double x = strtod(line + k + 2, &end);
+            if (end != line + k + 2)
+                v = x;
             break;
+        }
     if (f)
         fclose(f);
     return v;
 }
 
-/* NAME.txt's declared level ("level: N"; 0 for "level: none"). */
-static unsigned level_of(const char *txt)
-{
-    FILE *f = fopen(txt, "r");
-    char line[1024];
-    unsigned v = 0;
-    while (f && fgets(line, sizeof line, f))
-        if (sscanf(line, "level: %u", &v) == 1)
-            break;
-    if (f)
-        fclose(f);
-    return v;
-}
+/* NAME.txt's min_psnr (-1 when absent) and declared level (0 for "level: none"). */
+static double min_psnr_of(const char *txt) { return txt_value(txt, "min_psnr", -1); }
+static unsigned level_of(const char *txt) { return (unsigned)txt_value(txt, "level", 0); }
 
 /* 1 when this decoder's level (CNERF_MAX_LEVEL; 0 for a decoder of every level) is below a
  * stream declaring `level` (0 for none): it must refuse the stream with CNERF_E_LEVEL. */
@@ -539,8 +537,9 @@ static void check_invalid(const char *dir)
  * set, and broken ones. Per line: FILE, its status on a decoder of the image's kernel set,
  * on a decoder of any other set, the image's set. This decoder must open the image of
  * exactly one set (its own) and render the vector's tiles from it as from the stream, refuse
- * that image one byte short and one byte off alignment, and refuse every other set's image with the second
- * status; a broken image gets the first status when it is of this decoder's set. */
+ * that image one byte short and one byte off alignment, and refuse every other set's image
+ * with the second status; a broken image gets the first status when it is of this decoder's
+ * set. */
 static void check_packed(const char *dir)
 {
     char path[4096], line[1024], own[16] = "";
