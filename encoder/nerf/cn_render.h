@@ -83,6 +83,12 @@ typedef struct cn_batch {
      * sample's (r, g, b, sigma) and its gradient, outside ones as zero density. */
     uint32_t *rows[2];
     size_t n_rows[2];
+    /* The rays in chunks of CN_CHUNK_RAYS (the last may be shorter): chunk c's rows are
+     * [chunk[net][c], chunk[net][c + 1]) of n_chunks. Each chunk goes through the networks
+     * on its own (CN_CHUNK_ROWS in cn_nerf.h), so that a ray's outputs and the gradients
+     * summed over the batch do not depend on how the chunks are split among threads. */
+    size_t *chunk[2];
+    size_t n_chunks;
     float *raw[2], *draw[2];
     float *pts_in;              /* compacted points */
     float *vpe;                 /* cap x in_dir: each ray's encoded view direction */
@@ -102,6 +108,10 @@ typedef struct cn_batch {
     const float *bg;
 } cn_batch;
 
+/* Rays per chunk of a batch: part of the training's definition, as the batch size is (a
+ * different value changes the sums' rounding, so the trained model's bits). */
+#define CN_CHUNK_RAYS 128
+
 int cn_batch_init(cn_batch *b, const cnerf_info *topo, size_t cap);
 void cn_batch_free(cn_batch *b);
 
@@ -114,7 +124,8 @@ void cn_net_inputs(const cnerf_info *T, unsigned net, cn_net_buf *nb, const floa
  * has it). Training (rng not NULL) jitters the samples with per-ray streams derived from
  * `seed`, so the result does not depend on the thread count. */
 void cn_render_forward(const cn_model *m, cn_batch *b, size_t R, const uint64_t *seed);
-/* Backward from dcolor[net] (R x 3 each; NULL to skip a network); accumulates gradients. */
-void cn_render_backward(cn_model *m, cn_batch *b, size_t R, float *const dcolor[2]);
+/* Backward from dcolor[net] (R x 3 each; NULL to skip a network); accumulates gradients.
+ * Returns 0, or -1 when out of memory (no gradient accumulated). */
+int cn_render_backward(cn_model *m, cn_batch *b, size_t R, float *const dcolor[2]);
 
 #endif /* CNERF_ENC_RENDER_H */

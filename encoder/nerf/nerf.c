@@ -1,5 +1,6 @@
 /* The float NeRF: layer primitives, the parameter block and both networks' passes. */
 #include <math.h>
+#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -9,6 +10,7 @@
 #include "cn_occ.h"
 #include "cn_prior.h"
 #include "cn_rng.h"
+#include "cn_xsum.h"
 
 /* ---- layer primitives ---- */
 
@@ -322,15 +324,24 @@ void cn_model_kernels_backward(cn_model *m)
         const float a = m->params[m->off_ab + 2 * l];
         const float *phi = m->params + m->layer[l].w, *dw = m->kgrad + m->kofs[l];
         float *dphi = m->grads + m->layer[l].w;
-        double da = 0, db = 0;
-#pragma omp parallel for schedule(static) reduction(+ : da, db)
-        for (size_t i = 0; i < n; i++) {
-            dphi[i] += a * dw[i]; /* straight-through: d round(x) / dx := 1 */
-            da += (double)dw[i] * roundf(phi[i]);
-            db += dw[i];
+        cn_xsum da = 0, db = 0; /* exact: the same for any thread count */
+#pragma omp parallel
+        {
+            cn_xsum la = 0, lb = 0;
+#pragma omp for schedule(static)
+            for (size_t i = 0; i < n; i++) {
+                dphi[i] += a * dw[i]; /* straight-through: d round(x) / dx := 1 */
+                la = cn_xsum_plus(la, cn_xsum_of((double)dw[i] * roundf(phi[i])));
+                lb = cn_xsum_plus(lb, cn_xsum_of(dw[i]));
+            }
+#pragma omp critical
+            {
+                da = cn_xsum_plus(da, la);
+                db = cn_xsum_plus(db, lb);
+            }
         }
-        m->grads[m->off_ab + 2 * l] += (float)da;
-        m->grads[m->off_ab + 2 * l + 1] += (float)db;
+        m->grads[m->off_ab + 2 * l] += (float)cn_xsum_value(da);
+        m->grads[m->off_ab + 2 * l + 1] += (float)cn_xsum_value(db);
         if (m->shift) { /* W = ... + g round(S): the shift's kernel gradient gains dW */
             float *ds = m->shift->kgrad + m->shift->kofs[l];
 #pragma omp parallel for schedule(static)
@@ -460,6 +471,8 @@ int cn_net_buf_init(cn_net_buf *nb, const cnerf_info *topo, unsigned net, size_t
     }
     if (N->view_width) {
         const size_t lv = W + topo->in_dir;
+        nb->ld_view_in = lv;
+        nb->ld_view_h = N->view_width;
         nb->view_in = fbuf(cap * lv);
         nb->d_view_in = fbuf(cap * lv);
         nb->view_h = fbuf(cap * N->view_width);
@@ -492,7 +505,33 @@ void cn_net_buf_free(cn_net_buf *nb)
     free(nb->d_view_h);
     free(nb->out);
     free(nb->d_out);
+    free(nb->g_chunk);
+    free(nb->g_sum);
     memset(nb, 0, sizeof *nb);
+}
+
+void cn_net_buf_rows(const cn_net_buf *nb, size_t row0, cn_net_buf *v)
+{
+    *v = *nb;
+    v->cap = nb->cap - row0;
+    v->in = nb->in + row0 * nb->ld_in;
+    v->d_in = nb->d_in + row0 * nb->ld_in;
+    for (unsigned i = 0; i < CNERF_MAX_DEPTH; i++)
+        if (nb->h[i]) {
+            v->h[i] = nb->h[i] + row0 * nb->ld_h[i];
+            v->d_h[i] = nb->d_h[i] + row0 * nb->ld_h[i];
+        }
+    if (nb->view_in) {
+        v->view_in = nb->view_in + row0 * nb->ld_view_in;
+        v->d_view_in = nb->d_view_in + row0 * nb->ld_view_in;
+        v->view_h = nb->view_h + row0 * nb->ld_view_h;
+        v->d_view_h = nb->d_view_h + row0 * nb->ld_view_h;
+    }
+    v->out = nb->out + row0 * 4;
+    v->d_out = nb->d_out + row0 * 4;
+    v->g_chunk = NULL;
+    v->g_sum = NULL;
+    v->g_len = v->g_threads = 0;
 }
 
 /* Input of trunk layer i: pointer, row stride and width. */
@@ -508,7 +547,7 @@ static const float *trunk_input(const cnerf_info *T, const cnerf_net_info *N,
     return nb->h[i - 1];
 }
 
-void cn_net_forward(const cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
+static void forward_rows(const cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
 {
     const cnerf_info *T = &m->topo;
     const cnerf_net_info *N = &T->net[net];
@@ -565,13 +604,12 @@ double cn_net_group_penalty(const cn_model *m, unsigned net, const cn_net_buf *n
     return (double)m->group * sum;
 }
 
-/* Adds the group penalty's gradient, group h / |h_u|, to a trunk layer's output gradient. A
- * unit that is 0 on every row has no gradient there (the subgradient 0). */
+/* Adds the group penalty's gradient, group h / |h_u|, to a trunk layer's output gradient,
+ * with norm[u] the unit's L2 norm over all rows of the pass. A unit that is 0 on every row
+ * has no gradient there (the subgradient 0). */
 static void group_backward(float group, float *dh, const float *h, size_t ld, size_t P,
-                           size_t U)
+                           size_t U, const double *norm)
 {
-    double norm[CNERF_MAX_WIDTH];
-    unit_norms(norm, h, ld, P, U);
     float f[CNERF_MAX_WIDTH];
     for (size_t u = 0; u < U; u++)
         f[u] = norm[u] > 0 ? (float)(group / norm[u]) : 0.0f;
@@ -581,7 +619,11 @@ static void group_backward(float group, float *dh, const float *h, size_t ld, si
             dh[p * ld + u] += f[u] * h[p * ld + u];
 }
 
-void cn_net_backward(cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
+/* The backward pass over nb's P rows into the gradient block g (laid out as the parameters:
+ * layer l's kernel at m->layer[l].w, its bias at m->layer[l].b), with norm[i * CNERF_MAX_WIDTH
+ * + u] trunk layer i's unit norms for the group penalty. */
+static void backward_rows(cn_model *m, unsigned net, cn_net_buf *nb, size_t P, float *g,
+                          const double *norm)
 {
     const cnerf_info *T = &m->topo;
     const cnerf_net_info *N = &T->net[net];
@@ -590,7 +632,7 @@ void cn_net_backward(cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
     float *dh = nb->d_h[D - 1];
     const size_t ldh = nb->ld_h[D - 1], U = N->units[D - 1];
     const unsigned l = l0 + D;
-#define LAYER_ARGS(k) cn_model_kernel_grad(m, k), m->grads + m->layer[k].b
+#define LAYER_ARGS(k) g + m->layer[k].w, g + m->layer[k].b
     if (N->view_width) {
         const size_t F = T->layer[l + 1].n_out, lv = T->layer[l + 2].n_in, V = N->view_units;
         const size_t ldv = N->view_width, ldi = N->width + T->in_dir;
@@ -610,7 +652,8 @@ void cn_net_backward(cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
     for (unsigned i = D; i-- > 0;) {
         const cnerf_layer_info *L = &T->layer[l0 + i];
         if (m->group > 0)
-            group_backward(m->group, nb->d_h[i], nb->h[i], nb->ld_h[i], P, N->units[i]);
+            group_backward(m->group, nb->d_h[i], nb->h[i], nb->ld_h[i], P, N->units[i],
+                           norm + (size_t)i * CNERF_MAX_WIDTH);
         size_t ldx;
         const float *x = trunk_input(T, N, nb, i, &ldx);
         float *dx = NULL;
@@ -626,4 +669,157 @@ void cn_net_backward(cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
                                 cn_model_kernel(m, l0 + i), P, L->n_in, L->n_out);
     }
 #undef LAYER_ARGS
+}
+
+/* ---- passes in chunks (CN_CHUNK_ROWS) ---- */
+
+/* Chunk c of a pass: rows [*r0, *r1), from the bounds or every CN_CHUNK_ROWS of P rows. */
+static void chunk_rows(const size_t *bound, size_t P, size_t c, size_t *r0, size_t *r1)
+{
+    if (bound) {
+        *r0 = bound[c];
+        *r1 = bound[c + 1];
+    } else {
+        *r0 = c * CN_CHUNK_ROWS;
+        *r1 = P - *r0 < CN_CHUNK_ROWS ? P : *r0 + CN_CHUNK_ROWS;
+    }
+}
+
+/* Chunk c's rows as a buffer of their own; returns their count. */
+static size_t chunk_view(const cn_net_buf *nb, const size_t *bound, size_t P, size_t c,
+                         cn_net_buf *v)
+{
+    size_t r0, r1;
+    chunk_rows(bound, P, c, &r0, &r1);
+    cn_net_buf_rows(nb, r0, v);
+    return r1 - r0;
+}
+
+static void forward_chunks(const cn_model *m, unsigned net, cn_net_buf *nb, const size_t *bound,
+                           size_t n, size_t P)
+{
+#pragma omp parallel
+    {
+        omp_set_num_threads(1); /* this task's products and loops: one thread */
+#pragma omp for schedule(dynamic, 1)
+        for (size_t c = 0; c < n; c++) {
+            cn_net_buf v;
+            forward_rows(m, net, &v, chunk_view(nb, bound, P, c, &v));
+        }
+    }
+}
+
+void cn_net_forward(const cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
+{
+    forward_chunks(m, net, nb, NULL, (P + CN_CHUNK_ROWS - 1) / CN_CHUNK_ROWS, P);
+}
+
+void cn_net_forward_chunks(const cn_model *m, unsigned net, cn_net_buf *nb, const size_t *bound,
+                           size_t n)
+{
+    forward_chunks(m, net, nb, bound, n, 0);
+}
+
+/* The parameters of network net's layers: [*lo, *hi) of the block. */
+static void net_params(const cn_model *m, unsigned net, size_t *lo, size_t *hi)
+{
+    const cnerf_net_info *N = &m->topo.net[net];
+    const unsigned last = N->first_layer + N->n_layers - 1u;
+    *lo = m->layer[N->first_layer].w;
+    *hi = m->layer[last].b + m->topo.layer[last].n_out;
+}
+
+static int backward_chunks(cn_model *m, unsigned net, cn_net_buf *nb, const size_t *bound,
+                           size_t n, size_t P)
+{
+    const cnerf_net_info *N = &m->topo.net[net];
+    size_t lo, hi;
+    net_params(m, net, &lo, &hi);
+    const size_t len = hi - lo, threads = (size_t)omp_get_max_threads();
+    if (nb->g_len < len || nb->g_threads < threads) {
+        free(nb->g_chunk);
+        free(nb->g_sum);
+        nb->g_chunk = malloc(sizeof(float) * len * threads);
+        nb->g_sum = malloc(sizeof(cn_xsum) * len * threads);
+        nb->g_len = len;
+        nb->g_threads = threads;
+        if (!nb->g_chunk || !nb->g_sum) {
+            free(nb->g_chunk);
+            free(nb->g_sum);
+            nb->g_chunk = NULL;
+            nb->g_sum = NULL;
+            nb->g_len = nb->g_threads = 0;
+            return -1;
+        }
+    }
+    cn_xsum *sum = nb->g_sum;
+    /* The group penalty's unit norms over every row: each chunk's squares summed apart. */
+    double *norm = NULL;
+    if (m->group > 0) {
+        const size_t nu = (size_t)N->depth * CNERF_MAX_WIDTH;
+        norm = malloc(sizeof(double) * nu);
+        cn_xsum *sq = calloc(nu, sizeof(cn_xsum));
+        if (!norm || !sq) {
+            free(norm);
+            free(sq);
+            return -1;
+        }
+        for (unsigned i = 0; i < N->depth; i++) {
+            const size_t U = N->units[i], ld = nb->ld_h[i];
+            cn_xsum *sqi = sq + (size_t)i * CNERF_MAX_WIDTH;
+#pragma omp parallel for schedule(static)
+            for (size_t u = 0; u < U; u++)
+                for (size_t c = 0; c < n; c++) {
+                    size_t r0, r1;
+                    chunk_rows(bound, P, c, &r0, &r1);
+                    double q = 0;
+                    for (size_t p = r0; p < r1; p++)
+                        q += (double)nb->h[i][p * ld + u] * nb->h[i][p * ld + u];
+                    sqi[u] = cn_xsum_plus(sqi[u], cn_xsum_of(q));
+                }
+            for (size_t u = 0; u < U; u++)
+                norm[(size_t)i * CNERF_MAX_WIDTH + u] = sqrt(cn_xsum_value(sqi[u]));
+        }
+        free(sq);
+    }
+    memset(sum, 0, sizeof(cn_xsum) * len * threads);
+#pragma omp parallel
+    {
+        omp_set_num_threads(1); /* this task's products and loops: one thread */
+        const size_t me = (size_t)omp_get_thread_num();
+        float *g = nb->g_chunk + me * len - lo; /* indexed as the parameter block */
+        cn_xsum *acc = sum + me * len;
+#pragma omp for schedule(dynamic, 1)
+        for (size_t c = 0; c < n; c++) {
+            cn_net_buf v;
+            const size_t rows = chunk_view(nb, bound, P, c, &v);
+            memset(g + lo, 0, sizeof(float) * len);
+            backward_rows(m, net, &v, rows, g, norm);
+            cn_xsum_add_f(acc, g + lo, len);
+        }
+    }
+    /* Every thread's sums into the first's, then onto the model's gradients. */
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < len; i++)
+        for (size_t t = 1; t < threads; t++)
+            sum[i] = cn_xsum_plus(sum[i], sum[t * len + i]);
+    for (unsigned l = N->first_layer; l < (unsigned)N->first_layer + N->n_layers; l++) {
+        const cnerf_layer_info *L = &m->topo.layer[l];
+        cn_xsum_put_f(cn_model_kernel_grad(m, l), sum + (m->layer[l].w - lo),
+                      (size_t)L->n_in * L->n_out);
+        cn_xsum_put_f(m->grads + m->layer[l].b, sum + (m->layer[l].b - lo), L->n_out);
+    }
+    free(norm);
+    return 0;
+}
+
+int cn_net_backward(cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
+{
+    return backward_chunks(m, net, nb, NULL, (P + CN_CHUNK_ROWS - 1) / CN_CHUNK_ROWS, P);
+}
+
+int cn_net_backward_chunks(cn_model *m, unsigned net, cn_net_buf *nb, const size_t *bound,
+                           size_t n)
+{
+    return backward_chunks(m, net, nb, bound, n, 0);
 }

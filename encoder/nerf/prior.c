@@ -6,6 +6,7 @@
 #include <omp.h>
 
 #include "cn_prior.h"
+#include "cn_xsum.h"
 
 static const int dims[CN_PRIOR_LAYERS + 1] = {1, 3, 3, 3, 1};
 static const int off_h[CN_PRIOR_LAYERS] = {0, 3, 12, 21};
@@ -134,17 +135,26 @@ static double likelihood(double lo, double up, double *d_lo, double *d_up)
     return s * (su - sl);
 }
 
+/* acc[k] += d[k] exactly for k < CN_PRIOR_PARAMS. */
+static void add_params(cn_xsum *acc, const double *d)
+{
+    for (int k = 0; k < CN_PRIOR_PARAMS; k++)
+        acc[k] = cn_xsum_plus(acc[k], cn_xsum_of(d[k]));
+}
+
+/* Sums are exact (cn_xsum.h), so that they do not depend on the thread count. */
 double cn_prior_bits(const float *p, const float *x, size_t n, float scale, float *dx,
                      float *dp)
 {
-    double bits = 0;
-    double dp_total[CN_PRIOR_PARAMS] = {0};
+    cn_xsum bits = 0, dp_total[CN_PRIOR_PARAMS];
+    memset(dp_total, 0, sizeof dp_total);
     const int want_p = dp != NULL;
     coef c;
     coef_init(&c, p);
-#pragma omp parallel reduction(+ : bits)
+#pragma omp parallel
     {
-        double dpl[CN_PRIOR_PARAMS] = {0};
+        cn_xsum bl = 0, dpl[CN_PRIOR_PARAMS];
+        memset(dpl, 0, sizeof dpl);
 #pragma omp for schedule(static)
         for (size_t i = 0; i < n; i++) {
             trace tl, tu;
@@ -153,27 +163,30 @@ double cn_prior_bits(const float *p, const float *x, size_t n, float scale, floa
             double d_lo, d_up;
             const double L = likelihood(lo, up, &d_lo, &d_up);
             const double Lb = L > CN_PRIOR_LIKELIHOOD_MIN ? L : CN_PRIOR_LIKELIHOOD_MIN;
-            bits += -log2(Lb);
+            bl = cn_xsum_plus(bl, cn_xsum_of(-log2(Lb)));
             if (!dx && !want_p)
                 continue;
             /* d bits / d L, passed through the lower bound (it only pushes L up). */
             const double g = -(double)scale / (Lb * M_LN2);
-            double gx = 0;
-            backward(&c, &tu, g * d_up, dx ? &gx : NULL, want_p ? dpl : NULL);
-            backward(&c, &tl, g * d_lo, dx ? &gx : NULL, want_p ? dpl : NULL);
+            double gx = 0, di[CN_PRIOR_PARAMS] = {0};
+            backward(&c, &tu, g * d_up, dx ? &gx : NULL, want_p ? di : NULL);
+            backward(&c, &tl, g * d_lo, dx ? &gx : NULL, want_p ? di : NULL);
             if (dx)
                 dx[i] += (float)gx;
+            if (want_p)
+                add_params(dpl, di);
         }
-        if (want_p) {
 #pragma omp critical
+        {
+            bits = cn_xsum_plus(bits, bl);
             for (int j = 0; j < CN_PRIOR_PARAMS; j++)
-                dp_total[j] += dpl[j];
+                dp_total[j] = cn_xsum_plus(dp_total[j], dpl[j]);
         }
     }
     if (want_p)
         for (int j = 0; j < CN_PRIOR_PARAMS; j++)
-            dp[j] += (float)dp_total[j];
-    return bits;
+            dp[j] += (float)cn_xsum_value(dp_total[j]);
+    return cn_xsum_value(bits);
 }
 
 /* ---- the rate of many values from a table of the logit ---- */
@@ -222,20 +235,19 @@ double cn_prior_rate(const float *p, const float *x, size_t n, float scale, floa
     if (!(span * CN_PRIOR_TABLE_PER_UNIT * 2 < (double)n))
         return cn_prior_bits(p, x, n, scale, dx, dp);
     T.nodes = (size_t)(span * CN_PRIOR_TABLE_PER_UNIT) + 2;
-    const int threads = omp_get_max_threads();
     const int want_p = dp != NULL;
-    /* Per thread, summed in thread order so that a run repeats to the bit: the bits, the
-     * prior's gradient, and d bits / d f at each node (each value's spread linearly). */
-    const size_t nt = (size_t)threads;
-    double *mem = malloc(sizeof(double) *
-                         (T.nodes * (2 + (want_p ? nt : 0)) + nt * (1 + CN_PRIOR_PARAMS)));
-    if (!mem)
+    /* Exact sums (cn_xsum.h), the same for any thread count: the bits, d bits / d f at each
+     * node (each value's spread linearly; per thread, then added), the prior's gradient. */
+    const size_t nt = (size_t)omp_get_max_threads();
+    double *mem = malloc(sizeof(double) * 2 * T.nodes);
+    cn_xsum *w = want_p ? calloc(T.nodes * nt, sizeof(cn_xsum)) : NULL;
+    if (!mem || (want_p && !w)) {
+        free(mem);
+        free(w);
         return cn_prior_bits(p, x, n, scale, dx, dp);
+    }
     T.f = mem;
     T.hd = mem + T.nodes;
-    double *part_bits = mem + 2 * T.nodes, *part_dp = part_bits + nt;
-    double *w = part_dp + nt * CN_PRIOR_PARAMS;
-    memset(part_bits, 0, sizeof(double) * nt * (1 + CN_PRIOR_PARAMS));
     coef c;
     coef_init(&c, p);
 #pragma omp parallel for schedule(static)
@@ -246,12 +258,11 @@ double cn_prior_rate(const float *p, const float *x, size_t n, float scale, floa
         backward(&c, &t, 1.0, &d, NULL);
         T.hd[j] = d * T.h;
     }
-    if (want_p)
-        memset(w, 0, sizeof(double) * T.nodes * (size_t)threads);
+    cn_xsum bits = 0;
 #pragma omp parallel
     {
-        const size_t me = (size_t)omp_get_thread_num();
-        double *wl = want_p ? w + T.nodes * me : NULL, bits = 0;
+        cn_xsum bl = 0;
+        cn_xsum *wl = w ? w + T.nodes * (size_t)omp_get_thread_num() : NULL;
 #pragma omp for schedule(static)
         for (size_t i = 0; i < n; i++) {
             double dlo, dup, t_lo, t_up;
@@ -261,47 +272,51 @@ double cn_prior_rate(const float *p, const float *x, size_t n, float scale, floa
             double d_lo, d_up;
             const double L = likelihood(flo, fup, &d_lo, &d_up);
             const double Lb = L > CN_PRIOR_LIKELIHOOD_MIN ? L : CN_PRIOR_LIKELIHOOD_MIN;
-            bits += -log2(Lb);
+            bl = cn_xsum_plus(bl, cn_xsum_of(-log2(Lb)));
             const double g = -(double)scale / (Lb * M_LN2);
             if (dx)
                 dx[i] += (float)(g * (d_up * dup + d_lo * dlo));
             if (wl) {
-                wl[j_up] += g * d_up * (1 - t_up);
-                wl[j_up + 1] += g * d_up * t_up;
-                wl[j_lo] += g * d_lo * (1 - t_lo);
-                wl[j_lo + 1] += g * d_lo * t_lo;
+                wl[j_up] = cn_xsum_plus(wl[j_up], cn_xsum_of(g * d_up * (1 - t_up)));
+                wl[j_up + 1] = cn_xsum_plus(wl[j_up + 1], cn_xsum_of(g * d_up * t_up));
+                wl[j_lo] = cn_xsum_plus(wl[j_lo], cn_xsum_of(g * d_lo * (1 - t_lo)));
+                wl[j_lo + 1] = cn_xsum_plus(wl[j_lo + 1], cn_xsum_of(g * d_lo * t_lo));
             }
         }
-        part_bits[me] = bits;
+#pragma omp critical
+        bits = cn_xsum_plus(bits, bl);
     }
-    double bits = 0;
-    for (size_t k = 0; k < nt; k++)
-        bits += part_bits[k];
     if (want_p) {
-        for (size_t k = 1; k < nt; k++)
-            for (size_t j = 0; j < T.nodes; j++)
-                w[j] += w[T.nodes * k + j];
+        cn_xsum dp_total[CN_PRIOR_PARAMS];
+        memset(dp_total, 0, sizeof dp_total);
 #pragma omp parallel
         {
-            double *dpl = part_dp + CN_PRIOR_PARAMS * (size_t)omp_get_thread_num();
+            cn_xsum dpl[CN_PRIOR_PARAMS];
+            memset(dpl, 0, sizeof dpl);
 #pragma omp for schedule(static)
             for (size_t j = 0; j < T.nodes; j++) {
-                if (w[j] == 0)
+                cn_xsum wj = w[j];
+                for (size_t k = 1; k < nt; k++)
+                    wj = cn_xsum_plus(wj, w[T.nodes * k + j]);
+                const double wv = cn_xsum_value(wj);
+                if (wv == 0)
                     continue;
                 trace t;
+                double dj[CN_PRIOR_PARAMS] = {0};
                 forward(&c, T.x0 + (double)j * T.h, &t);
-                backward(&c, &t, w[j], NULL, dpl);
+                backward(&c, &t, wv, NULL, dj);
+                add_params(dpl, dj);
             }
+#pragma omp critical
+            for (int k = 0; k < CN_PRIOR_PARAMS; k++)
+                dp_total[k] = cn_xsum_plus(dp_total[k], dpl[k]);
         }
-        for (int k = 0; k < CN_PRIOR_PARAMS; k++) {
-            double sum = 0;
-            for (size_t q = 0; q < nt; q++)
-                sum += part_dp[CN_PRIOR_PARAMS * q + (size_t)k];
-            dp[k] += (float)sum;
-        }
+        for (int k = 0; k < CN_PRIOR_PARAMS; k++)
+            dp[k] += (float)cn_xsum_value(dp_total[k]);
     }
     free(mem);
-    return bits;
+    free(w);
+    return cn_xsum_value(bits);
 }
 
 void cn_prior_pmf(const float *p, int kmin, unsigned n, double *pmf)

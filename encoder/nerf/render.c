@@ -230,7 +230,8 @@ int cn_batch_init(cn_batch *b, const cnerf_info *topo, size_t cap)
         b->rows[n] = malloc(sizeof(uint32_t) * rows);
         b->raw[n] = malloc(sizeof(float) * rows * 4);
         b->draw[n] = malloc(sizeof(float) * rows * 4);
-        bad |= !b->color[n] || !b->rows[n] || !b->raw[n] || !b->draw[n] ||
+        b->chunk[n] = malloc(sizeof(size_t) * ((cap + CN_CHUNK_RAYS - 1) / CN_CHUNK_RAYS + 1));
+        bad |= !b->color[n] || !b->rows[n] || !b->raw[n] || !b->draw[n] || !b->chunk[n] ||
                cn_net_buf_init(&b->nb[n], topo, n, rows) != 0;
     }
     if (bad) {
@@ -258,6 +259,7 @@ void cn_batch_free(cn_batch *b)
         free(b->draw[n]);
         free(b->inside[n]);
         free(b->color[n]);
+        free(b->chunk[n]);
         if (b->nb[n].cap)
             cn_net_buf_free(&b->nb[n]);
     }
@@ -290,12 +292,18 @@ static void prepare_net_inputs(const cnerf_info *T, unsigned net, cn_batch *b, s
         }
     }
     size_t P = 0;
-    for (size_t s = 0; s < R * n; s++)
+    const size_t per_chunk = (size_t)CN_CHUNK_RAYS * n;
+    b->n_chunks = (R + CN_CHUNK_RAYS - 1) / CN_CHUNK_RAYS;
+    for (size_t s = 0; s < R * n; s++) {
+        if (s % per_chunk == 0)
+            b->chunk[net][s / per_chunk] = P;
         if (inside[s]) {
             b->rows[net][P] = (uint32_t)s;
             memcpy(b->pts_in + 3 * P, b->pts + 3 * s, sizeof(float) * 3);
             P++;
         }
+    }
+    b->chunk[net][b->n_chunks] = P;
     b->n_rows[net] = P;
     if (T->in_dir)
         cn_posenc(b->vpe, T->in_dir, b->vd, R, T->l_dir, T->pe_flags & CNERF_PE_INCLUDE_INPUT);
@@ -378,7 +386,7 @@ void cn_render_forward(const cn_model *m, cn_batch *b, size_t R, const uint64_t 
         cn_ray_t(T, b->t_c + r * nc, nc);
     }
     prepare_net_inputs(T, 0, b, R, b->t_c, nc);
-    cn_net_forward(m, 0, &b->nb[0], b->n_rows[0]);
+    cn_net_forward_chunks(m, 0, &b->nb[0], b->chunk[0], b->n_chunks);
     scatter_outputs(b, 0, R * nc);
 #pragma omp parallel for schedule(static)
     for (size_t r = 0; r < R; r++)
@@ -399,7 +407,7 @@ void cn_render_forward(const cn_model *m, cn_batch *b, size_t R, const uint64_t 
         cn_merge_sorted(b->t_f + r * ns, b->t_c + r * nc, nc, tf, nf);
     }
     prepare_net_inputs(T, 1, b, R, b->t_f, ns);
-    cn_net_forward(m, 1, &b->nb[1], b->n_rows[1]);
+    cn_net_forward_chunks(m, 1, &b->nb[1], b->chunk[1], b->n_chunks);
     scatter_outputs(b, 1, R * ns);
 #pragma omp parallel for schedule(static)
     for (size_t r = 0; r < R; r++)
@@ -408,7 +416,7 @@ void cn_render_forward(const cn_model *m, cn_batch *b, size_t R, const uint64_t 
                           b->color[1] + r * 3, NULL, b->t_stop);
 }
 
-void cn_render_backward(cn_model *m, cn_batch *b, size_t R, float *const dcolor[2])
+int cn_render_backward(cn_model *m, cn_batch *b, size_t R, float *const dcolor[2])
 {
     const cnerf_info *T = &m->topo;
     const float far = cn_ray_far(T);
@@ -429,6 +437,8 @@ void cn_render_backward(cn_model *m, cn_batch *b, size_t R, float *const dcolor[
 #pragma omp parallel for schedule(static)
         for (size_t j = 0; j < b->n_rows[net]; j++)
             memcpy(nb->d_out + 4 * j, b->draw[net] + 4 * (size_t)rows[j], sizeof(float) * 4);
-        cn_net_backward(m, net, nb, b->n_rows[net]);
+        if (cn_net_backward_chunks(m, net, nb, b->chunk[net], b->n_chunks))
+            return -1;
     }
+    return 0;
 }

@@ -473,7 +473,10 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
         loss += mse;
         weighted += w * mse;
     }
-    cn_render_backward(m, &t->batch, R, t->dcolor);
+    if (cn_render_backward(m, &t->batch, R, t->dcolor)) {
+        snprintf(t->err, sizeof t->err, "out of memory for the gradients' sums");
+        return NAN;
+    }
     cn_model_kernels_backward(m);
     /* --quality: D is the distortion whose gradient this step takes, the coarse error at
      * its weight (the returned loss is the plain sum, for the progress line). */

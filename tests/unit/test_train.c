@@ -347,6 +347,54 @@ static void test_reproducible(void **state)
     cn_trainer_free(&t[1]);
 }
 
+/* The thread count changes nothing: the same steps on 1, 2 and 3 threads give the same
+ * losses and parameters to the bit, in plain and compressed training, with the occupancy
+ * grids, the group penalty and --quality's lambda (which uses the batch's error). The batch
+ * is five chunks and a short one, so that the threads split it unevenly. */
+static void test_threads_agree(void **state)
+{
+    (void)state;
+    for (int mode = 0; mode < 3; mode++) {
+        cn_train_opts o;
+        small_opts(&o);
+        o.batch = 5 * CN_CHUNK_RAYS + 61;
+        o.occ_start = 2;
+        o.occ_every = 2;
+        o.compress = mode > 0;
+        o.lambda = mode == 1 ? 1.0 : 0.0;
+        o.quality_slope = mode == 2 ? cn_quality_slope(50) : 0.0;
+        o.group = mode == 2 ? 0.01 : 0.0;
+        double loss[3][5];
+        float *params[3];
+        size_t n = 0;
+        char err[512];
+        for (int k = 0; k < 3; k++) {
+            cn_gemm_set_threads(k + 1);
+            cn_trainer t;
+            assert_int_equal(cn_trainer_init(&t, &ds, &o, err, sizeof err), 0);
+            for (int i = 0; i < 5; i++) {
+                loss[k][i] = cn_trainer_step(&t, NULL, NULL);
+                assert_true(isfinite(loss[k][i]));
+            }
+            n = t.model.n_params;
+            params[k] = malloc(sizeof(float) * n);
+            assert_non_null(params[k]);
+            memcpy(params[k], t.model.params, sizeof(float) * n);
+            cn_trainer_free(&t);
+        }
+        for (int k = 1; k < 3; k++) {
+            if (memcmp(loss[0], loss[k], sizeof loss[0]) || memcmp(params[0], params[k], sizeof(float) * n))
+                print_error("mode %d: %d threads differ from 1 (last loss %.12g against %.12g)\n",
+                            mode, k + 1, loss[k][4], loss[0][4]);
+            assert_memory_equal(loss[0], loss[k], sizeof loss[0]);
+            assert_memory_equal(params[0], params[k], sizeof(float) * n);
+        }
+        for (int k = 0; k < 3; k++)
+            free(params[k]);
+    }
+    cn_gemm_set_threads(2);
+}
+
 /* A run split by a checkpoint and a resume into a new trainer follows the uninterrupted run
  * to the bit: same losses after the resume, same parameters at the end. The occupancy grids
  * are in use, and the resume falls between two of their updates, so that a grid rebuilt from
@@ -927,6 +975,7 @@ int main(void)
         cmocka_unit_test(test_lr_warmup),
         cmocka_unit_test(test_end_to_end),
         cmocka_unit_test(test_reproducible),
+        cmocka_unit_test(test_threads_agree),
         cmocka_unit_test(test_resume_continues_exactly),
         cmocka_unit_test(test_affine_scale_steps_relative),
         cmocka_unit_test(test_average_is_the_mean),

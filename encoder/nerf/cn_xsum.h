@@ -1,0 +1,42 @@
+/*
+ * Sums whose result does not depend on the order of the terms: each term is rounded once to
+ * a fixed-point integer (units of 2^-CN_XSUM_FRAC) and the integers are added exactly in 128
+ * bits. However the terms are split among threads (or processes) and in whatever order
+ * their partial sums meet, the total is the same integer, so the float read back from it is
+ * the same to the bit. The trainer sums its gradients over rays this way (docs/training.md,
+ * "Reproducibility").
+ *
+ * Terms are rounded toward zero to a multiple of 2^-64; a term whose magnitude is over 2^48
+ * (or infinite) is clamped to +-2^48, so that 2^14 terms of that size still fit; NaN adds
+ * nothing. Gradients and rates are many orders of magnitude inside both bounds.
+ */
+#ifndef CNERF_ENC_XSUM_H
+#define CNERF_ENC_XSUM_H
+
+#include <stddef.h>
+
+#if !defined(__SIZEOF_INT128__)
+#error "cnerf's encoder needs a compiler with 128-bit integers (GCC or Clang on a 64-bit target)"
+#endif
+
+typedef __int128 cn_xsum;
+
+#define CN_XSUM_FRAC 64
+
+/* The term v as a fixed-point integer (see above). */
+cn_xsum cn_xsum_of(double v);
+/* The sum as a double (rounded once). */
+double cn_xsum_value(cn_xsum s);
+
+/* a + b (wrapping, never undefined). */
+static inline cn_xsum cn_xsum_plus(cn_xsum a, cn_xsum b)
+{
+    return (cn_xsum)((unsigned __int128)a + (unsigned __int128)b);
+}
+
+/* acc[i] += v[i] for i < n, each term rounded as cn_xsum_of. */
+void cn_xsum_add_f(cn_xsum *acc, const float *v, size_t n);
+/* out[i] += (float)value(acc[i]) for i < n. */
+void cn_xsum_put_f(float *out, const cn_xsum *acc, size_t n);
+
+#endif /* CNERF_ENC_XSUM_H */
