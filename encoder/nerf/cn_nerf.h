@@ -12,6 +12,8 @@
 
 #include "cnerf/cnerf.h"
 
+struct cn_share;
+
 /* ---- layer primitives: outputs first, gradients accumulate (+=) ---- */
 
 /* y[p][o] = sum_i x[p][i] * w[o][i] + b[o] for p < P, then max(y, 0) when relu; x has row
@@ -169,9 +171,11 @@ void cn_net_forward_chunks(const cn_model *m, unsigned net, cn_net_buf *nb, cons
 int cn_net_backward(cn_model *m, unsigned net, cn_net_buf *nb, size_t P);
 /* The same over the chunks [bound[c], bound[c + 1]) of rows, c < n: each chunk's gradients
  * are summed apart and the chunks' sums added exactly. The group penalty's norms are the
- * units' over all the chunks' rows. */
+ * units' over all the chunks' rows. With a share (NULL: none), this process's chunks are
+ * its part of a batch: the norms' squares and the gradients are summed over every rank's
+ * (cn_share_allsum) before they are used. */
 int cn_net_backward_chunks(cn_model *m, unsigned net, cn_net_buf *nb, const size_t *bound,
-                           size_t n);
+                           size_t n, const struct cn_share *share);
 /* nb's rows from row0 on, as a buffer of its own (pointers into nb). */
 void cn_net_buf_rows(const cn_net_buf *nb, size_t row0, cn_net_buf *view);
 /* The group penalty of the last forward pass of network `net`: m->group times the sum over

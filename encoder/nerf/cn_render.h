@@ -89,6 +89,11 @@ typedef struct cn_batch {
      * summed over the batch do not depend on how the chunks are split among threads. */
     size_t *chunk[2];
     size_t n_chunks;
+    /* The batch's first ray in the step's whole batch (its sampling streams are the whole
+     * batch's rays'), and the processes the whole batch is shared among (NULL: none). A
+     * process renders the rays of its chunks: ray0 is a multiple of CN_CHUNK_RAYS. */
+    size_t ray0;
+    const struct cn_share *share;
     float *raw[2], *draw[2];
     float *pts_in;              /* compacted points */
     float *vpe;                 /* cap x in_dir: each ray's encoded view direction */

@@ -13,6 +13,7 @@
 #include "cn_occ.h"
 #include "cn_ratectl.h"
 #include "cn_render.h"
+#include "cn_xsum.h"
 #include "cn_validate.h"
 
 #define CN_PRECROP_ITERS 500
@@ -191,11 +192,20 @@ typedef struct cn_trainer {
     long val_best_step;
     int collapsed, from_float;
     char err[512]; /* why cn_trainer_step returned NaN, when it says */
+    /* The processes that share each batch (cn_trainer_share), or NULL: this one alone. */
+    const cn_share *share;
 } cn_trainer;
 
 int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o, char *err,
                     size_t errlen);
 void cn_trainer_free(cn_trainer *t);
+/* Shares every batch from the next step on among share->size processes, each running the
+ * same trainer (the same dataset, options and checkpoint) as rank share->rank: each renders
+ * and differentiates the rays of its part of the batch's chunks (CN_CHUNK_RAYS), and the
+ * errors and gradients are summed over all of them (share->allsum), so that every rank
+ * takes the same step, the one a single process takes, to the bit. NULL or a size of 1:
+ * one process. The share must outlive the trainer's steps. */
+void cn_trainer_share(cn_trainer *t, const cn_share *share);
 /* One iteration; returns the loss (coarse MSE + fine MSE) and the fine (or only) MSE;
  * with compression also the noisy rate estimate in bits (when `bits` is not NULL). Returns
  * NaN with a message in t->err when rate control fails (out of memory). */

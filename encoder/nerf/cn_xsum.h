@@ -39,4 +39,21 @@ void cn_xsum_add_f(cn_xsum *acc, const float *v, size_t n);
 /* out[i] += (float)value(acc[i]) for i < n. */
 void cn_xsum_put_f(float *out, const cn_xsum *acc, size_t n);
 
+/* The processes that share a training's batches (docs/training.md, "Several processes"):
+ * this one is rank `rank` of `size`, and allsum replaces v[0..n) on every rank by its sum
+ * over all ranks, which is exact and so the same on every rank whatever the order. Every
+ * rank makes the same calls in the same order. Returns 0, or -1 when the sum failed. A
+ * NULL share, or size 1, is one process. */
+typedef struct cn_share {
+    int rank, size;
+    int (*allsum)(void *ctx, cn_xsum *v, size_t n);
+    void *ctx;
+} cn_share;
+
+/* v summed over the share's ranks (nothing to do without one); 0 or -1. */
+static inline int cn_share_allsum(const cn_share *sh, cn_xsum *v, size_t n)
+{
+    return sh && sh->size > 1 ? sh->allsum(sh->ctx, v, n) : 0;
+}
+
 #endif /* CNERF_ENC_XSUM_H */

@@ -730,7 +730,7 @@ static void net_params(const cn_model *m, unsigned net, size_t *lo, size_t *hi)
 }
 
 static int backward_chunks(cn_model *m, unsigned net, cn_net_buf *nb, const size_t *bound,
-                           size_t n, size_t P)
+                           size_t n, size_t P, const cn_share *share)
 {
     const cnerf_net_info *N = &m->topo.net[net];
     size_t lo, hi;
@@ -777,9 +777,16 @@ static int backward_chunks(cn_model *m, unsigned net, cn_net_buf *nb, const size
                         q += (double)nb->h[i][p * ld + u] * nb->h[i][p * ld + u];
                     sqi[u] = cn_xsum_plus(sqi[u], cn_xsum_of(q));
                 }
-            for (size_t u = 0; u < U; u++)
-                norm[(size_t)i * CNERF_MAX_WIDTH + u] = sqrt(cn_xsum_value(sqi[u]));
         }
+        if (cn_share_allsum(share, sq, nu)) { /* every rank's rows */
+            free(norm);
+            free(sq);
+            return -1;
+        }
+        for (unsigned i = 0; i < N->depth; i++)
+            for (size_t u = 0; u < N->units[i]; u++)
+                norm[(size_t)i * CNERF_MAX_WIDTH + u] =
+                    sqrt(cn_xsum_value(sq[(size_t)i * CNERF_MAX_WIDTH + u]));
         free(sq);
     }
     memset(sum, 0, sizeof(cn_xsum) * len * threads);
@@ -803,6 +810,10 @@ static int backward_chunks(cn_model *m, unsigned net, cn_net_buf *nb, const size
     for (size_t i = 0; i < len; i++)
         for (size_t t = 1; t < threads; t++)
             sum[i] = cn_xsum_plus(sum[i], sum[t * len + i]);
+    if (cn_share_allsum(share, sum, len)) { /* every rank's chunks */
+        free(norm);
+        return -1;
+    }
     for (unsigned l = N->first_layer; l < (unsigned)N->first_layer + N->n_layers; l++) {
         const cnerf_layer_info *L = &m->topo.layer[l];
         cn_xsum_put_f(cn_model_kernel_grad(m, l), sum + (m->layer[l].w - lo),
@@ -815,11 +826,11 @@ static int backward_chunks(cn_model *m, unsigned net, cn_net_buf *nb, const size
 
 int cn_net_backward(cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
 {
-    return backward_chunks(m, net, nb, NULL, (P + CN_CHUNK_ROWS - 1) / CN_CHUNK_ROWS, P);
+    return backward_chunks(m, net, nb, NULL, (P + CN_CHUNK_ROWS - 1) / CN_CHUNK_ROWS, P, NULL);
 }
 
 int cn_net_backward_chunks(cn_model *m, unsigned net, cn_net_buf *nb, const size_t *bound,
-                           size_t n)
+                           size_t n, const cn_share *share)
 {
-    return backward_chunks(m, net, nb, bound, n, 0);
+    return backward_chunks(m, net, nb, bound, n, 0, share);
 }

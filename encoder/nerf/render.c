@@ -381,7 +381,7 @@ void cn_render_forward(const cn_model *m, cn_batch *b, size_t R, const uint64_t 
     bg_of(T, bg);
 #pragma omp parallel for schedule(static)
     for (size_t r = 0; r < R; r++) {
-        cn_rng rng = cn_rng_seed(seed ? *seed * 0x9E3779B97F4A7C15ull + r : 0);
+        cn_rng rng = cn_rng_seed(seed ? *seed * 0x9E3779B97F4A7C15ull + b->ray0 + r : 0);
         cn_sample_coarse(b->t_c + r * nc, nc, near, far_s, seed ? &rng : NULL);
         cn_ray_t(T, b->t_c + r * nc, nc);
     }
@@ -400,8 +400,8 @@ void cn_render_forward(const cn_model *m, cn_batch *b, size_t R, const uint64_t 
 #pragma omp parallel for schedule(static)
     for (size_t r = 0; r < R; r++) {
         float tf[CNERF_MAX_SAMPLES];
-        cn_rng rng = cn_rng_seed(seed ? (*seed ^ 0x5851F42D4C957F2Dull) * 0x9E3779B97F4A7C15ull + r
-                                      : 0);
+        cn_rng rng = cn_rng_seed(
+            seed ? (*seed ^ 0x5851F42D4C957F2Dull) * 0x9E3779B97F4A7C15ull + b->ray0 + r : 0);
         cn_sample_fine(tf, nf, b->w_c + r * nc, nc, near, far_s, seed ? &rng : NULL);
         cn_ray_t(T, tf, nf);
         cn_merge_sorted(b->t_f + r * ns, b->t_c + r * nc, nc, tf, nf);
@@ -437,7 +437,7 @@ int cn_render_backward(cn_model *m, cn_batch *b, size_t R, float *const dcolor[2
 #pragma omp parallel for schedule(static)
         for (size_t j = 0; j < b->n_rows[net]; j++)
             memcpy(nb->d_out + 4 * j, b->draw[net] + 4 * (size_t)rows[j], sizeof(float) * 4);
-        if (cn_net_backward_chunks(m, net, nb, b->chunk[net], b->n_chunks))
+        if (cn_net_backward_chunks(m, net, nb, b->chunk[net], b->n_chunks, b->share))
             return -1;
     }
     return 0;

@@ -254,8 +254,9 @@ void cn_view_camera(const cn_view *v, cn_camera *cam)
     cam->h = v->h;
 }
 
-/* Draws the batch's rays and ground truth. */
-static void draw_rays(cn_trainer *t, size_t R)
+/* Draws the batch's R rays and keeps rays [r0, r1) with their ground truth (all of them in
+ * one process; a rank's share of them when a share splits the batch). */
+static void draw_rays(cn_trainer *t, size_t R, size_t r0, size_t r1)
 {
     const cn_dataset *ds = t->ds;
     cn_rng rng = cn_rng_seed(t->opts.seed * 0x2545F4914F6CDD1Dull + (uint64_t)t->step);
@@ -274,24 +275,49 @@ static void draw_rays(cn_trainer *t, size_t R)
         }
         int x = x0 + (int)cn_rng_below(&rng, (uint32_t)cw);
         int y = y0 + (int)cn_rng_below(&rng, (uint32_t)ch);
+        const size_t px = (size_t)y * v->w + x;
+        float bg[3] = {0, 0, 0};
+        if (t->bg) /* its own stream, so that the rays drawn do not depend on the option */
+            for (int c = 0; c < 3; c++)
+                bg[c] = v->alpha ? (float)cn_rng_uniform(&bgr) : ds->bg[c];
+        if (r < r0 || r >= r1)
+            continue;
+        const size_t k = r - r0;
         cn_camera cam;
         cn_view_camera(v, &cam);
-        cn_camera_ray(&cam, ds->ndc, x, y, t->batch.o + 3 * r, t->batch.d + 3 * r,
-                      t->batch.vd + 3 * r);
-        const size_t px = (size_t)y * v->w + x;
-        memcpy(t->gt + 3 * r, v->rgb + px * 3, sizeof(float) * 3);
+        cn_camera_ray(&cam, ds->ndc, x, y, t->batch.o + 3 * k, t->batch.d + 3 * k,
+                      t->batch.vd + 3 * k);
+        memcpy(t->gt + 3 * k, v->rgb + px * 3, sizeof(float) * 3);
         if (t->bg) {
             /* Recomposite over a random background: the stored pixel is a c + (1 - a) bg0,
-             * so a c + (1 - a) bg = pixel + (1 - a)(bg - bg0). Opaque views keep bg0. Its
-             * own stream, so that the rays drawn do not depend on the option. */
-            float *bg = t->bg + 3 * r;
+             * so a c + (1 - a) bg = pixel + (1 - a)(bg - bg0). Opaque views keep bg0. */
             const float a = v->alpha ? v->alpha[px] : 1.0f;
             for (int c = 0; c < 3; c++) {
-                bg[c] = v->alpha ? (float)cn_rng_uniform(&bgr) : ds->bg[c];
-                t->gt[3 * r + c] += (1.0f - a) * (bg[c] - ds->bg[c]);
+                t->bg[3 * k + c] = bg[c];
+                t->gt[3 * k + c] += (1.0f - a) * (bg[c] - ds->bg[c]);
             }
         }
     }
+}
+
+void cn_trainer_share(cn_trainer *t, const cn_share *share)
+{
+    t->share = share && share->size > 1 ? share : NULL;
+    t->batch.share = t->share;
+}
+
+/* This process's rays of a batch of R: the chunks [c0, c1) of its rank, as rays [r0, r1). */
+static void my_rays(const cn_trainer *t, size_t R, size_t *r0, size_t *r1)
+{
+    if (!t->share) {
+        *r0 = 0;
+        *r1 = R;
+        return;
+    }
+    const size_t n = (R + CN_CHUNK_RAYS - 1) / CN_CHUNK_RAYS, size = (size_t)t->share->size;
+    const size_t k = (size_t)t->share->rank, c0 = n * k / size, c1 = n * (k + 1) / size;
+    *r0 = c0 * CN_CHUNK_RAYS < R ? c0 * CN_CHUNK_RAYS : R;
+    *r1 = c1 * CN_CHUNK_RAYS < R ? c1 * CN_CHUNK_RAYS : R;
 }
 
 /* Adam over params[lo, hi) at learning rate lr; zeroes the gradients. */
@@ -345,15 +371,21 @@ static void update_occupancy(cn_trainer *t)
     }
 }
 
-double cn_sq_error(float *grad, const float *x, const float *y, size_t n, float gscale)
+/* cn_sq_error's sum, exact (cn_xsum.h). */
+static cn_xsum sq_error(float *grad, const float *x, const float *y, size_t n, float gscale)
 {
-    double se = 0;
+    cn_xsum se = 0;
     for (size_t i = 0; i < n; i++) {
         const float d = x[i] - y[i];
-        se += (double)d * d;
+        se = cn_xsum_plus(se, cn_xsum_of((double)d * d));
         grad[i] = gscale * d;
     }
     return se;
+}
+
+double cn_sq_error(float *grad, const float *x, const float *y, size_t n, float gscale)
+{
+    return cn_xsum_value(sq_error(grad, x, y, n, gscale));
 }
 
 void cn_train_drop_color(cn_model *m, const cn_train_opts *o)
@@ -453,28 +485,42 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
         if (collapse_check(t))
             return NAN;
     }
-    draw_rays(t, R);
+    size_t r0, r1;
+    my_rays(t, R, &r0, &r1);
+    const size_t Rl = r1 - r0; /* this process's rays */
+    t->batch.ray0 = r0;
+    draw_rays(t, R, r0, r1);
     const uint64_t seed = t->opts.seed + 0x9E3779B97F4A7C15ull * (uint64_t)(t->step + 1);
     cn_model_materialize(m);
     if (t->step_hook && t->step_hook(t))
         return NAN;
     m->group = (float)(t->opts.group * sqrt((double)cn_trainer_pixels(t) / (double)R));
     update_occupancy(t);
-    cn_render_forward(m, &t->batch, R, &seed);
+    cn_render_forward(m, &t->batch, Rl, &seed);
     double loss = 0, mse = 0, weighted = 0;
     /* Plain training: mean squared error. Compression: the summed squared error over all
-     * training pixels, estimated from the batch, so that lambda has the paper's units. */
+     * training pixels, estimated from the batch, so that lambda has the paper's units. The
+     * errors are summed over the whole batch, every rank's rays. */
     const float scale = m->compressed ? (float)(2.0 * cn_trainer_pixels(t) / (double)R)
                                       : 2.0f / (float)(3 * R);
+    cn_xsum se[2] = {0, 0};
     for (unsigned n = 0; n < nets; n++) {
         const float w = n == 0 && nets > 1 ? (float)t->opts.coarse_weight : 1.0f;
-        mse = cn_sq_error(t->dcolor[n], t->batch.color[n], t->gt, 3 * R, scale * w) /
-              (double)(3 * R);
+        se[n] = sq_error(t->dcolor[n], t->batch.color[n], t->gt, 3 * Rl, scale * w);
+    }
+    if (cn_share_allsum(t->share, se, nets)) {
+        snprintf(t->err, sizeof t->err, "the batch's error could not be summed over the ranks");
+        return NAN;
+    }
+    for (unsigned n = 0; n < nets; n++) {
+        const float w = n == 0 && nets > 1 ? (float)t->opts.coarse_weight : 1.0f;
+        mse = cn_xsum_value(se[n]) / (double)(3 * R);
         loss += mse;
         weighted += w * mse;
     }
-    if (cn_render_backward(m, &t->batch, R, t->dcolor)) {
-        snprintf(t->err, sizeof t->err, "out of memory for the gradients' sums");
+    if (cn_render_backward(m, &t->batch, Rl, t->dcolor)) {
+        snprintf(t->err, sizeof t->err, "out of memory for the gradients' sums, or they "
+                 "could not be summed over the ranks");
         return NAN;
     }
     cn_model_kernels_backward(m);

@@ -1,6 +1,7 @@
 /* Training: a pinned loss trajectory (fixed seed, one thread) and a short end-to-end run on
  * the shared Lego that must raise the test PSNR; checkpoints round-trip. */
 #include <math.h>
+#include <pthread.h>
 #include <unistd.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -347,6 +348,21 @@ static void test_reproducible(void **state)
     cn_trainer_free(&t[1]);
 }
 
+/* The runs that must agree: mode 0 plain, 1 compressed at a lambda, 2 compressed with
+ * --quality and the group penalty; occupancy grids from step 2 on; a batch of five chunks
+ * and `tail` rays. */
+static void agree_opts(cn_train_opts *o, int mode, int tail)
+{
+    small_opts(o);
+    o->batch = 5 * CN_CHUNK_RAYS + tail;
+    o->occ_start = 2;
+    o->occ_every = 2;
+    o->compress = mode > 0;
+    o->lambda = mode == 1 ? 1.0 : 0.0;
+    o->quality_slope = mode == 2 ? cn_quality_slope(50) : 0.0;
+    o->group = mode == 2 ? 0.01 : 0.0;
+}
+
 /* The thread count changes nothing: the same steps on 1, 2 and 3 threads give the same
  * losses and parameters to the bit, in plain and compressed training, with the occupancy
  * grids, the group penalty and --quality's lambda (which uses the batch's error). The batch
@@ -356,14 +372,7 @@ static void test_threads_agree(void **state)
     (void)state;
     for (int mode = 0; mode < 3; mode++) {
         cn_train_opts o;
-        small_opts(&o);
-        o.batch = 5 * CN_CHUNK_RAYS + 61;
-        o.occ_start = 2;
-        o.occ_every = 2;
-        o.compress = mode > 0;
-        o.lambda = mode == 1 ? 1.0 : 0.0;
-        o.quality_slope = mode == 2 ? cn_quality_slope(50) : 0.0;
-        o.group = mode == 2 ? 0.01 : 0.0;
+        agree_opts(&o, mode, 61);
         double loss[3][5];
         float *params[3];
         size_t n = 0;
@@ -391,6 +400,120 @@ static void test_threads_agree(void **state)
         }
         for (int k = 0; k < 3; k++)
             free(params[k]);
+    }
+    cn_gemm_set_threads(2);
+}
+
+/* Processes that share a batch, simulated by threads of this process: a world of `size`
+ * ranks, each a thread with its own trainer, whose allsum meets the others at a barrier and
+ * adds every rank's values into one buffer. */
+typedef struct world {
+    pthread_barrier_t bar;
+    pthread_mutex_t mu;
+    cn_xsum *buf;
+    size_t cap;
+    int size;
+} world;
+
+typedef struct rank_job {
+    world *w;
+    cn_share share;
+    const cn_train_opts *o;
+    double loss[5];
+    float *params;
+    size_t n;
+    int ok;
+} rank_job;
+
+static int world_allsum(void *ctx, cn_xsum *v, size_t n)
+{
+    rank_job *j = ctx;
+    world *w = j->w;
+    if (j->share.rank == 0 && w->cap < n) { /* before the first barrier: nobody reads it */
+        free(w->buf);
+        w->buf = malloc(sizeof(cn_xsum) * n);
+        w->cap = w->buf ? n : 0;
+    }
+    if (j->share.rank == 0 && w->buf)
+        memset(w->buf, 0, sizeof(cn_xsum) * n);
+    pthread_barrier_wait(&w->bar);
+    if (!w->buf)
+        return -1;
+    pthread_mutex_lock(&w->mu);
+    for (size_t i = 0; i < n; i++)
+        w->buf[i] = cn_xsum_plus(w->buf[i], v[i]);
+    pthread_mutex_unlock(&w->mu);
+    pthread_barrier_wait(&w->bar);
+    memcpy(v, w->buf, sizeof(cn_xsum) * n);
+    pthread_barrier_wait(&w->bar); /* all have read it before rank 0 clears it again */
+    return 0;
+}
+
+static void *rank_main(void *arg)
+{
+    rank_job *j = arg;
+    omp_set_num_threads(1 + j->share.rank % 2); /* 1 or 2 threads: that may differ too */
+    cn_trainer t;
+    char err[512];
+    if (cn_trainer_init(&t, &ds, j->o, err, sizeof err))
+        return NULL;
+    cn_trainer_share(&t, &j->share);
+    j->ok = 1;
+    for (int i = 0; i < 5; i++) {
+        j->loss[i] = cn_trainer_step(&t, NULL, NULL);
+        j->ok &= isfinite(j->loss[i]);
+    }
+    j->n = t.model.n_params;
+    j->params = malloc(sizeof(float) * j->n);
+    if (j->params)
+        memcpy(j->params, t.model.params, sizeof(float) * j->n);
+    cn_trainer_free(&t);
+    return NULL;
+}
+
+/* A batch shared among 2, 3 and 4 ranks (cn_trainer_share) takes the steps one process takes,
+ * to the bit, on every rank: plain and compressed training, with the grids, the group
+ * penalty's norms (summed over the ranks in the middle of the backward pass) and --quality.
+ * The batch is 5.5 chunks: with 4 ranks one has a single short chunk, and the split is
+ * uneven for 3. */
+static void test_ranks_agree(void **state)
+{
+    (void)state;
+    for (int mode = 0; mode < 3; mode++) {
+        cn_train_opts o;
+        agree_opts(&o, mode, 64);
+        rank_job one = {.o = &o};
+        rank_main(&one); /* no share: one process */
+        assert_true(one.ok && one.params);
+        for (int size = 2; size <= 4; size++) {
+            world w = {.size = size};
+            pthread_barrier_init(&w.bar, NULL, (unsigned)size);
+            pthread_mutex_init(&w.mu, NULL);
+            rank_job job[4];
+            pthread_t th[4];
+            for (int k = 0; k < size; k++) {
+                job[k] = (rank_job){.w = &w, .o = &o};
+                job[k].share = (cn_share){k, size, world_allsum, &job[k]};
+                assert_int_equal(pthread_create(&th[k], NULL, rank_main, &job[k]), 0);
+            }
+            for (int k = 0; k < size; k++)
+                pthread_join(th[k], NULL);
+            for (int k = 0; k < size; k++) {
+                assert_true(job[k].ok && job[k].params);
+                if (memcmp(one.loss, job[k].loss, sizeof one.loss) ||
+                    memcmp(one.params, job[k].params, sizeof(float) * one.n))
+                    print_error("mode %d: rank %d of %d differs from one process (last loss "
+                                "%.12g against %.12g)\n", mode, k, size, job[k].loss[4],
+                                one.loss[4]);
+                assert_memory_equal(one.loss, job[k].loss, sizeof one.loss);
+                assert_memory_equal(one.params, job[k].params, sizeof(float) * one.n);
+                free(job[k].params);
+            }
+            pthread_barrier_destroy(&w.bar);
+            pthread_mutex_destroy(&w.mu);
+            free(w.buf);
+        }
+        free(one.params);
     }
     cn_gemm_set_threads(2);
 }
@@ -976,6 +1099,7 @@ int main(void)
         cmocka_unit_test(test_end_to_end),
         cmocka_unit_test(test_reproducible),
         cmocka_unit_test(test_threads_agree),
+        cmocka_unit_test(test_ranks_agree),
         cmocka_unit_test(test_resume_continues_exactly),
         cmocka_unit_test(test_affine_scale_steps_relative),
         cmocka_unit_test(test_average_is_the_mean),
