@@ -6,8 +6,10 @@
 #                                not the host code the sanitizers instrument) and the tests of
 #                                the experiment scripts (label "experiment": they drive the
 #                                train and encode commands that cli_train already runs
-#                                instrumented) and the web tests (label "web": the
-#                                WebAssembly decoder under Node and Chromium)
+#                                instrumented), the web tests (label "web": the
+#                                WebAssembly decoder under Node and Chromium) and the MPI
+#                                test (label "mpi": it builds its own configuration, not
+#                                the instrumented one)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=build
@@ -16,7 +18,7 @@ skip=()
 if [ "${1:-}" = "--sanitize" ]; then
   build=build-asan
   opts=(-DCNERF_SANITIZE=ON)
-  skip=(-LE 'firmware|experiment|web')
+  skip=(-LE 'firmware|experiment|web|mpi')
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1
 fi
 jobs=$(nproc 2>/dev/null || echo 2)

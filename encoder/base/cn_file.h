@@ -34,6 +34,12 @@ int cn_read_file_sig(const char *path, const char *sig, size_t siglen, uint8_t *
 int cn_input_add(const char *path, const char *role);
 /* Forgets the inputs and the checked outputs (and frees them). */
 void cn_inputs_clear(void);
+/* From on = 1, this process writes nothing to disk: cn_write_file_atomic keeps the bytes in
+ * memory (the last written to each path), where cn_read_file* finds them again; cn_make_dir
+ * makes nothing and cn_lock takes no lock (its descriptor is not a file's). The checks still
+ * read the disk. For the ranks of a shared training other than the one that writes, which
+ * then go through a command exactly as it does. on = 0 frees what was kept. */
+void cn_files_discard(int on);
 /* `path` can be written: it is absent or a regular file (not a link, device, FIFO or
  * directory), not an input nor inside an input folder, and its directory takes a new file.
  * Returns 0, or -1 with a message naming `path`. */

@@ -34,6 +34,63 @@ static void too_big(const char *path, uint64_t n, int exact, uint64_t max, const
 static int read_file(const char *path, uint64_t max, const char *kind, const char *sig,
                      size_t siglen, uint8_t **data, size_t *len, char *err, size_t errlen);
 
+/* cn_files_discard: 1 when this process writes nothing to disk. What it writes is kept in
+ * memory instead (the last bytes written to each path), and reading that path gives them
+ * back, so that the process goes on as the one that writes does. */
+static int discard;
+static struct kept {
+    char *path;
+    uint8_t *data;
+    size_t len;
+} *kept;
+static int n_kept;
+
+void cn_files_discard(int on)
+{
+    discard = on;
+    if (!on) {
+        for (int i = 0; i < n_kept; i++) {
+            free(kept[i].path);
+            free(kept[i].data);
+        }
+        free(kept);
+        kept = NULL;
+        n_kept = 0;
+    }
+}
+
+static struct kept *kept_find(const char *path)
+{
+    for (int i = 0; i < n_kept; i++)
+        if (!strcmp(kept[i].path, path))
+            return &kept[i];
+    return NULL;
+}
+
+static int keep(const char *path, const void *data, size_t len, char *err, size_t errlen)
+{
+    struct kept *k = kept_find(path);
+    if (!k) {
+        struct kept *grown = realloc(kept, sizeof *kept * (size_t)(n_kept + 1));
+        if (!grown)
+            return cn_fail(err, errlen, "%s: out of memory", path);
+        kept = grown;
+        k = &kept[n_kept];
+        *k = (struct kept){strdup(path), NULL, 0};
+        if (!k->path)
+            return cn_fail(err, errlen, "%s: out of memory", path);
+        n_kept++;
+    }
+    uint8_t *copy = malloc(len ? len : 1);
+    if (!copy)
+        return cn_fail(err, errlen, "%s: out of memory", path);
+    memcpy(copy, data, len);
+    free(k->data);
+    k->data = copy;
+    k->len = len;
+    return 0;
+}
+
 int cn_read_file(const char *path, uint8_t **data, size_t *len, char *err, size_t errlen)
 {
     return read_file(path, CN_READ_MAX, NULL, NULL, 0, data, len, err, errlen);
@@ -56,6 +113,20 @@ static int read_file(const char *path, uint64_t max, const char *kind, const cha
 {
     *data = NULL;
     *len = 0;
+    const struct kept *k = discard ? kept_find(path) : NULL;
+    if (k) {
+        if (k->len > max) {
+            too_big(path, k->len, 1, max, kind, err, errlen);
+            return -1;
+        }
+        if (!(*data = malloc(k->len ? k->len : 1))) {
+            snprintf(err, errlen, "%s: out of memory", path);
+            return -1;
+        }
+        memcpy(*data, k->data, k->len);
+        *len = k->len;
+        return 0;
+    }
     FILE *f = fopen(path, "rb");
     if (!f) {
         snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
@@ -256,6 +327,8 @@ int cn_output_check(const char *path, char *err, size_t errlen)
         return -1;
     if (output_record(path))
         return cn_fail(err, errlen, "%s: out of memory", path);
+    if (discard)
+        return 0;
     /* The writer's own temporary name, created and removed: the directory exists and takes
      * a new file. */
     char tmp[PATH_MAX + 32];
@@ -289,6 +362,8 @@ int cn_output_dir_check(const char *dir, char *err, size_t errlen)
 
 int cn_make_dir(const char *dir, char *err, size_t errlen)
 {
+    if (discard)
+        return 0;
     if (cn_output_dir_check(dir, err, errlen))
         return -1;
     if (mkdir(dir, 0755) != 0 && errno != EEXIST)
@@ -301,6 +376,8 @@ int cn_make_dir(const char *dir, char *err, size_t errlen)
 int cn_write_file_atomic(const char *path, const void *data, size_t len, char *err,
                          size_t errlen)
 {
+    if (discard)
+        return keep(path, data, len, err, errlen);
     if (may_replace(path, err, errlen)) /* the temporary's creation tests the directory */
         return -1;
     size_t pl = strlen(path);
@@ -385,6 +462,8 @@ int cn_lock(const char *path, char lock[], size_t locklen, int *busy, char *err,
 {
     snprintf(lock, locklen, "%s.lock", path);
     *busy = 0;
+    if (discard)
+        return INT_MAX; /* no lock: the writing process holds it */
     /* A run that ends removes the file while it holds it; a lock taken on that removed file
      * would guard nothing, so the lock must be on the file the name still points to. */
     for (int tries = 0; tries < 8; tries++) {
@@ -410,7 +489,7 @@ int cn_lock(const char *path, char lock[], size_t locklen, int *busy, char *err,
 
 void cn_unlock(int fd, const char *lock)
 {
-    if (fd < 0)
+    if (fd < 0 || discard)
         return;
     unlink(lock); /* while still held: no other run can have taken this file */
     close(fd);
@@ -418,6 +497,8 @@ void cn_unlock(int fd, const char *lock)
 
 void cn_lock_abandon(const char *lock)
 {
+    if (discard)
+        return;
     char tmp[PATH_MAX + 32];
     const size_t n = strlen(lock);
     if (n > 5 && n - 5 < PATH_MAX) {

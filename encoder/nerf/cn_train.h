@@ -192,8 +192,11 @@ typedef struct cn_trainer {
     long val_best_step;
     int collapsed, from_float;
     char err[512]; /* why cn_trainer_step returned NaN, when it says */
-    /* The processes that share each batch (cn_trainer_share), or NULL: this one alone. */
+    /* The processes that share each batch (cn_trainer_share), or NULL: this one alone; the
+     * sum of their votes to stop (cn_share.vote) at the last step: when it is not 0, every
+     * rank stops after that step. */
     const cn_share *share;
+    int stop_votes;
 } cn_trainer;
 
 int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o, char *err,
@@ -206,6 +209,9 @@ void cn_trainer_free(cn_trainer *t);
  * takes the same step, the one a single process takes, to the bit. NULL or a size of 1:
  * one process. The share must outlive the trainer's steps. */
 void cn_trainer_share(cn_trainer *t, const cn_share *share);
+/* Every trainer that cn_trainer_init makes from now on shares its batches (cn_trainer_share):
+ * a process that is one rank of several, every trainer of the command's run (NULL: none). */
+void cn_trainer_share_all(const cn_share *share);
 /* One iteration; returns the loss (coarse MSE + fine MSE) and the fine (or only) MSE;
  * with compression also the noisy rate estimate in bits (when `bits` is not NULL). Returns
  * NaN with a message in t->err when rate control fails (out of memory). */

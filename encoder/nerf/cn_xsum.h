@@ -48,6 +48,10 @@ typedef struct cn_share {
     int rank, size;
     int (*allsum)(void *ctx, cn_xsum *v, size_t n);
     void *ctx;
+    /* This rank's vote to stop after the step (a signal's number, 0: go on), summed with the
+     * step's first sum so that every rank learns of any rank's vote at the same step; NULL:
+     * none. */
+    int (*vote)(void *ctx);
 } cn_share;
 
 /* v summed over the share's ranks (nothing to do without one); 0 or -1. */

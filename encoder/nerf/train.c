@@ -128,6 +128,11 @@ int cn_header_for_dataset(const cn_dataset *ds, const cn_train_opts *o, cnerf_in
     return 0;
 }
 
+/* cn_trainer_share_all's share (NULL: none). */
+static const cn_share *process_share;
+
+void cn_trainer_share_all(const cn_share *share) { process_share = share; }
+
 int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o, char *err,
                     size_t errlen)
 {
@@ -206,6 +211,7 @@ int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o,
                      "or out of memory", o->occ_grid);
             return -1;
         }
+    cn_trainer_share(t, process_share);
     return 0;
 }
 
@@ -503,15 +509,18 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
      * errors are summed over the whole batch, every rank's rays. */
     const float scale = m->compressed ? (float)(2.0 * cn_trainer_pixels(t) / (double)R)
                                       : 2.0f / (float)(3 * R);
-    cn_xsum se[2] = {0, 0};
+    cn_xsum se[3] = {0, 0, 0}; /* the networks' errors, and the ranks' votes to stop */
     for (unsigned n = 0; n < nets; n++) {
         const float w = n == 0 && nets > 1 ? (float)t->opts.coarse_weight : 1.0f;
         se[n] = sq_error(t->dcolor[n], t->batch.color[n], t->gt, 3 * Rl, scale * w);
     }
-    if (cn_share_allsum(t->share, se, nets)) {
+    if (t->share && t->share->vote)
+        se[2] = cn_xsum_of(t->share->vote(t->share->ctx));
+    if (cn_share_allsum(t->share, se, 3)) {
         snprintf(t->err, sizeof t->err, "the batch's error could not be summed over the ranks");
         return NAN;
     }
+    t->stop_votes = (int)cn_xsum_value(se[2]);
     for (unsigned n = 0; n < nets; n++) {
         const float w = n == 0 && nets > 1 ? (float)t->opts.coarse_weight : 1.0f;
         mse = cn_xsum_value(se[n]) / (double)(3 * R);

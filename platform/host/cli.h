@@ -115,6 +115,19 @@ int cli_run_job(const char *cmd, const cli_job *job, const char *ckpt, long ckpt
                 double ckpt_secs, long log_every, long eval_every, long every, int *stopped);
 /* "SIGINT", "SIGTERM" or "SIGHUP". */
 const char *cli_signal_name(int sig);
+/* The stop signal this process took in the training loop, 0 if none. */
+int cli_stop_signal(void);
+/* shared = 1: the run's batches are shared among processes (cli_mpi.c). A stop signal then
+ * ends the training loop only once the step's sum has carried it to every rank (cn_share's
+ * vote), so that they all stop after the same step. */
+void cli_stop_shared(int shared);
+/* MPI (a -DCNERF_MPI=ON build): initialises it and, with several ranks, shares every
+ * trainer's batches among them; ranks other than 0 write nothing and print nothing on stdout.
+ * Returns 0, or -1 with a message (a command other than train and encode on several ranks).
+ * Without MPI: nothing. */
+int cli_mpi_init(int *argc, char ***argv);
+/* Ends MPI with the command's exit status rc (a failed rank ends every rank); returns rc. */
+int cli_mpi_end(int rc);
 /* Restores a checkpoint into t (cn_checkpoint_resume) and says so, noting when the
  * occupancy grids are rebuilt from the model rather than restored (a version 1 checkpoint,
  * or another --occupancy); returns 0 or 1 (error printed). */

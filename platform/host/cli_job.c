@@ -179,6 +179,14 @@ static void stop_defer(void)
     pthread_mutex_unlock(&stop.mu);
 }
 
+int cli_stop_signal(void) { return interrupted; }
+
+/* cli_stop_shared: the loop stops when the ranks' vote says so (voted), not at this rank's
+ * own signal. */
+static int shared_run, voted;
+
+void cli_stop_shared(int shared) { shared_run = shared; }
+
 const char *cli_signal_name(int sig)
 {
     return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : sig == SIGHUP ? "SIGHUP" : "a signal";
@@ -233,7 +241,7 @@ int cli_run_job(const char *cmd, const cli_job *job, const char *ckpt, long ckpt
     const long first = job->done(job->ctx);
     double eval_secs = 0; /* time spent on evaluations, left out of the training time */
     double last_save = t0;  /* with ckpt_every 0: a checkpoint each ckpt_secs of training */
-    while (rc == 0 && job->done(job->ctx) < job->iters && !interrupted) {
+    while (rc == 0 && job->done(job->ctx) < job->iters && !(shared_run ? voted : interrupted)) {
         char extra[160] = "";
         const double loss = job->step(job->ctx, &psnr, extra, sizeof extra, err, sizeof err);
         if (isnan(loss) && err[0]) {
@@ -290,6 +298,11 @@ static double trainer_step(void *ctx, double *psnr, char *extra, size_t n, char 
     cn_trainer *t = ctx;
     double mse = 0, bits = 0;
     const double loss = cn_trainer_step(t, &mse, &bits);
+    if (t->stop_votes > 0) { /* a rank took a signal: all stop after this step */
+        voted = 1;
+        if (!interrupted)
+            interrupted = SIGTERM;
+    }
     if (isnan(loss) && t->err[0]) {
         snprintf(err, errlen, "%s", t->err);
         return loss;

@@ -114,8 +114,11 @@ int main(int argc, char **argv)
         return 2;
     }
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
-        if (!strcmp(argv[1], commands[i].name))
-            return commands[i].fn(argc - 1, argv + 1);
+        if (!strcmp(argv[1], commands[i].name)) {
+            if (cli_mpi_init(&argc, &argv))
+                return cli_mpi_end(1);
+            return cli_mpi_end(commands[i].fn(argc - 1, argv + 1));
+        }
     fprintf(stderr, "cnerf: unknown command '%s'\n", argv[1]);
     usage(stderr);
     return 2;

@@ -420,10 +420,18 @@ typedef struct rank_job {
     cn_share share;
     const cn_train_opts *o;
     double loss[5];
+    int votes[5], step;
     float *params;
     size_t n;
     int ok;
 } rank_job;
+
+/* The last rank votes to stop (as a signal would make it) at step 3 only. */
+static int rank_vote(void *ctx)
+{
+    const rank_job *j = ctx;
+    return j->share.rank == j->share.size - 1 && j->step == 3 ? 15 : 0;
+}
 
 static int world_allsum(void *ctx, cn_xsum *v, size_t n)
 {
@@ -460,7 +468,9 @@ static void *rank_main(void *arg)
     cn_trainer_share(&t, &j->share);
     j->ok = 1;
     for (int i = 0; i < 5; i++) {
+        j->step = i;
         j->loss[i] = cn_trainer_step(&t, NULL, NULL);
+        j->votes[i] = t.stop_votes;
         j->ok &= isfinite(j->loss[i]);
     }
     j->n = t.model.n_params;
@@ -475,7 +485,7 @@ static void *rank_main(void *arg)
  * to the bit, on every rank: plain and compressed training, with the grids, the group
  * penalty's norms (summed over the ranks in the middle of the backward pass) and --quality.
  * The batch is 5.5 chunks: with 4 ranks one has a single short chunk, and the split is
- * uneven for 3. */
+ * uneven for 3. A vote to stop by one rank reaches all of them at the same step. */
 static void test_ranks_agree(void **state)
 {
     (void)state;
@@ -493,7 +503,7 @@ static void test_ranks_agree(void **state)
             pthread_t th[4];
             for (int k = 0; k < size; k++) {
                 job[k] = (rank_job){.w = &w, .o = &o};
-                job[k].share = (cn_share){k, size, world_allsum, &job[k]};
+                job[k].share = (cn_share){k, size, world_allsum, &job[k], rank_vote};
                 assert_int_equal(pthread_create(&th[k], NULL, rank_main, &job[k]), 0);
             }
             for (int k = 0; k < size; k++)
@@ -507,6 +517,8 @@ static void test_ranks_agree(void **state)
                                 one.loss[4]);
                 assert_memory_equal(one.loss, job[k].loss, sizeof one.loss);
                 assert_memory_equal(one.params, job[k].params, sizeof(float) * one.n);
+                for (int i = 0; i < 5; i++) /* every rank learns of the vote at its step */
+                    assert_int_equal(job[k].votes[i], i == 3 ? 15 : 0);
                 free(job[k].params);
             }
             pthread_barrier_destroy(&w.bar);

@@ -1,0 +1,91 @@
+#!/usr/bin/env bash
+# cnerf over MPI (-DCNERF_MPI=ON, Open MPI's mpirun): builds that configuration of cnerf, then
+#  - train on 1, 2, 3 and 4 ranks writes the checkpoint the build without MPI writes, byte for
+#    byte; encode on 2 and 3 ranks the same stream and checkpoint;
+#  - SIGTERM to a 2-rank run saves the checkpoint and says so; --resume on 3 ranks goes on
+#    to the bytes a single process gets from the same checkpoint;
+#  - a rank killed with SIGKILL ends the job in bounded time, the checkpoint intact;
+#  - a command other than train and encode refuses to run on several ranks.
+set -euo pipefail
+cnerf=$1 src=$2 data=$3 work=$4
+rm -rf "$work/runs" && mkdir -p "$work/runs"
+fail() { echo "FAIL: $*" >&2; exit 1; }
+command -v mpirun > /dev/null || fail "no mpirun (Debian: apt-get install openmpi-bin libopenmpi-dev)"
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=passive
+export OMPI_MCA_btl_vader_single_copy_mechanism=none # containers without CMA
+mpirun=(mpirun --oversubscribe --bind-to none)
+
+cmake -S "$src" -B "$work/build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCNERF_MPI=ON > "$work/configure.log" 2>&1 ||
+  fail "configure with -DCNERF_MPI=ON: $(tail -5 "$work/configure.log")"
+cmake --build "$work/build" -j2 --target cnerf > "$work/build.log" 2>&1 ||
+  fail "build with -DCNERF_MPI=ON: $(tail -5 "$work/build.log")"
+mcnerf=$work/build/cnerf
+cd "$work/runs"
+
+train=(train "$data/lego" --preset tiny --downscale 8 --seed 1 --every 100 --batch 1000)
+"$cnerf" "${train[@]}" -o one.ckpt --iters 12 --threads 2 > one.log 2>&1 || fail "train: $(tail -3 one.log)"
+for n in 1 2 3 4; do
+  "${mpirun[@]}" -np $n "$mcnerf" "${train[@]}" -o r$n.ckpt --iters 12 --threads 1 > r$n.log 2>&1 ||
+    fail "mpirun -np $n train: $(tail -5 r$n.log)"
+  cmp -s one.ckpt r$n.ckpt || fail "train on $n ranks: the checkpoint differs from one process's"
+  [ ! -e r$n.ckpt.lock ] || fail "train on $n ranks left its lock"
+done
+grep -q "^saved r4.ckpt at iteration 12" r4.log || fail "train on 4 ranks: no summary: $(tail -3 r4.log)"
+[ "$(grep -c "^saved r4.ckpt" r4.log)" = 1 ] || fail "train on 4 ranks: more than rank 0 printed"
+echo "train: 1 process and 1 to 4 ranks: $(md5sum < one.ckpt | cut -c1-32)"
+
+# (a run this short misses its --size: that exits 1 with the file written)
+enc=(encode "$data/lego" --preset tiny --downscale 8 --batch 1000 --iters 30 --size 30000 --every 100 --seed 3)
+"$cnerf" "${enc[@]}" -o one.cnrf --threads 2 > enc1.log 2>&1 || grep -q "(the file is written)" enc1.log ||
+  fail "encode: $(tail -3 enc1.log)"
+for n in 2 3; do
+  "${mpirun[@]}" -np $n "$mcnerf" "${enc[@]}" -o e$n.cnrf --threads 1 > enc$n.log 2>&1 ||
+    grep -q "(the file is written)" enc$n.log || fail "mpirun -np $n encode: $(tail -5 enc$n.log)"
+  cmp -s one.cnrf e$n.cnrf || fail "encode on $n ranks: the stream differs from one process's"
+  cmp -s one.cnrf.ckpt e$n.cnrf.ckpt || fail "encode on $n ranks: the checkpoint differs"
+done
+echo "encode: 1 process, 2 and 3 ranks: $(md5sum < one.cnrf | cut -c1-32)"
+
+# SIGTERM (mpirun passes it to every rank): the ranks stop after the same step, rank 0 saves
+# (before mpirun's SIGKILL: 1 s after the SIGTERM by default, here 60 s, as docs/training.md
+# advises).
+"${mpirun[@]}" --mca odls_base_sigkill_timeout 60 -np 2 "$mcnerf" "${train[@]}" -o term.ckpt --iters 100000 --threads 1 --log-every 2 \
+  > term.log 2>&1 &
+pid=$!
+for _ in $(seq 600); do grep -q "iter 6/" term.log 2>/dev/null && break; sleep 0.5; done
+kill -TERM $pid
+wait $pid && fail "a SIGTERM'd run exited 0"
+grep -q "^interrupted by SIGTERM: saved term.ckpt at iteration [0-9]*" term.log ||
+  fail "SIGTERM: no checkpoint saved: $(tail -5 term.log)"
+it=$(sed -n 's/^interrupted by SIGTERM: saved term.ckpt at iteration \([0-9]*\).*/\1/p' term.log)
+# --resume on another number of ranks: the bytes one process gets from the same checkpoint.
+cp term.ckpt term1.ckpt
+"$cnerf" "${train[@]}" -o term1.ckpt --resume --iters $((it + 4)) --threads 2 > res1.log 2>&1 ||
+  fail "resume: $(tail -3 res1.log)"
+"${mpirun[@]}" -np 3 "$mcnerf" "${train[@]}" -o term.ckpt --resume --iters $((it + 4)) --threads 1 \
+  > res3.log 2>&1 || fail "mpirun -np 3 --resume: $(tail -5 res3.log)"
+cmp -s term1.ckpt term.ckpt || fail "a 2-rank checkpoint resumed on 3 ranks differs from one process's"
+echo "SIGTERM at iteration $it, resumed on 3 ranks: as one process"
+
+# A rank killed: the job ends (Open MPI's mpirun ends the others and names the rank), and the
+# last checkpoint is whole.
+"${mpirun[@]}" -np 2 "$mcnerf" "${train[@]}" -o dead.ckpt --iters 100000 --threads 1 --log-every 2 \
+  --ckpt-every 4 > dead.log 2>&1 &
+pid=$!
+for _ in $(seq 600); do grep -q "iter 10/" dead.log 2>/dev/null && break; sleep 0.5; done
+victim=$(pgrep -f "cnerf train .*dead.ckpt" | tail -n 1)
+[ -n "$victim" ] || fail "no rank to kill"
+kill -KILL "$victim"
+t0=$(date +%s)
+for _ in $(seq 120); do kill -0 $pid 2>/dev/null || break; sleep 0.5; done
+kill -0 $pid 2>/dev/null && { kill -KILL $pid; fail "a killed rank: the job still runs after 60 s"; }
+wait $pid && fail "a job with a killed rank exited 0"
+grep -q "exited on signal 9" dead.log || fail "a killed rank: mpirun did not say which: $(tail -5 dead.log)"
+"$cnerf" "${train[@]}" -o dead.ckpt --resume --iters 13 --threads 2 > dead-res.log 2>&1 ||
+  fail "the checkpoint of a job with a killed rank does not resume: $(tail -3 dead-res.log)"
+echo "a killed rank: the job ended after $(( $(date +%s) - t0 )) s; $(grep resumed dead-res.log)"
+
+# Commands that run as one process refuse several ranks.
+if "${mpirun[@]}" -np 2 "$mcnerf" info one.cnrf > info.log 2>&1; then fail "info ran on 2 ranks"; fi
+grep -q "cnerf info: runs as one process" info.log || fail "info on 2 ranks: $(cat info.log)"
+echo "OK"
