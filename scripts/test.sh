@@ -7,9 +7,11 @@
 #                                the experiment scripts (label "experiment": they drive the
 #                                train and encode commands that cli_train already runs
 #                                instrumented), the web tests (label "web": the
-#                                WebAssembly decoder under Node and Chromium) and the MPI
+#                                WebAssembly decoder under Node and Chromium), the MPI
 #                                test (label "mpi": it builds its own configuration, not
-#                                the instrumented one)
+#                                the instrumented one) and cli_threads (label "determinism":
+#                                the same encodes on 1, 2 and 3 threads, whose passes
+#                                test_train's test_threads_agree runs instrumented)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=build
@@ -18,7 +20,7 @@ skip=()
 if [ "${1:-}" = "--sanitize" ]; then
   build=build-asan
   opts=(-DCNERF_SANITIZE=ON)
-  skip=(-LE 'firmware|experiment|web|mpi')
+  skip=(-LE 'firmware|experiment|web|mpi|determinism')
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1
 fi
 jobs=$(nproc 2>/dev/null || echo 2)

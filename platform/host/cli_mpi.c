@@ -7,6 +7,7 @@
  * nothing (cn_files_discard) and print only what makes them fail. docs/training.md, "Several
  * processes". Without MPI the functions are the one-process ones. */
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
@@ -22,6 +23,10 @@ static MPI_Comm end_comm; /* the end's barrier, apart from the steps' sums */
 static MPI_Datatype xsum_type;
 static MPI_Op xsum_op;
 static int mpi_up;
+/* What the sums cost (printed by rank 0 at the end with CNERF_MPI_STATS=1): their count,
+ * bytes, and the seconds spent in MPI_Allreduce (which include waiting for slower ranks). */
+static double sum_secs, sum_bytes, run_start;
+static long n_sums;
 
 /* inout[i] += in[i] over 16-byte integers (copied: MPI's buffers promise no alignment). */
 static void xsum_add(void *in, void *inout, int *len, MPI_Datatype *type)
@@ -40,6 +45,9 @@ static void xsum_add(void *in, void *inout, int *len, MPI_Datatype *type)
 static int mpi_allsum(void *ctx, cn_xsum *v, size_t n)
 {
     (void)ctx;
+    const double t0 = MPI_Wtime();
+    n_sums++;
+    sum_bytes += 16.0 * (double)n;
     for (size_t done = 0; done < n;) {
         const size_t k = n - done < (1u << 30) ? n - done : (1u << 30);
         if (MPI_Allreduce(MPI_IN_PLACE, v + done, (int)k, xsum_type, xsum_op, MPI_COMM_WORLD) !=
@@ -47,6 +55,7 @@ static int mpi_allsum(void *ctx, cn_xsum *v, size_t n)
             return -1;
         done += k;
     }
+    sum_secs += MPI_Wtime() - t0;
     return 0;
 }
 
@@ -64,6 +73,7 @@ int cli_mpi_init(int *argc, char ***argv)
         return -1;
     }
     mpi_up = 1;
+    run_start = MPI_Wtime();
     int rank = 0, size = 1;
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);
     MPI_Comm_size(MPI_COMM_WORLD, &size);
@@ -123,6 +133,12 @@ int cli_mpi_end(int rc)
             }
         }
         MPI_Comm_free(&end_comm);
+        const char *stats = getenv("CNERF_MPI_STATS");
+        if (share.rank == 0 && stats && !strcmp(stats, "1"))
+            fprintf(stderr, "cnerf: %d ranks: %ld sums of %.1f MB in all, %.2f s in "
+                    "MPI_Allreduce of the run's %.2f s (%.1f%%)\n", share.size, n_sums,
+                    sum_bytes / 1e6, sum_secs, MPI_Wtime() - run_start,
+                    100.0 * sum_secs / (MPI_Wtime() - run_start));
     }
     MPI_Finalize();
     return rc;
