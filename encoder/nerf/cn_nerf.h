@@ -141,7 +141,7 @@ typedef struct cn_net_buf {
     /* gradients */
     float *d_in, *d_h[CNERF_MAX_DEPTH], *d_view_in, *d_view_h, *d_out;
     /* The chunked backward's per-thread gradients (floats) and exact sums (cn_xsum), each
-     * g_len long per thread, allocated on first use; NULL in a view (cn_net_buf_rows). */
+     * g_len long per thread, allocated on first use; NULL in a chunk's view of the rows. */
     float *g_chunk;
     void *g_sum;
     size_t g_len, g_threads;
@@ -150,9 +150,8 @@ typedef struct cn_net_buf {
 int cn_net_buf_init(cn_net_buf *nb, const cnerf_info *topo, unsigned net, size_t cap);
 void cn_net_buf_free(cn_net_buf *nb);
 
-/* Rows of a network pass that one task computes on its own: passes over more rows are split
- * into chunks of this many (cn_net_forward, cn_net_backward), or at the bounds the caller
- * gives (the _chunks forms), and each chunk runs on one thread, its products single-threaded.
+/* Rows of a network pass that one task computes on its own: cn_net_forward splits its rows
+ * into chunks of this many, the _chunks forms at the bounds the caller gives, and each chunk runs on one thread, its products single-threaded.
  * A chunk's outputs and gradients then depend on its rows alone, and its gradients are added
  * to the others' exactly (cn_xsum.h): the results are the same bits for any thread count and
  * any split of the chunks among threads or processes. */
@@ -165,19 +164,16 @@ void cn_net_forward(const cn_model *m, unsigned net, cn_net_buf *nb, size_t P);
 /* The same over the chunks [bound[c], bound[c + 1]) of rows, c < n. */
 void cn_net_forward_chunks(const cn_model *m, unsigned net, cn_net_buf *nb, const size_t *bound,
                            size_t n);
-/* Backward pass from nb->d_out (P x 4); accumulates into m->grads (the kernels' gradients
- * where cn_model_kernel_grad says), plus the group penalty's gradient when m->group > 0.
- * Returns 0, or -1 when out of memory for the per-thread sums (nothing accumulated). */
-int cn_net_backward(cn_model *m, unsigned net, cn_net_buf *nb, size_t P);
-/* The same over the chunks [bound[c], bound[c + 1]) of rows, c < n: each chunk's gradients
- * are summed apart and the chunks' sums added exactly. The group penalty's norms are the
+/* Backward pass from nb->d_out over the chunks [bound[c], bound[c + 1]) of rows, c < n;
+ * accumulates into m->grads (the kernels' gradients where cn_model_kernel_grad says), plus
+ * the group penalty's gradient when m->group > 0. Each chunk's gradients are summed apart
+ * and the chunks' sums added exactly. Returns 0, or -1 (nothing accumulated) when out of
+ * memory for the per-thread sums or when the ranks' sum failed. The group penalty's norms are the
  * units' over all the chunks' rows. With a share (NULL: none), this process's chunks are
  * its part of a batch: the norms' squares and the gradients are summed over every rank's
  * (cn_share_allsum) before they are used. */
 int cn_net_backward_chunks(cn_model *m, unsigned net, cn_net_buf *nb, const size_t *bound,
                            size_t n, const struct cn_share *share);
-/* nb's rows from row0 on, as a buffer of its own (pointers into nb). */
-void cn_net_buf_rows(const cn_net_buf *nb, size_t row0, cn_net_buf *view);
 /* The group penalty of the last forward pass of network `net`: m->group times the sum over
  * its trunk layers' units of the units' L2 norms over the P rows. */
 double cn_net_group_penalty(const cn_model *m, unsigned net, const cn_net_buf *nb, size_t P);

@@ -130,7 +130,8 @@ void cn_net_inputs(const cnerf_info *T, unsigned net, cn_net_buf *nb, const floa
  * `seed`, so the result does not depend on the thread count. */
 void cn_render_forward(const cn_model *m, cn_batch *b, size_t R, const uint64_t *seed);
 /* Backward from dcolor[net] (R x 3 each; NULL to skip a network); accumulates gradients.
- * Returns 0, or -1 when out of memory (no gradient accumulated). */
+ * Returns 0, or -1 (no gradient accumulated) when out of memory or when the sum over the
+ * ranks of a shared batch (b->share) failed. */
 int cn_render_backward(cn_model *m, cn_batch *b, size_t R, float *const dcolor[2]);
 
 #endif /* CNERF_ENC_RENDER_H */

@@ -214,7 +214,8 @@ void cn_trainer_share(cn_trainer *t, const cn_share *share);
 void cn_trainer_share_all(const cn_share *share);
 /* One iteration; returns the loss (coarse MSE + fine MSE) and the fine (or only) MSE;
  * with compression also the noisy rate estimate in bits (when `bits` is not NULL). Returns
- * NaN with a message in t->err when rate control fails (out of memory). */
+ * NaN with a message in t->err when rate control fails (out of memory), or when a sum
+ * over the ranks of a shared batch failed. */
 double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits);
 /* The photometric loss of n colour values x against y: returns the squared error
  * SE = sum (x - y)^2 and writes grad = gscale (x - y), the gradient of the loss

@@ -1,6 +1,6 @@
 /*
  * Sums whose result does not depend on the order of the terms: each term is rounded once to
- * a fixed-point integer (units of 2^-CN_XSUM_FRAC) and the integers are added exactly in 128
+ * a fixed-point integer (units of 2^-64) and the integers are added exactly in 128
  * bits. However the terms are split among threads (or processes) and in whatever order
  * their partial sums meet, the total is the same integer, so the float read back from it is
  * the same to the bit. The trainer sums its gradients over rays this way (docs/training.md,
@@ -20,8 +20,6 @@
 #endif
 
 typedef __int128 cn_xsum;
-
-#define CN_XSUM_FRAC 64
 
 /* The term v as a fixed-point integer (see above). */
 cn_xsum cn_xsum_of(double v);

@@ -510,7 +510,8 @@ void cn_net_buf_free(cn_net_buf *nb)
     memset(nb, 0, sizeof *nb);
 }
 
-void cn_net_buf_rows(const cn_net_buf *nb, size_t row0, cn_net_buf *v)
+/* nb's rows from row0 on, as a buffer of its own (pointers into nb). */
+static void net_buf_rows(const cn_net_buf *nb, size_t row0, cn_net_buf *v)
 {
     *v = *nb;
     v->cap = nb->cap - row0;
@@ -691,7 +692,7 @@ static size_t chunk_view(const cn_net_buf *nb, const size_t *bound, size_t P, si
 {
     size_t r0, r1;
     chunk_rows(bound, P, c, &r0, &r1);
-    cn_net_buf_rows(nb, r0, v);
+    net_buf_rows(nb, r0, v);
     return r1 - r0;
 }
 
@@ -822,11 +823,6 @@ static int backward_chunks(cn_model *m, unsigned net, cn_net_buf *nb, const size
     }
     free(norm);
     return 0;
-}
-
-int cn_net_backward(cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
-{
-    return backward_chunks(m, net, nb, NULL, (P + CN_CHUNK_ROWS - 1) / CN_CHUNK_ROWS, P, NULL);
 }
 
 int cn_net_backward_chunks(cn_model *m, unsigned net, cn_net_buf *nb, const size_t *bound,
