@@ -1,7 +1,7 @@
 /* cnerf train and encode over MPI (a build with -DCNERF_MPI=ON): every rank runs the same
  * command on the same data, and each training step's batch is shared among the ranks
  * (cn_trainer_share_all): each renders its chunks of rays, and the errors and gradients are
- * summed over all ranks in 128-bit fixed point (cn_xsum.h) by MPI_Allreduce with an operation
+ * summed over all ranks in 128-bit fixed point (cn_xsum.h) by MPI_Iallreduce with an operation
  * of our own, which is exact, so that every rank takes the step one process takes, to the
  * bit, for any number of ranks. Rank 0 alone writes files and prints; the others write
  * nothing (cn_files_discard) and print only what makes them fail. docs/training.md, "Several
@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <sched.h>
 
 #include "cli.h"
 #include "cn_file.h"
@@ -24,7 +25,7 @@ static MPI_Datatype xsum_type;
 static MPI_Op xsum_op;
 static int mpi_up;
 /* What the sums cost (printed by rank 0 at the end with CNERF_MPI_STATS=1): their count,
- * bytes, and the seconds spent in MPI_Allreduce (which include waiting for slower ranks). */
+ * bytes, and the seconds spent in them (which include waiting for slower ranks). */
 static double sum_secs, sum_bytes, run_start;
 static long n_sums;
 
@@ -42,19 +43,119 @@ static void xsum_add(void *in, void *inout, int *len, MPI_Datatype *type)
     }
 }
 
+/* Naming a rank that died or hangs. A rank that never reaches a sum leaves the others
+ * waiting in it, and the launcher ends the job without saying more than which process it
+ * lost. So the sum is nonblocking, and its wait watches the clock and the stop signal:
+ *  - every rank other than 0 tells rank 0 that it reached the sum (an arrival), and rank 0
+ *    tells rank 1, so that a rank that waits longer than the limit (CNERF_MPI_WAIT seconds,
+ *    WAIT_LIMIT_S by default) names the ranks that never arrived and ends the job;
+ *  - when the launcher ends a job because a rank died, mpirun and Slurm send the others a
+ *    stop signal: a rank that takes one while it waits answers that it is alive (to rank 0;
+ *    rank 0 to rank 1), and WAIT_NAME_S later the waiting ranks 0 and 1 name the ranks they
+ *    have heard nothing from (which covers a rank that died inside the sum, after its
+ *    arrival).
+ * Rank 0 watches ranks 1..size-1, rank 1 watches rank 0. */
+#define WAIT_NAME_S 0.5
+#define WAIT_LIMIT_S 600.0
+#define TAG_ARRIVE 0
+#define TAG_ALIVE 1
+static MPI_Comm watch_comm;
+static MPI_Request *arrive_req, *alive_req, alive_sent = MPI_REQUEST_NULL;
+static long arrive_sent, *arrive_got, alive_msg, *alive_got;
+static double wait_limit = WAIT_LIMIT_S;
+static const char *cmd_name = "cnerf";
+
+/* The ranks that rank `me` watches: [lo, hi); the rank that watches it: *by. */
+static void watched(int me, int size, int *lo, int *hi, int *by)
+{
+    *lo = me == 0 ? 1 : 0;
+    *hi = me == 0 ? size : me == 1 ? 1 : 0;
+    *by = me == 0 ? 1 : 0;
+}
+
+/* Prints the watched ranks whose request in req[] has not completed (after `waited` s in
+ * sum `seq`); returns how many. */
+static int name_missing(MPI_Request *req, long seq, double waited, const char *what,
+                        const char *then)
+{
+    int lo, hi, by, n = 0;
+    char list[512] = "";
+    size_t k = 0;
+    watched(share.rank, share.size, &lo, &hi, &by);
+    for (int r = lo; r < hi; r++) {
+        int done = 0;
+        if (req[r] != MPI_REQUEST_NULL)
+            MPI_Test(&req[r], &done, MPI_STATUS_IGNORE);
+        if (done || req[r] == MPI_REQUEST_NULL)
+            continue;
+        if (k < sizeof list)
+            k += (size_t)snprintf(list + k, sizeof list - k, "%s%d", n ? ", " : "", r);
+        n++;
+    }
+    if (n)
+        fprintf(stderr, "cnerf %s: rank %d has waited %.1f s in the ranks' sum %ld: rank%s %s "
+                "of %d %s %s (%s); %s\n", cmd_name, share.rank, waited, seq, n > 1 ? "s" : "",
+                list, share.size, n > 1 ? "have" : "has", what,
+                n > 1 ? "they have died or hang" : "it has died or hangs", then);
+    return n;
+}
+
 static int mpi_allsum(void *ctx, cn_xsum *v, size_t n)
 {
     (void)ctx;
     const double t0 = MPI_Wtime();
-    n_sums++;
+    const long seq = ++n_sums;
     sum_bytes += 16.0 * (double)n;
+    int lo, hi, by;
+    watched(share.rank, share.size, &lo, &hi, &by);
+    for (int r = lo; r < hi; r++)
+        MPI_Irecv(&arrive_got[r], 1, MPI_LONG, r, TAG_ARRIVE, watch_comm, &arrive_req[r]);
+    MPI_Request sent;
+    arrive_sent = seq;
+    MPI_Isend(&arrive_sent, 1, MPI_LONG, by, TAG_ARRIVE, watch_comm, &sent);
+    int named = 0;
+    double signal_at = -1, limit_at = -1;
     for (size_t done = 0; done < n;) {
         const size_t k = n - done < (1u << 30) ? n - done : (1u << 30);
-        if (MPI_Allreduce(MPI_IN_PLACE, v + done, (int)k, xsum_type, xsum_op, MPI_COMM_WORLD) !=
-            MPI_SUCCESS)
+        MPI_Request req;
+        if (MPI_Iallreduce(MPI_IN_PLACE, v + done, (int)k, xsum_type, xsum_op, MPI_COMM_WORLD,
+                           &req) != MPI_SUCCESS)
             return -1;
+        for (long polls = 0;; polls++) {
+            int flag = 0;
+            if (MPI_Test(&req, &flag, MPI_STATUS_IGNORE) != MPI_SUCCESS)
+                return -1;
+            if (flag)
+                break;
+            if (polls % 1024 != 1023) /* the clock now and then; between, as MPI waits */
+                continue;
+            sched_yield();
+            const double now = MPI_Wtime();
+            if (signal_at < 0 && cli_stop_signal()) {
+                signal_at = now;
+                if (alive_sent == MPI_REQUEST_NULL) {
+                    alive_msg = seq;
+                    MPI_Isend(&alive_msg, 1, MPI_LONG, by, TAG_ALIVE, watch_comm, &alive_sent);
+                }
+            }
+            if (!named && signal_at >= 0 && now - signal_at >= WAIT_NAME_S)
+                named = name_missing(alive_req, seq, now - t0, "not answered the stop signal",
+                                     "the job is being stopped");
+            if (now - t0 > wait_limit && limit_at < 0)
+                limit_at = now; /* a last 0.1 s of polls: this rank may have been stopped */
+            if (limit_at >= 0 && now - limit_at > 0.1) {
+                if (!name_missing(arrive_req, seq, now - t0, "not reached it",
+                                  "ending every rank"))
+                    fprintf(stderr, "cnerf %s: rank %d has waited %.1f s in the ranks' sum %ld, "
+                            "which every rank reached: one has died or hangs in it; ending "
+                            "every rank\n", cmd_name, share.rank, now - t0, seq);
+                MPI_Abort(MPI_COMM_WORLD, 1);
+            }
+        }
         done += k;
     }
+    MPI_Waitall(hi - lo, arrive_req + lo, MPI_STATUSES_IGNORE);
+    MPI_Wait(&sent, MPI_STATUS_IGNORE);
     sum_secs += MPI_Wtime() - t0;
     return 0;
 }
@@ -96,6 +197,34 @@ int cli_mpi_init(int *argc, char ***argv)
     MPI_Type_commit(&xsum_type);
     MPI_Op_create(xsum_add, 1, &xsum_op);
     MPI_Comm_dup(MPI_COMM_WORLD, &end_comm);
+    MPI_Comm_dup(MPI_COMM_WORLD, &watch_comm);
+    arrive_req = malloc(sizeof *arrive_req * (size_t)size);
+    alive_req = malloc(sizeof *alive_req * (size_t)size);
+    arrive_got = malloc(sizeof *arrive_got * (size_t)size);
+    alive_got = malloc(sizeof *alive_got * (size_t)size);
+    if (!arrive_req || !alive_req || !arrive_got || !alive_got) {
+        fprintf(stderr, "cnerf: out of memory (rank %d of %d)\n", rank, size);
+        return -1;
+    }
+    int lo, hi, by;
+    watched(rank, size, &lo, &hi, &by);
+    for (int r = 0; r < size; r++) {
+        arrive_req[r] = alive_req[r] = MPI_REQUEST_NULL;
+        if (r >= lo && r < hi) /* open for the whole run: an answer may come at any sum */
+            MPI_Irecv(&alive_got[r], 1, MPI_LONG, r, TAG_ALIVE, watch_comm, &alive_req[r]);
+    }
+    cmd_name = (*argv)[1];
+    const char *limit = getenv("CNERF_MPI_WAIT");
+    if (limit && *limit) {
+        char *end;
+        const double w = strtod(limit, &end);
+        if (*end || !(w > 0)) {
+            if (rank == 0)
+                fprintf(stderr, "cnerf: CNERF_MPI_WAIT=%s: give seconds, more than 0\n", limit);
+            return -1;
+        }
+        wait_limit = w;
+    }
     share = (cn_share){rank, size, mpi_allsum, NULL, mpi_vote};
     cn_trainer_share_all(&share);
     cli_stop_shared(1);
@@ -133,10 +262,27 @@ int cli_mpi_end(int rc)
             }
         }
         MPI_Comm_free(&end_comm);
+        /* The stop answers: the ones sent were received (every rank's answer goes to a
+         * receive open all run); the receives that got none are cancelled. */
+        MPI_Wait(&alive_sent, MPI_STATUS_IGNORE);
+        for (int r = 0; r < share.size; r++)
+            if (alive_req[r] != MPI_REQUEST_NULL) {
+                int got = 0;
+                MPI_Test(&alive_req[r], &got, MPI_STATUS_IGNORE);
+                if (!got) {
+                    MPI_Cancel(&alive_req[r]);
+                    MPI_Wait(&alive_req[r], MPI_STATUS_IGNORE);
+                }
+            }
+        MPI_Comm_free(&watch_comm);
+        free(arrive_req);
+        free(alive_req);
+        free(arrive_got);
+        free(alive_got);
         const char *stats = getenv("CNERF_MPI_STATS");
         if (share.rank == 0 && stats && !strcmp(stats, "1"))
             fprintf(stderr, "cnerf: %d ranks: %ld sums of %.1f MB in all, %.2f s in "
-                    "MPI_Allreduce of the run's %.2f s (%.1f%%)\n", share.size, n_sums,
+                    "the sums, of the run's %.2f s (%.1f%%)\n", share.size, n_sums,
                     sum_bytes / 1e6, sum_secs, MPI_Wtime() - run_start,
                     100.0 * sum_secs / (MPI_Wtime() - run_start));
     }
