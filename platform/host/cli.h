@@ -12,6 +12,7 @@ struct cn_view;
 struct cn_model;
 struct cn_trainer;
 struct cn_train_opts;
+struct cn_share;
 
 int cmd_info(int argc, char **argv);
 int cmd_pack(int argc, char **argv);
@@ -126,6 +127,11 @@ void cli_stop_shared(int shared);
  * Returns 0, or -1 with a message (a command other than train and encode on several ranks).
  * Without MPI: nothing. */
 int cli_mpi_init(int *argc, char ***argv);
+/* The share of the batches and evaluations among the ranks (cn_train.h's cn_share), or NULL
+ * with one process. */
+const struct cn_share *cli_mpi_share(void);
+/* rc, or 1 when any rank's rc is not 0 (every rank then goes the same way); rc without MPI. */
+int cli_mpi_agree(int rc);
 /* Ends MPI with the command's exit status rc (a failed rank ends every rank); returns rc. */
 int cli_mpi_end(int rc);
 /* Restores a checkpoint into t (cn_checkpoint_resume) and says so, noting when the

@@ -187,10 +187,11 @@ int cli_mpi_init(int *argc, char ***argv)
     if (size == 1)
         return 0;
     const char *cmd = *argc > 1 ? (*argv)[1] : "";
-    if (strcmp(cmd, "train") && strcmp(cmd, "encode")) {
+    const int trains = !strcmp(cmd, "train") || !strcmp(cmd, "encode");
+    if (!trains && strcmp(cmd, "eval")) {
         if (rank == 0)
-            fprintf(stderr, "cnerf %s: runs as one process; of the commands, train and encode "
-                    "run on several (this is rank 0 of %d)\n", cmd, size);
+            fprintf(stderr, "cnerf %s: runs as one process; of the commands, train, encode and "
+                    "eval run on several (this is rank 0 of %d)\n", cmd, size);
         return -1;
     }
     MPI_Type_contiguous(16, MPI_BYTE, &xsum_type);
@@ -229,11 +230,25 @@ int cli_mpi_init(int *argc, char ***argv)
     cn_trainer_share_all(&share);
     cli_stop_shared(1);
     if (rank > 0) {
-        cn_files_discard(1);
+        /* eval's ranks each write the views they render; train's and encode's, nothing */
+        if (trains)
+            cn_files_discard(1);
         if (!freopen("/dev/null", "w", stdout))
             return -1;
     }
     return 0;
+}
+
+const cn_share *cli_mpi_share(void) { return share.size > 1 ? &share : NULL; }
+
+int cli_mpi_agree(int rc)
+{
+    if (share.size <= 1)
+        return rc;
+    cn_xsum x = cn_xsum_of(rc != 0);
+    if (mpi_allsum(NULL, &x, 1))
+        return 1;
+    return cn_xsum_value(x) != 0 ? (rc ? rc : 1) : 0;
 }
 
 int cli_mpi_end(int rc)
@@ -300,5 +315,9 @@ int cli_mpi_init(int *argc, char ***argv)
 }
 
 int cli_mpi_end(int rc) { return rc; }
+
+const cn_share *cli_mpi_share(void) { return NULL; }
+
+int cli_mpi_agree(int rc) { return rc; }
 
 #endif

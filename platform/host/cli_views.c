@@ -9,6 +9,7 @@
 #include "cn_image.h"
 #include "cn_metrics.h"
 #include "cn_train.h"
+#include "cn_xsum.h"
 #include "progress.h"
 
 /* Writes rgb floats in [0, 1] as an 8-bit PNG. */
@@ -28,13 +29,75 @@ int cli_write_png(const char *path, const float *rgb, int w, int h, char *err, s
     return rc;
 }
 
+/* Renders views[i], scores it (psnr, ssim, seconds) and writes it to outdir if given;
+ * returns 0, or -1 with the message printed. */
+static int eval_view(const cn_model *m, const cn_view *v, int ndc, const char *outdir,
+                     float t_stop, double out[3])
+{
+    const size_t npx = (size_t)v->w * v->h;
+    float *rgb = malloc(sizeof(float) * 3 * npx);
+    cn_camera cam;
+    cn_view_camera(v, &cam);
+    const double t0 = cli_now();
+    if (!rgb || cn_render_view_stop(m, &cam, ndc, rgb, 4096, t_stop)) {
+        free(rgb);
+        return cli_fail("eval", "out of memory rendering %s", v->name), -1;
+    }
+    out[2] = cli_now() - t0;
+    out[0] = cn_psnr_from_mse(cn_mse(rgb, v->rgb, 3 * npx));
+    out[1] = cn_ssim(rgb, v->rgb, v->w, v->h);
+    int bad = 0;
+    char err[1024];
+    if (outdir) {
+        char path[4096];
+        snprintf(path, sizeof path, "%s/%s.png", outdir, v->name);
+        bad = cli_write_png(path, rgb, v->w, v->h, err, sizeof err);
+    }
+    free(rgb);
+    return bad ? (cli_fail("eval", "%s", err), -1) : 0;
+}
+
+static void eval_line(const cn_view *v, const double r[3])
+{
+    printf("  %-16s psnr %6.2f dB  ssim %.4f  %.2f s\n", v->name, r[0], r[1], r[2]);
+    fflush(stdout);
+}
+
+/* Over several ranks (cli_mpi_share): rank k renders the k-th, (k+N)-th, ... of the views,
+ * and the scores are summed over the ranks (each view's in its own slots, with the ranks'
+ * failures), so that every rank has every view's, and the means are taken in the views'
+ * order, as one process takes them. Returns the number of views, or -1 (a rank's message
+ * printed by that rank). */
+static int eval_shared(const cn_share *sh, const cn_model *m, const cn_view *views, int n,
+                       int ndc, long every, const char *outdir, float t_stop, double *r)
+{
+    const int count = (int)((n + every - 1) / every);
+    cn_xsum *x = calloc(3 * (size_t)count + 1, sizeof *x);
+    if (!x)
+        return cli_fail("eval", "out of memory (rank %d of %d)", sh->rank, sh->size), -1;
+    int failed = 0;
+    for (int j = sh->rank; j < count && !failed; j += sh->size) {
+        double one[3];
+        failed = eval_view(m, &views[(long)j * every], ndc, outdir, t_stop, one) != 0;
+        for (int c = 0; c < 3 && !failed; c++)
+            x[3 * j + c] = cn_xsum_of(one[c]);
+    }
+    x[3 * (size_t)count] = cn_xsum_of(failed);
+    if (sh->allsum(sh->ctx, x, 3 * (size_t)count + 1)) {
+        free(x);
+        return cli_fail("eval", "the ranks' sum failed"), -1;
+    }
+    failed = cn_xsum_value(x[3 * (size_t)count]) != 0;
+    for (size_t i = 0; i < 3 * (size_t)count; i++)
+        r[i] = cn_xsum_value(x[i]);
+    free(x);
+    return failed ? -1 : count;
+}
+
 int cli_eval_views(const cn_model *m, const cn_view *views, int n, int ndc, long every,
                    const char *outdir, int quiet, float t_stop, double *mean_psnr,
                    double *mean_ssim, double *secs)
 {
-    double sp = 0, ss = 0, st = 0;
-    int count = 0;
-    char err[1024];
     /* Every file it will write, checked before the first is: none is one of the inputs. */
     for (int i = 0; outdir && i < n; i += (int)every) {
         char path[4096];
@@ -42,37 +105,36 @@ int cli_eval_views(const cn_model *m, const cn_view *views, int n, int ndc, long
         if (cli_check_output("eval", path, NULL, 0, NULL))
             return -1;
     }
-    for (int i = 0; i < n; i += (int)every) {
-        const cn_view *v = &views[i];
-        const size_t npx = (size_t)v->w * v->h;
-        float *rgb = malloc(sizeof(float) * 3 * npx);
-        cn_camera cam;
-        cn_view_camera(v, &cam);
-        const double t0 = cli_now();
-        if (!rgb || cn_render_view_stop(m, &cam, ndc, rgb, 4096, t_stop)) {
-            free(rgb);
-            return cli_fail("eval", "out of memory rendering %s", v->name), -1;
+    double sp = 0, ss = 0, st = 0;
+    int count = 0;
+    const cn_share *sh = cli_mpi_share();
+    if (sh && n > 0) {
+        double *r = malloc(sizeof *r * 3 * (size_t)((n + every - 1) / every));
+        count = r ? eval_shared(sh, m, views, n, ndc, every, outdir, t_stop, r) : -1;
+        if (!r)
+            cli_fail("eval", "out of memory (rank %d of %d)", sh->rank, sh->size);
+        for (int j = 0; j < count; j++) {
+            if (!quiet)
+                eval_line(&views[(long)j * every], &r[3 * j]);
+            sp += r[3 * j];
+            ss += r[3 * j + 1];
+            st += r[3 * j + 2];
         }
-        const double dt = cli_now() - t0;
-        const double psnr = cn_psnr_from_mse(cn_mse(rgb, v->rgb, 3 * npx));
-        const double ssim = cn_ssim(rgb, v->rgb, v->w, v->h);
-        if (!quiet) {
-            printf("  %-16s psnr %6.2f dB  ssim %.4f  %.2f s\n", v->name, psnr, ssim, dt);
-            fflush(stdout);
+        free(r);
+        if (count < 0)
+            return -1;
+    } else {
+        for (int i = 0; i < n; i += (int)every) {
+            double r[3];
+            if (eval_view(m, &views[i], ndc, outdir, t_stop, r))
+                return -1;
+            if (!quiet)
+                eval_line(&views[i], r);
+            sp += r[0];
+            ss += r[1];
+            st += r[2];
+            count++;
         }
-        sp += psnr;
-        ss += ssim;
-        st += dt;
-        count++;
-        int bad = 0;
-        if (outdir) {
-            char path[4096];
-            snprintf(path, sizeof path, "%s/%s.png", outdir, v->name);
-            bad = cli_write_png(path, rgb, v->w, v->h, err, sizeof err);
-        }
-        free(rgb);
-        if (bad)
-            return cli_fail("eval", "%s", err), -1;
     }
     *mean_psnr = count ? sp / count : 0;
     *mean_ssim = count ? ss / count : 0;

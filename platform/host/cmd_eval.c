@@ -81,6 +81,7 @@ int cmd_eval(int argc, char **argv)
         rc = 1;
     if (rc == 0 && outdir)
         rc = cli_make_dir("eval", outdir);
+    rc = cli_mpi_agree(rc); /* over several ranks, each renders a share of the views */
     if (rc == 0) {
         double psnr, ssim, secs;
         int count = cli_eval_views(&m, views, n, ds.ndc, every, outdir, 0, 0, &psnr, &ssim, &secs);

@@ -7,7 +7,10 @@
 #  - SIGTERM to the ranks themselves saves, says so and exits 143;
 #  - a rank killed with SIGKILL ends the job in bounded time with a cnerf line naming it, the
 #    checkpoint intact; a rank that hangs ends it after CNERF_MPI_WAIT seconds, named too;
-#  - a command other than train and encode refuses to run on several ranks.
+#  - a joint encode of two scenes on 2 ranks writes one process's stream;
+#  - eval on 3 ranks reports and writes what one process does; --eval-every and encode's
+#    test views, split among the ranks, score as in one process;
+#  - a command other than train, encode and eval refuses to run on several ranks.
 set -euo pipefail
 cnerf=$1 src=$2 data=$3 work=$4
 rm -rf "$work/runs" && mkdir -p "$work/runs"
@@ -25,12 +28,17 @@ mcnerf=$work/build/cnerf
 cd "$work/runs"
 
 train=(train "$data/lego" --preset tiny --downscale 8 --seed 1 --every 100 --batch 1000)
-"$cnerf" "${train[@]}" -o one.ckpt --iters 12 --threads 2 > one.log 2>&1 || fail "train: $(tail -3 one.log)"
+# (--eval-every: the 2 test views are split among the ranks, 4 ranks leave 2 with none)
+"$cnerf" "${train[@]}" -o one.ckpt --iters 12 --eval-every 6 --threads 2 > one.log 2>&1 ||
+  fail "train: $(tail -3 one.log)"
 for n in 1 2 3 4; do
-  "${mpirun[@]}" -np $n "$mcnerf" "${train[@]}" -o r$n.ckpt --iters 12 --threads 1 > r$n.log 2>&1 ||
-    fail "mpirun -np $n train: $(tail -5 r$n.log)"
+  "${mpirun[@]}" -np $n "$mcnerf" "${train[@]}" -o r$n.ckpt --iters 12 --eval-every 6 --threads 1 \
+    > r$n.log 2>&1 || fail "mpirun -np $n train: $(tail -5 r$n.log)"
   cmp -s one.ckpt r$n.ckpt || fail "train on $n ranks: the checkpoint differs from one process's"
   [ ! -e r$n.ckpt.lock ] || fail "train on $n ranks left its lock"
+  [ "$(grep "^eval:" one.log | sed 's/training [0-9.]* s, //')" = \
+    "$(grep "^eval:" r$n.log | sed 's/training [0-9.]* s, //')" ] ||
+    fail "train on $n ranks: the evaluations differ: $(grep "^eval:" r$n.log)"
 done
 grep -q "^saved r4.ckpt at iteration 12" r4.log || fail "train on 4 ranks: no summary: $(tail -3 r4.log)"
 [ "$(grep -c "^saved r4.ckpt" r4.log)" = 1 ] || fail "train on 4 ranks: more than rank 0 printed"
@@ -45,8 +53,21 @@ for n in 2 3; do
     grep -q "(the file is written)" enc$n.log || fail "mpirun -np $n encode: $(tail -5 enc$n.log)"
   cmp -s one.cnrf e$n.cnrf || fail "encode on $n ranks: the stream differs from one process's"
   cmp -s one.cnrf.ckpt e$n.cnrf.ckpt || fail "encode on $n ranks: the checkpoint differs"
+  [ "$(grep "^test:" enc1.log)" = "$(grep "^test:" enc$n.log)" ] ||
+    fail "encode on $n ranks: the test views score otherwise: $(grep "^test:" enc$n.log)"
 done
 echo "encode: 1 process, 2 and 3 ranks: $(md5sum < one.cnrf | cut -c1-32)"
+
+# Two scenes in one stream (shared shifts) on 2 ranks: one process's stream and report.
+joint=(encode "$data/lego" "$data/mic" --preset tiny --downscale 8 --batch 1000 --iters 20 --lambda 1 --every 100 --seed 3)
+"$cnerf" "${joint[@]}" -o j1.cnrf --threads 2 > j1.log 2>&1 || fail "joint encode: $(tail -3 j1.log)"
+"${mpirun[@]}" -np 2 "$mcnerf" "${joint[@]}" -o j2.cnrf --threads 1 > j2.log 2>&1 ||
+  fail "mpirun -np 2 joint encode: $(tail -5 j2.log)"
+cmp -s j1.cnrf j2.cnrf || fail "joint encode on 2 ranks: the stream differs from one process's"
+cmp -s j1.cnrf.ckpt j2.cnrf.ckpt || fail "joint encode on 2 ranks: the checkpoint differs"
+[ "$(grep "test:" j1.log)" = "$(grep "test:" j2.log)" ] ||
+  fail "joint encode on 2 ranks: the test views score otherwise: $(grep "test:" j2.log)"
+echo "joint encode of 2 scenes: 1 process and 2 ranks: $(md5sum < j1.cnrf | cut -c1-32)"
 
 # SIGTERM to mpirun: Open MPI 4.1's sends the ranks SIGCONT, waits odls_base_sigkill_timeout,
 # sends SIGTERM, waits again, then SIGKILL; the ranks stop after the same step and rank 0 saves
@@ -137,6 +158,17 @@ wait $pid && fail "a job with a hung rank exited 0"
 grep -q "^cnerf train: rank 0 has waited [5-9].* rank 1 of 2 has not reached it (it has died or hangs); ending every rank" hang.log ||
   fail "a hung rank: no cnerf line names it: $(tail -5 hang.log)"
 echo "rank 1 hung: the job ended after $(( $(date +%s) - t0 )) s, the rank named"
+
+# eval on 3 ranks: each renders a third of the views and writes them; the report and the
+# files are one process's.
+strip() { sed 's/ [0-9.]* s$//; s/ [0-9.]* s\/view$//' "$1"; }
+"$cnerf" eval one.cnrf "$data/lego" --downscale 8 --every 25 -o ev1 --threads 2 > ev1.log 2>&1 ||
+  fail "eval: $(tail -3 ev1.log)"
+"${mpirun[@]}" -np 3 "$mcnerf" eval one.cnrf "$data/lego" --downscale 8 --every 25 -o ev3 --threads 1 \
+  > ev3.log 2>&1 || fail "mpirun -np 3 eval: $(tail -5 ev3.log)"
+[ "$(strip ev1.log)" = "$(strip ev3.log)" ] || fail "eval on 3 ranks reports otherwise: $(diff <(strip ev1.log) <(strip ev3.log))"
+[ "$(cd ev1 && md5sum ./*.png)" = "$(cd ev3 && md5sum ./*.png)" ] || fail "eval on 3 ranks wrote other views"
+echo "eval: 1 process and 3 ranks: $(strip ev3.log | tail -n 1), $(ls ev3 | wc -l) views"
 
 # Commands that run as one process refuse several ranks.
 if "${mpirun[@]}" -np 2 "$mcnerf" info one.cnrf > info.log 2>&1; then fail "info ran on 2 ranks"; fi
