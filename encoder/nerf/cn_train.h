@@ -116,13 +116,16 @@ void cn_train_defaults(cn_train_opts *o);
 /* --preset auto: of the presets whose rate-distortion curves were measured (tiny, then
  * small), the largest whose latents sent get at least CN_AUTO_BITS bits each from the
  * target's bytes beyond its floor (headers, affine decoders and biases, cn_stream_floor);
- * tiny when none does. CN_AUTO_BITS is where small's curve overtakes tiny's on Lego at 3000
- * iterations with encode's defaults, the coarse colour not sent (experiments/preset_frontier.sh,
- * docs/results.md "Which preset at which size").
+ * tiny when none does. small's curve overtakes tiny's on Lego at 1.31 bits (3000 iterations
+ * with encode's defaults, the coarse colour not sent; experiments/preset_frontier.sh,
+ * docs/results.md "Which preset at which size"), but on the scene suite's real scenes at
+ * 1.37 bits (30 kB) tiny was the better encode or within 0.31 dB on all eight, and small up
+ * to 2.8 dB worse. CN_AUTO_BITS sits between that and Lego's 1.88 bits (40 kB), where small
+ * leads tiny by 0.27 dB.
  * The scene enters through the floor (its render parameters): the presets share their
  * sample counts. *bits is the chosen preset's bits per latent. Returns 0, or -1 with a
  * message. */
-#define CN_AUTO_BITS 1.31
+#define CN_AUTO_BITS 1.6
 int cn_preset_auto(const cn_dataset *ds, const cn_train_opts *o, double target,
                    const char **preset, double *bits, char *err, size_t errlen);
 /* --preset auto's check of its choice on the scene: `iters` iterations of a compressed run
