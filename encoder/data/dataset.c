@@ -665,18 +665,30 @@ static int cn_json_frame(const cJSON *fr, const cn_jloc *l, const char **file_pa
     return 0;
 }
 
-/* The image of a frame: file_path as given, else with ".png" appended. Returns 1 when
- * found (path in out), 0 when missing (out = the path the frame most likely means: as
- * given when it has an extension, else with ".png"), -1 on error. */
+/* The image of a frame: file_path as given, else with ".png" appended; then, for a path
+ * with backslashes (a transforms.json written on Windows, as instant-ngp's scripts there
+ * write it: "./custom_data\images/0008.jpg"), the same with slashes. Returns 1 when found
+ * (path in out), 0 when missing (out = the path the frame most likely means: as given when
+ * it has an extension, else with ".png"), -1 on error. */
 static int cn_find_image(const char *dir, const char *file_path, char out[CN_PATH_MAX],
                          char *err, size_t errlen)
 {
-    for (int png = 0; png <= 1; png++) {
-        if (cn_join(out, dir, file_path, png ? ".png" : "", err, errlen) != 0)
-            return -1;
-        if (cn_is_file(out))
-            return 1;
+    char slashed[CN_PATH_MAX];
+    const int windows = strchr(file_path, '\\') != NULL && strlen(file_path) < sizeof slashed;
+    if (windows) {
+        strcpy(slashed, file_path);
+        for (char *c = slashed; *c; c++)
+            if (*c == '\\')
+                *c = '/';
     }
+    for (int pass = 0; pass <= windows; pass++)
+        for (int png = 0; png <= 1; png++) {
+            if (cn_join(out, dir, pass ? slashed : file_path, png ? ".png" : "", err,
+                        errlen) != 0)
+                return -1;
+            if (cn_is_file(out))
+                return 1;
+        }
     const char *base = strrchr(file_path, '/');
     base = base ? base + 1 : file_path;
     int has_ext = strchr(base + (base[0] == '.'), '.') != NULL;
@@ -1917,7 +1929,10 @@ int cn_dataset_load(const char *dir, const cn_dataset_opts *o, cn_dataset *ds, c
         }
     }
     ds->downscale = f;
-    if (rc == 0 && L.count[CN_TRAIN] == 0)
+    if (rc == 0 && L.count[CN_TRAIN] == 0 && L.skipped > 0 && L.n == 0)
+        rc = cn_fail(err, errlen, "%s: no training views: the images of all %d frames are "
+                     "missing (the first: %s)", dir, L.skipped, L.first_skipped);
+    else if (rc == 0 && L.count[CN_TRAIN] == 0)
         rc = cn_fail(err, errlen, "%s: no training views (no usable training frames)", dir);
     if (rc == 0)
         rc = cn_apply_bounds(ds, o, dir, err, errlen);

@@ -929,6 +929,42 @@ static void test_ngp_errors(void **state)
                "{\"fl_x\": 300, \"frames\": [{\"file_path\": \"a.png\", \"transform_matrix\": " M_OK
                "}, {\"file_path\": \"b.png\", \"transform_matrix\": " M_OK "}]}");
     EXPECT_FAIL(dir, o, "no training views");
+    /* No frame's image found: the error says so and names the first. */
+    write_text(dir, "transforms.json",
+               "{\"fl_x\": 300, \"frames\": [{\"file_path\": \"pics/x.png\", \"transform_matrix\": "
+               M_OK "}, {\"file_path\": \"pics/y.png\", \"transform_matrix\": " M_OK "}]}");
+    EXPECT_FAIL(dir, o, "no training views", "the images of all 2 frames are missing",
+                "pics/x.png: missing");
+    rm_tree(dir);
+}
+
+/* A transforms.json written on Windows (instant-ngp's scripts there write file_path with
+ * backslashes): the frames' images are found under the same path with slashes. */
+static void test_ngp_windows_paths(void **state)
+{
+    (void)state;
+    char dir[PATH_LEN], top[PATH_LEN], sub[PATH_LEN];
+    cn_dataset ds;
+    fresh_dir(dir, "ngp_win");
+    join(top, dir, "custom_data");
+    make_dir(top);
+    join(sub, top, "images");
+    make_dir(sub);
+    copy_file(LEGO "/train/r_0.png", sub, "0001.png", SIZE_MAX);
+    copy_file(LEGO "/train/r_1.png", sub, "0002.png", SIZE_MAX);
+    copy_file(LEGO "/train/r_2.png", sub, "0003.png", SIZE_MAX);
+    write_text(dir, "transforms.json",
+               "{\"fl_x\": 300, \"frames\": ["
+               "{\"file_path\": \"./custom_data\\\\images/0001.png\", \"transform_matrix\": " M_OK "}, "
+               "{\"file_path\": \"custom_data\\\\images\\\\0002\", \"transform_matrix\": " M_OK "}, "
+               "{\"file_path\": \".\\\\custom_data\\\\images\\\\0003.png\", \"transform_matrix\": " M_OK "}]}");
+    load_ok(dir, &(cn_dataset_opts){.max_views = 0}, &ds);
+    assert_int_equal(ds.n_skipped, 0);
+    assert_int_equal(ds.n_test, 1);
+    assert_int_equal(ds.n_train, 2);
+    assert_string_equal(ds.train[0].name, "0002");
+    assert_string_equal(ds.train[1].name, "0003");
+    cn_dataset_free(&ds);
     rm_tree(dir);
 }
 
@@ -1221,7 +1257,8 @@ int main(void)
         cmocka_unit_test(test_png_read_errors), cmocka_unit_test(test_downscale),
         cmocka_unit_test(test_lego),           cmocka_unit_test(test_fern),
         cmocka_unit_test(test_ngp),            cmocka_unit_test(test_blender_errors),
-        cmocka_unit_test(test_ngp_errors),     cmocka_unit_test(test_llff_synthetic),
+        cmocka_unit_test(test_ngp_errors),
+        cmocka_unit_test(test_ngp_windows_paths),     cmocka_unit_test(test_llff_synthetic),
         cmocka_unit_test(test_llff_inward),
         cmocka_unit_test(test_llff_errors),    cmocka_unit_test(test_read_limit),
     };
