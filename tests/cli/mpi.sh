@@ -121,13 +121,18 @@ grep -q "^interrupted by SIGTERM: saved direct.ckpt at iteration" direct.log ||
   fail "SIGTERM to the ranks: no checkpoint saved: $(tail -5 direct.log)"
 echo "SIGTERM to the ranks: $(grep "^interrupted" direct.log | cut -d: -f1-2), exit 143"
 
+# Each rank's stderr straight to a file of its own (rank_err.N), past mpirun, which may drop
+# what a rank writes while it ends the job (see the SIGTERM case above).
+own_stderr=(sh -c 'exec "$0" "$@" 2>> "rank_err.$OMPI_COMM_WORLD_RANK"')
+
 # A rank killed: the job ends (Open MPI's mpirun ends the others), a cnerf line names the rank,
 # and the last checkpoint is whole. Rank 0 names rank 1; rank 1 names rank 0.
 # (mpirun sends the others SIGTERM one odls_base_sigkill_timeout after the death and SIGKILL
 # one later; the line comes 0.5 s after the SIGTERM, so the timeout is 3 s here, not the 1 s
 # default, for a loaded machine.)
 for victim_rank in 1 0; do
-  "${mpirun[@]}" --mca odls_base_sigkill_timeout 3 -np 2 "$mcnerf" "${train[@]}" -o dead.ckpt --iters 100000 --threads 1 --log-every 2 \
+  rm -f rank_err.*
+  "${mpirun[@]}" --mca odls_base_sigkill_timeout 3 -np 2 "${own_stderr[@]}" "$mcnerf" "${train[@]}" -o dead.ckpt --iters 100000 --threads 1 --log-every 2 \
     --ckpt-every 4 > dead.log 2>&1 &
   pid=$!
   for _ in $(seq 600); do grep -q "iter 10/" dead.log 2>/dev/null && break; sleep 0.5; done
@@ -138,16 +143,18 @@ for victim_rank in 1 0; do
   for _ in $(seq 120); do kill -0 $pid 2>/dev/null || break; sleep 0.5; done
   kill -0 $pid 2>/dev/null && { kill -KILL $pid; fail "a killed rank: the job still runs after 60 s"; }
   wait $pid && fail "a job with a killed rank exited 0"
-  grep -q "^cnerf train: rank [01] has waited .* rank $victim_rank of 2 has not answered the stop signal (it has died or hangs)" dead.log ||
-    fail "rank $victim_rank killed: no cnerf line names it: $(tail -5 dead.log)"
+  cat rank_err.* > dead.err 2>/dev/null || true
+  grep -q "^cnerf train: rank [01] has waited .* rank $victim_rank of 2 has not answered the stop signal (it has died or hangs)" dead.err ||
+    fail "rank $victim_rank killed: no cnerf line names it: $(tail -5 dead.err dead.log)"
   "$cnerf" "${train[@]}" -o dead.ckpt --resume --iters 13 --threads 2 > dead-res.log 2>&1 ||
     fail "the checkpoint of a job with a killed rank does not resume: $(tail -3 dead-res.log)"
-  echo "rank $victim_rank killed: the job ended after $(( $(date +%s) - t0 )) s; $(grep "^cnerf train" dead.log | cut -d: -f2- | cut -c1-60)...; $(grep resumed dead-res.log)"
+  echo "rank $victim_rank killed: the job ended after $(( $(date +%s) - t0 )) s; $(grep "^cnerf train" dead.err | cut -d: -f2- | cut -c1-60)...; $(grep resumed dead-res.log)"
   rm -f dead.ckpt
 done
 
 # A rank that hangs (stopped): the job ends after CNERF_MPI_WAIT seconds, a cnerf line names it.
-"${mpirun[@]}" -x CNERF_MPI_WAIT=5 -np 2 "$mcnerf" "${train[@]}" -o hang.ckpt --iters 100000 --threads 1 \
+rm -f rank_err.*
+"${mpirun[@]}" -x CNERF_MPI_WAIT=5 -np 2 "${own_stderr[@]}" "$mcnerf" "${train[@]}" -o hang.ckpt --iters 100000 --threads 1 \
   --log-every 2 > hang.log 2>&1 &
 pid=$!
 for _ in $(seq 600); do grep -q "iter 10/" hang.log 2>/dev/null && break; sleep 0.5; done
@@ -158,8 +165,9 @@ t0=$(date +%s)
 for _ in $(seq 120); do kill -0 $pid 2>/dev/null || break; sleep 0.5; done
 kill -0 $pid 2>/dev/null && { kill -CONT "$victim"; kill -KILL $pid; fail "a hung rank: the job still runs after 60 s"; }
 wait $pid && fail "a job with a hung rank exited 0"
-grep -q "^cnerf train: rank 0 has waited [5-9].* rank 1 of 2 has not reached it (it has died or hangs); ending every rank" hang.log ||
-  fail "a hung rank: no cnerf line names it: $(tail -5 hang.log)"
+cat rank_err.* > hang.err 2>/dev/null || true
+grep -q "^cnerf train: rank 0 has waited [5-9].* rank 1 of 2 has not reached it (it has died or hangs); ending every rank" hang.err ||
+  fail "a hung rank: no cnerf line names it: $(tail -5 hang.err hang.log)"
 echo "rank 1 hung: the job ended after $(( $(date +%s) - t0 )) s, the rank named"
 
 # eval on 3 ranks: each renders a third of the views and writes them; the report and the
