@@ -40,7 +40,6 @@ sizes = sorted({int(r['target']) for r in rows if r['target'] not in ('', '0')})
 print('| scene | iters | float tiny | float small | ' +
       ' | '.join('%d B: default (preset) | tiny | small' % s for s in sizes) + ' |')
 print('|' + '---|' * (4 + 3 * len(sizes)))
-worst = None
 for (scene, iters), rs in by.items():
     get = lambda run, t='0': next((r for r in rs if r['run'] == run and r['target'] == t), None)
     cells = [scene, iters, f(get('train-tiny')), f(get('train-small'))]
@@ -50,6 +49,46 @@ for (scene, iters), rs in by.items():
         cells.append(f(get('encode-tiny', str(s))) if not (d and d['preset'] == 'tiny') else 'as default')
         cells.append(f(get('encode-small', str(s))) if not (d and d['preset'] == 'small') else 'as default')
     print('| ' + ' | '.join(cells) + ' |')
+# The three bounds, per scene, length and size: the default within 0.3 dB of the better of
+# --preset tiny and small at the size; the default within 3 dB of the float tiny model; the
+# float small model within 3 dB of float tiny. A file written short of its size counts (it
+# is what the encoder delivered).
+def psnr(r):
+    ok = r and r['status'] in ('ok', 'missed-size') and r['test_psnr']
+    return float(r['test_psnr']) if ok else None
+fmt = lambda v: '–' if v is None else '%+.2f dB' % v
+print()
+print('| scene | iters | size | default − better preset | default − float tiny | '
+      'float small − float tiny | bounds |')
+print('|---|---|---|---|---|---|---|')
+worst, slowest = None, None
+for (scene, iters), rs in by.items():
+    get = lambda run, t='0': next((r for r in rs if r['run'] == run and r['target'] == t), None)
+    ft, fs = psnr(get('train-tiny')), psnr(get('train-small'))
+    secs = sum(int(r['seconds'] or 0) for r in rs)
+    if slowest is None or secs > slowest[1]:
+        slowest = ('%s at %s iterations' % (scene, iters), secs)
+    for size in sizes:
+        d = get('encode-default', str(size))
+        dp = psnr(d)
+        pre = [dp if d and d['preset'] == p else psnr(get('encode-' + p, str(size)))
+               for p in ('tiny', 'small')]
+        a = dp - max(pre) if dp is not None and None not in pre else None
+        b = dp - ft if dp is not None and ft is not None else None
+        c = fs - ft if fs is not None and ft is not None else None
+        broken = [n for n, v, lim in (('preset', a, -0.3), ('float tiny', b, -3),
+                                      ('float small', c, -3)) if v is not None and v < lim - 1e-9]
+        verdict = ('breaks: ' + ', '.join(broken)) if broken else \
+            'hold' if None not in (a, b, c) else 'not all measured'
+        print('| %s | %s | %d | %s | %s | %s | %s |' % (scene, iters, size, fmt(a), fmt(b),
+                                                       fmt(c), verdict))
+        if a is not None and (worst is None or a < worst[1]):
+            worst = ('%s at %s iterations, %d B' % (scene, iters, size), a)
+print()
+if worst:
+    print('worst against the preset bound: %s (%+.2f dB)' % worst)
+if slowest:
+    print('slowest: %s (%d s over its runs)' % slowest)
 EOF
   exit 0
 fi
