@@ -45,23 +45,26 @@ static void xsum_add(void *in, void *inout, int *len, MPI_Datatype *type)
 
 /* Naming a rank that died or hangs. A rank that never reaches a sum leaves the others
  * waiting in it, and the launcher ends the job without saying more than which process it
- * lost. So the sum is nonblocking, and its wait watches the clock and the stop signal:
- *  - every rank other than 0 tells rank 0 that it reached the sum (an arrival), and rank 0
- *    tells rank 1, so that a rank that waits longer than the limit (CNERF_MPI_WAIT seconds,
- *    WAIT_LIMIT_S by default) names the ranks that never arrived and ends the job;
+ * lost. So the sum is nonblocking, and its wait watches the clock and the stop signal, and
+ * answers a watcher's ping (rank 0 watches ranks 1..size-1, rank 1 watches rank 0):
  *  - when the launcher ends a job because a rank died, mpirun and Slurm send the others a
  *    stop signal: a rank that takes one while it waits answers that it is alive (to rank 0;
  *    rank 0 to rank 1), and WAIT_NAME_S later the waiting ranks 0 and 1 name the ranks they
- *    have heard nothing from (which covers a rank that died inside the sum, after its
- *    arrival).
- * Rank 0 watches ranks 1..size-1, rank 1 watches rank 0. */
+ *    have heard nothing from;
+ *  - a rank that waits longer than the limit (CNERF_MPI_WAIT seconds, WAIT_LIMIT_S by
+ *    default) pings the ranks it watches; any rank waiting in a sum answers, so one that does
+ *    not within PING_S has died or hangs, and the watcher names it and ends the job (a rank
+ *    whose watched ranks all answer leaves that to rank 0 for LEAVE_S more, then ends it). */
 #define WAIT_NAME_S 0.5
 #define WAIT_LIMIT_S 600.0
-#define TAG_ARRIVE 0
+#define PING_S 1.0
+#define LEAVE_S 10.0
 #define TAG_ALIVE 1
+#define TAG_PING 2
+#define TAG_PONG 3
 static MPI_Comm watch_comm;
-static MPI_Request *arrive_req, *alive_req, alive_sent = MPI_REQUEST_NULL;
-static long arrive_sent, *arrive_got, alive_msg, *alive_got;
+static MPI_Request *alive_req, *pong_req, alive_sent = MPI_REQUEST_NULL;
+static long alive_msg, *alive_got, ping_msg, *pong_got;
 static double wait_limit = WAIT_LIMIT_S;
 static const char *cmd_name = "cnerf";
 
@@ -100,6 +103,21 @@ static int name_missing(MPI_Request *req, long seq, double waited, const char *w
     return n;
 }
 
+/* A watcher's ping at the limit (below): answered while this rank waits in a sum. */
+static void answer_pings(void)
+{
+    for (;;) {
+        int ping = 0;
+        MPI_Status st;
+        MPI_Iprobe(MPI_ANY_SOURCE, TAG_PING, watch_comm, &ping, &st);
+        if (!ping)
+            return;
+        long v;
+        MPI_Recv(&v, 1, MPI_LONG, st.MPI_SOURCE, TAG_PING, watch_comm, MPI_STATUS_IGNORE);
+        MPI_Send(&v, 1, MPI_LONG, st.MPI_SOURCE, TAG_PONG, watch_comm);
+    }
+}
+
 static int mpi_allsum(void *ctx, cn_xsum *v, size_t n)
 {
     (void)ctx;
@@ -108,13 +126,9 @@ static int mpi_allsum(void *ctx, cn_xsum *v, size_t n)
     sum_bytes += 16.0 * (double)n;
     int lo, hi, by;
     watched(share.rank, share.size, &lo, &hi, &by);
-    for (int r = lo; r < hi; r++)
-        MPI_Irecv(&arrive_got[r], 1, MPI_LONG, r, TAG_ARRIVE, watch_comm, &arrive_req[r]);
-    MPI_Request sent;
-    arrive_sent = seq;
-    MPI_Isend(&arrive_sent, 1, MPI_LONG, by, TAG_ARRIVE, watch_comm, &sent);
     int named = 0;
     double signal_at = -1, limit_at = -1;
+    int limit_named = 0;
     for (size_t done = 0; done < n;) {
         const size_t k = n - done < (1u << 30) ? n - done : (1u << 30);
         MPI_Request req;
@@ -141,21 +155,39 @@ static int mpi_allsum(void *ctx, cn_xsum *v, size_t n)
             if (!named && signal_at >= 0 && now - signal_at >= WAIT_NAME_S)
                 named = name_missing(alive_req, seq, now - t0, "not answered the stop signal",
                                      "the job is being stopped");
-            if (now - t0 > wait_limit && limit_at < 0)
-                limit_at = now; /* a last 0.1 s of polls: this rank may have been stopped */
-            if (limit_at >= 0 && now - limit_at > 0.1) {
-                if (!name_missing(arrive_req, seq, now - t0, "not reached it",
-                                  "ending every rank"))
-                    fprintf(stderr, "cnerf %s: rank %d has waited %.1f s in the ranks' sum %ld, "
-                            "which every rank reached: one has died or hangs in it; ending "
-                            "every rank\n", cmd_name, share.rank, now - t0, seq);
-                MPI_Abort(MPI_COMM_WORLD, 1);
+            answer_pings();
+            if (now - t0 > wait_limit && limit_at < 0) {
+                /* PING_S more of polls (this rank may itself have been stopped), pinging the
+                 * ranks it watches */
+                limit_at = now;
+                ping_msg = seq;
+                for (int r = lo; r < hi; r++) {
+                    MPI_Request ping;
+                    MPI_Isend(&ping_msg, 1, MPI_LONG, r, TAG_PING, watch_comm, &ping);
+                    MPI_Request_free(&ping);
+                    MPI_Irecv(&pong_got[r], 1, MPI_LONG, r, TAG_PONG, watch_comm, &pong_req[r]);
+                }
             }
+            /* Then the watcher names the ranks and ends the job; a rank whose watched ranks
+             * all answer leaves that to rank 0 (which watches every rank) for LEAVE_S more. */
+            int end = 0, fallback = 0;
+            if (limit_at >= 0 && now - limit_at > PING_S && !limit_named) {
+                limit_named = 1;
+                end = name_missing(pong_req, seq, now - t0, "not answered a ping in 1 s",
+                                   "ending every rank");
+                fallback = !end && share.rank == 0;
+            }
+            if (limit_at >= 0 && now - limit_at > PING_S + LEAVE_S)
+                fallback = 1;
+            if (fallback)
+                fprintf(stderr, "cnerf %s: rank %d has waited %.1f s in the ranks' sum %ld, "
+                        "which the ranks it watches reached and answer in: another has died "
+                        "or hangs; ending every rank\n", cmd_name, share.rank, now - t0, seq);
+            if (end || fallback)
+                MPI_Abort(MPI_COMM_WORLD, 1);
         }
         done += k;
     }
-    MPI_Waitall(hi - lo, arrive_req + lo, MPI_STATUSES_IGNORE);
-    MPI_Wait(&sent, MPI_STATUS_IGNORE);
     sum_secs += MPI_Wtime() - t0;
     return 0;
 }
@@ -199,18 +231,18 @@ int cli_mpi_init(int *argc, char ***argv)
     MPI_Op_create(xsum_add, 1, &xsum_op);
     MPI_Comm_dup(MPI_COMM_WORLD, &end_comm);
     MPI_Comm_dup(MPI_COMM_WORLD, &watch_comm);
-    arrive_req = malloc(sizeof *arrive_req * (size_t)size);
     alive_req = malloc(sizeof *alive_req * (size_t)size);
-    arrive_got = malloc(sizeof *arrive_got * (size_t)size);
+    pong_req = malloc(sizeof *pong_req * (size_t)size);
+    pong_got = malloc(sizeof *pong_got * (size_t)size);
     alive_got = malloc(sizeof *alive_got * (size_t)size);
-    if (!arrive_req || !alive_req || !arrive_got || !alive_got) {
+    if (!alive_req || !alive_got || !pong_req || !pong_got) {
         fprintf(stderr, "cnerf: out of memory (rank %d of %d)\n", rank, size);
         return -1;
     }
     int lo, hi, by;
     watched(rank, size, &lo, &hi, &by);
     for (int r = 0; r < size; r++) {
-        arrive_req[r] = alive_req[r] = MPI_REQUEST_NULL;
+        alive_req[r] = pong_req[r] = MPI_REQUEST_NULL;
         if (r >= lo && r < hi) /* open for the whole run: an answer may come at any sum */
             MPI_Irecv(&alive_got[r], 1, MPI_LONG, r, TAG_ALIVE, watch_comm, &alive_req[r]);
     }
@@ -290,9 +322,9 @@ int cli_mpi_end(int rc)
                 }
             }
         MPI_Comm_free(&watch_comm);
-        free(arrive_req);
         free(alive_req);
-        free(arrive_got);
+        free(pong_req);
+        free(pong_got);
         free(alive_got);
         const char *stats = getenv("CNERF_MPI_STATS");
         if (share.rank == 0 && stats && !strcmp(stats, "1"))
