@@ -63,37 +63,11 @@ static void eval_line(const cn_view *v, const double r[3])
     fflush(stdout);
 }
 
-/* Over several ranks (cli_mpi_share): rank k renders the k-th, (k+N)-th, ... of the views,
- * and the scores are summed over the ranks (each view's in its own slots, with the ranks'
- * failures), so that every rank has every view's, and the means are taken in the views'
- * order, as one process takes them. Returns the number of views, or -1 (a rank's message
- * printed by that rank). */
-static int eval_shared(const cn_share *sh, const cn_model *m, const cn_view *views, int n,
-                       int ndc, long every, const char *outdir, float t_stop, double *r)
-{
-    const int count = (int)((n + every - 1) / every);
-    cn_xsum *x = calloc(3 * (size_t)count + 1, sizeof *x);
-    if (!x)
-        return cli_fail("eval", "out of memory (rank %d of %d)", sh->rank, sh->size), -1;
-    int failed = 0;
-    for (int j = sh->rank; j < count && !failed; j += sh->size) {
-        double one[3];
-        failed = eval_view(m, &views[(long)j * every], ndc, outdir, t_stop, one) != 0;
-        for (int c = 0; c < 3 && !failed; c++)
-            x[3 * j + c] = cn_xsum_of(one[c]);
-    }
-    x[3 * (size_t)count] = cn_xsum_of(failed);
-    if (sh->allsum(sh->ctx, x, 3 * (size_t)count + 1)) {
-        free(x);
-        return cli_fail("eval", "the ranks' sum failed"), -1;
-    }
-    failed = cn_xsum_value(x[3 * (size_t)count]) != 0;
-    for (size_t i = 0; i < 3 * (size_t)count; i++)
-        r[i] = cn_xsum_value(x[i]);
-    free(x);
-    return failed ? -1 : count;
-}
-
+/* Renders every `every`-th view: one process all of them, printing each as it goes; over
+ * several ranks (cli_mpi_share) rank k the k-th, (k+N)-th, ..., whose scores are then summed
+ * over the ranks (each view's in its own slots, with the ranks' failures) so that every rank
+ * has every view's. The means are taken in the views' order either way, so the report is
+ * the same. Returns the number of views, or -1 (the message printed by the failing rank). */
 int cli_eval_views(const cn_model *m, const cn_view *views, int n, int ndc, long every,
                    const char *outdir, int quiet, float t_stop, double *mean_psnr,
                    double *mean_ssim, double *secs)
@@ -105,37 +79,45 @@ int cli_eval_views(const cn_model *m, const cn_view *views, int n, int ndc, long
         if (cli_check_output("eval", path, NULL, 0, NULL))
             return -1;
     }
-    double sp = 0, ss = 0, st = 0;
-    int count = 0;
     const cn_share *sh = cli_mpi_share();
-    if (sh && n > 0) {
-        double *r = malloc(sizeof *r * 3 * (size_t)((n + every - 1) / every));
-        count = r ? eval_shared(sh, m, views, n, ndc, every, outdir, t_stop, r) : -1;
-        if (!r)
-            cli_fail("eval", "out of memory (rank %d of %d)", sh->rank, sh->size);
-        for (int j = 0; j < count; j++) {
-            if (!quiet)
-                eval_line(&views[(long)j * every], &r[3 * j]);
-            sp += r[3 * j];
-            ss += r[3 * j + 1];
-            st += r[3 * j + 2];
-        }
-        free(r);
-        if (count < 0)
-            return -1;
-    } else {
-        for (int i = 0; i < n; i += (int)every) {
-            double r[3];
-            if (eval_view(m, &views[i], ndc, outdir, t_stop, r))
-                return -1;
-            if (!quiet)
-                eval_line(&views[i], r);
-            sp += r[0];
-            ss += r[1];
-            st += r[2];
-            count++;
-        }
+    const int rank = sh ? sh->rank : 0, ranks = sh ? sh->size : 1;
+    const int count = n > 0 ? (int)((n + every - 1) / every) : 0;
+    double *r = calloc(3 * (size_t)count + 1, sizeof *r); /* psnr, ssim, seconds; failed */
+    if (!r)
+        return cli_fail("eval", "out of memory (rank %d of %d)", rank, ranks), -1;
+    int failed = 0;
+    for (int j = rank; j < count && !failed; j += ranks) {
+        failed = eval_view(m, &views[(long)j * every], ndc, outdir, t_stop, &r[3 * j]) != 0;
+        if (!failed && !sh && !quiet)
+            eval_line(&views[(long)j * every], &r[3 * j]);
     }
+    if (sh) {
+        const size_t nx = 3 * (size_t)count + 1;
+        cn_xsum *x = malloc(sizeof *x * nx);
+        r[nx - 1] = failed;
+        for (size_t i = 0; x && i < nx; i++)
+            x[i] = cn_xsum_of(r[i]);
+        if (!x || sh->allsum(sh->ctx, x, nx)) {
+            free(x);
+            free(r);
+            return cli_fail("eval", "the ranks' sum of the scores failed"), -1;
+        }
+        for (size_t i = 0; i < nx; i++)
+            r[i] = cn_xsum_value(x[i]);
+        free(x);
+        failed = r[nx - 1] != 0;
+    }
+    double sp = 0, ss = 0, st = 0;
+    for (int j = 0; j < count && !failed; j++) {
+        if (sh && !quiet)
+            eval_line(&views[(long)j * every], &r[3 * j]);
+        sp += r[3 * j];
+        ss += r[3 * j + 1];
+        st += r[3 * j + 2];
+    }
+    free(r);
+    if (failed)
+        return -1;
     *mean_psnr = count ? sp / count : 0;
     *mean_ssim = count ? ss / count : 0;
     *secs = count ? st / count : 0;

@@ -184,4 +184,10 @@ echo "eval: 1 process and 3 ranks: $(strip ev3.log | tail -n 1), $(ls ev3 | wc -
 # Commands that run as one process refuse several ranks.
 if "${mpirun[@]}" -np 2 "$mcnerf" info one.cnrf > info.log 2>&1; then fail "info ran on 2 ranks"; fi
 grep -q "cnerf info: runs as one process" info.log || fail "info on 2 ranks: $(cat info.log)"
+# A wait limit that is not a number of seconds is refused before any work.
+if "${mpirun[@]}" -x CNERF_MPI_WAIT=soon -np 2 "$mcnerf" "${train[@]}" -o never.ckpt --iters 2 \
+  > wait.log 2>&1; then fail "CNERF_MPI_WAIT=soon was taken"; fi
+grep -q "cnerf: CNERF_MPI_WAIT=soon: give seconds, more than 0" wait.log ||
+  fail "CNERF_MPI_WAIT=soon: $(cat wait.log)"
+[ ! -e never.ckpt ] || fail "CNERF_MPI_WAIT=soon: a checkpoint was written"
 echo "OK"
