@@ -6,8 +6,11 @@
 #   experiments/scene_suite.sh OUT SCENES.tsv [--iters "2000 6000"] [--sizes "15000 30000 60000"]
 #                              [--only NAME] [--max-size 100] [--threads 2] [--seed 1]
 #   experiments/scene_suite.sh OUT --table      the markdown table of OUT/suite.csv
+#   experiments/scene_suite.sh ROWS.csv --table the same of a rows file
+# experiments/data/scene_suite.csv holds the rows docs/results.md reports; copied to
+# OUT/suite.csv, it makes a run go on from them (rows already there are not run again).
 # CNERF=path runs that binary instead of ./build/cnerf (a copy keeps a long run apart from
-# rebuilds of the tree).
+# rebuilds of the tree; SUITE_BUILD=COMMIT names the commit it was built from in the rows).
 #
 # SCENES.tsv: one scene a line, tab-separated: name, kind, the folder holding it (a layout
 # cnerf reads), then anything (its source: repository, commit, path; docs/results.md lists
@@ -17,12 +20,15 @@
 # For each scene and iteration count: the float models of presets tiny and small (cnerf
 # train), then at each size the default encode (cnerf encode --size, which picks its preset)
 # and the encode with the other preset; every one scored on the scene's test views by cnerf
-# eval. Rows: scene,iters,run,preset,target,bytes,test_psnr,val_psnr,fit_psnr,seconds,status.
+# eval. Rows: scene,iters,run,preset,target,bytes,test_psnr,val_psnr,fit_psnr,seconds,status,build
+# (build: the commit the binary was built from, SUITE_BUILD or the tree's HEAD).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:?usage: scene_suite.sh OUT SCENES.tsv [options] | OUT --table}
 shift
 csv=$out/suite.csv
+# --table also reads a rows file itself (experiments/data/scene_suite.csv, the rows measured so far)
+[ "${1:-}" = "--table" ] && [ -f "$out" ] && csv=$out
 if [ "${1:-}" = "--table" ]; then
   [ -s "$csv" ] || { echo "scene_suite: no rows in $csv" >&2; exit 1; }
   python3 - "$csv" <<'EOF'
@@ -108,9 +114,10 @@ while [ $# -gt 0 ]; do
 done
 [ -f "$scenes" ] || { echo "scene_suite: $scenes: no such file" >&2; exit 1; }
 cnerf=${CNERF:-./build/cnerf}
+build=${SUITE_BUILD:-$(git rev-parse --short HEAD 2>/dev/null || echo unknown)}
 [ -x "$cnerf" ] || { cmake -S . -B build -DCMAKE_BUILD_TYPE=RelWithDebInfo && cmake --build build -j2; }
 mkdir -p "$out/log" "$out/files"
-[ -s "$csv" ] || echo "scene,iters,run,preset,target,bytes,test_psnr,val_psnr,fit_psnr,seconds,status" > "$csv"
+[ -s "$csv" ] || echo "scene,iters,run,preset,target,bytes,test_psnr,val_psnr,fit_psnr,seconds,status,build" > "$csv"
 done_row() { grep -q "^$1,$2,$3,[^,]*,$4," "$csv"; }
 common=(--max-size "$max_size" --threads "$threads" --seed "$seed")
 
@@ -152,7 +159,7 @@ run() {
     vals=$(val_of "$log")
     [ -n "$vals" ] || vals=","
   fi
-  echo "$scene,$iters,$runname,$chosen,$target,$bytes,$psnr,$vals,$secs,$status" >> "$csv"
+  echo "$scene,$iters,$runname,$chosen,$target,$bytes,$psnr,$vals,$secs,$status,$build" >> "$csv"
 }
 
 while IFS=$'\t' read -r name kind dir _rest; do

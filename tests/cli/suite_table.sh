@@ -29,4 +29,7 @@ line() { grep "^| $1 | 2000 | 30000 |" <<<"$out" || fail "no bounds row for $1: 
 grep -qx "worst against the preset bound: close at 2000 iterations, 30000 B (-0.40 dB)" <<<"$out" ||
   fail "the worst scene: $out"
 grep -qx "slowest: close at 2000 iterations (1000 s over its runs)" <<<"$out" || fail "the slowest: $out"
+# The rows file itself gives the same table as its run folder.
+[ "$("$src/experiments/scene_suite.sh" "$work/suite.csv" --table)" = "$out" ] ||
+  fail "the table of $work/suite.csv differs from the folder's"
 echo "suite_table: ok"
