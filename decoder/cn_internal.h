@@ -12,6 +12,7 @@
 
 #include "../common/cn_reader.h"
 #include "../common/cn_grid_model.h"
+#include "cn_kernels.h"
 
 /* ---- the decoder's state: cnerf_decoder's opaque part ---- */
 
@@ -51,6 +52,10 @@ typedef struct cn_state {
     uint8_t a_shift[CNERF_MAX_LAYERS];
     uint8_t b_shift[CNERF_MAX_LAYERS]; /* the same for the term b sum x_q (|sum| < 2^26) */
     uint8_t shift_wide[CNERF_MAX_LAYERS];
+    /* 1: every layer's latents stored as int16, int8 range or not (cnerf_open given
+     * cnerf_workspace_size_fast bytes, on kernels whose int8 sums cost more); else int8
+     * where the range fits (cn_latents_s8). Packed images: 0. */
+    uint8_t k16;
     uint8_t layout;  /* the chosen kernels' packed layout (cn_dot_variant.layout) */
     uint8_t layout8; /* and the one of their int8 sums (cn_dot_variant.layout8) */
     /* The kernels cnerf_open chose for this CPU (docs/decoder.md, Kernels): the sums, and,
@@ -90,9 +95,17 @@ static inline const cn_state *cn_cstate_of(const cnerf_decoder *dec)
 
 struct cn_dot_variant;
 /* cnerf_open_scene with the kernels v (cn_kernels.h) instead of this CPU's fastest: their
- * costs decide which layers are stored sparse. Tests open a stream with each form. */
+ * costs decide which layers are stored sparse, and, when `fast` is 1, whether latents of
+ * int8 range are kept as int16 in a workspace of cnerf_workspace_size_fast bytes. Tests
+ * open a stream with each form. */
 cnerf_status cn_open_with(cnerf_decoder *dec, const uint8_t *buf, size_t len, uint32_t scene,
-                          void *ws, size_t ws_size, const struct cn_dot_variant *v);
+                          void *ws, size_t ws_size, const struct cn_dot_variant *v, int fast);
+
+/* 1 when layer L's latents are stored as int8 in the decoder of state ds. */
+static inline int cn_layer_s8(const cn_state *ds, const cnerf_layer_info *L)
+{
+    return !ds->k16 && cn_latents_s8(L->kmin, L->kmax);
+}
 
 /* cnerf_open_packed for the kernels v: tests open images packed for any device with them
  * (cn_dot_variant_target), and read them back through cnerf_latent. */

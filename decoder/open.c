@@ -49,8 +49,16 @@ static size_t grid_bytes(const cnerf_info *info)
 /* Inputs of a layer padded to whole pairs (the kernels take two at a time). */
 static uint32_t in_pad(const cnerf_layer_info *L) { return ((uint32_t)L->n_in + 1u) & ~1u; }
 
-/* Bytes of one stored latent of layer L: 1 when its range fits int8, else 2. */
-static unsigned k_bytes(const cnerf_layer_info *L) { return cn_latents_s8(L->kmin, L->kmax) ? 1u : 2u; }
+/* Bytes of one stored latent of layer L: 1 when its range fits int8 and the latents are not
+ * all kept as int16 (k16: cnerf_open given cnerf_workspace_size_fast bytes), else 2. */
+static unsigned k_bytes_as(const cnerf_layer_info *L, int k16)
+{
+    return !k16 && cn_latents_s8(L->kmin, L->kmax) ? 1u : 2u;
+}
+static unsigned k_bytes(const cn_state *ds, const cnerf_layer_info *L)
+{
+    return k_bytes_as(L, ds->k16);
+}
 
 /* Element i of a matrix of int8 (es 1) or int16 (es 2) values. */
 static int32_t m_get(const void *m, unsigned es, size_t i)
@@ -65,7 +73,8 @@ static void m_set(void *m, unsigned es, size_t i, int32_t v)
         ((int16_t *)m)[i] = (int16_t)v;
 }
 
-size_t cnerf_workspace_size(const cnerf_info *info)
+/* The workspace with the latents of int8 range stored as int8 (k16 0) or as int16 (1). */
+static size_t ws_bytes(const cnerf_info *info, int k16)
 {
     if (!info || info->n_layers > CNERF_MAX_LAYERS)
         return 0;
@@ -75,7 +84,7 @@ size_t cnerf_workspace_size(const cnerf_info *info)
     for (uint32_t l = 0; l < info->n_layers; l++) {
         const cnerf_layer_info *L = &info->layer[l];
         const cnerf_shift_info *S = &info->shift[l];
-        total += align8((size_t)in_pad(L) * L->n_out * k_bytes(L)); /* packed latents */
+        total += align8((size_t)in_pad(L) * L->n_out * k_bytes_as(L, k16)); /* packed latents */
         if (cn_has_shift(S))
             total += align8((size_t)in_pad(L) * L->n_out * 2u); /* packed int16 shifts */
         total += 2u * align8((size_t)L->n_out * 4u);          /* bias mantissas, bias_q16 */
@@ -92,6 +101,10 @@ size_t cnerf_workspace_size(const cnerf_info *info)
         total += grid_bytes(info);
     return total + align8(scratch);
 }
+
+size_t cnerf_workspace_size(const cnerf_info *info) { return ws_bytes(info, 0); }
+
+size_t cnerf_workspace_size_fast(const cnerf_info *info) { return ws_bytes(info, 1); }
 
 /* ---- a layer's numbers: bias mantissas, latents and shifts ---- */
 
@@ -174,7 +187,7 @@ static uint32_t layout_of(const cnerf_decoder *dec, uint32_t l, int shift)
     const int wide = shift ? ds->shift_wide[l] != 0 : ds->form[l] == CN_FORM_WIDE;
     if (wide)
         return CN_PAIRS;
-    return !shift && k_bytes(&dec->info.layer[l]) == 1u ? ds->layout8 : ds->layout;
+    return !shift && k_bytes(ds, &dec->info.layer[l]) == 1u ? ds->layout8 : ds->layout;
 }
 
 /* Sum |v| of row o of a padded matrix of es-byte elements (<= 1124 * 32767 < 2^26). */
@@ -192,11 +205,11 @@ static uint32_t row_abs_sum(const void *m, unsigned es, uint32_t o, uint32_t pad
  * not NULL) first, in increasing output order; rows[] gets each stored row's output index,
  * the all-zero rows last. Puts the largest sum |k| of a row into *maxsum and the largest
  * sum |s| into *maxshift. Returns the live rows. */
-static uint16_t order_rows(const cnerf_layer_info *L, const void *lat, const int16_t *sh,
+static uint16_t order_rows(const cnerf_layer_info *L, const void *lat, unsigned es,
+                           const int16_t *sh,
                            uint16_t *rows, uint32_t *maxsum, uint32_t *maxshift)
 {
     const uint32_t pad = in_pad(L), n_out = L->n_out;
-    const unsigned es = k_bytes(L);
     uint32_t live = 0, dead = n_out;
     *maxsum = *maxshift = 0;
     for (uint32_t o = 0; o < n_out; o++) {
@@ -438,7 +451,7 @@ uint8_t *cn_lay_out(cnerf_decoder *dec, uint8_t *w)
     for (uint32_t l = 0; l < info->n_layers; l++) {
         const cnerf_layer_info *L = &info->layer[l];
         ds->latent[l] = w;
-        w += align8((size_t)in_pad(L) * L->n_out * k_bytes(L));
+        w += align8((size_t)in_pad(L) * L->n_out * k_bytes(ds, L));
         if (cn_has_shift(&info->shift[l])) {
             ds->shift[l] = (const int16_t *)(void *)w;
             w += align8((size_t)in_pad(L) * L->n_out * 2u);
@@ -473,7 +486,7 @@ static cnerf_status open_layer(cnerf_decoder *dec, const uint8_t *buf, uint32_t 
     const cnerf_layer_info *L = &dec->info.layer[l];
     int32_t *bias = (int32_t *)(uintptr_t)ds->bias[l];
     void *lat = (void *)(uintptr_t)ds->latent[l];
-    const unsigned es = k_bytes(L);
+    const unsigned es = k_bytes(ds, L);
     uint16_t *rows = (uint16_t *)(uintptr_t)ds->rows[l];
     int16_t *sh = (int16_t *)(uintptr_t)ds->shift[l]; /* NULL: no shift */
     int16_t *tmp = (int16_t *)(void *)scratch;
@@ -489,7 +502,7 @@ static cnerf_status open_layer(cnerf_decoder *dec, const uint8_t *buf, uint32_t 
     if (sh)
         order_columns(dec, l, sh, 2u, tmp);
     uint32_t maxsum, maxshift;
-    const uint16_t live = order_rows(L, lat, sh, rows, &maxsum, &maxshift);
+    const uint16_t live = order_rows(L, lat, es, sh, rows, &maxsum, &maxshift);
     ds->n_live[l] = live;
     prove_layer(dec, l, maxsum, maxshift);
     /* a layer with a shift, or with int64 sums, stays packed */
@@ -509,7 +522,7 @@ static cnerf_status open_layer(cnerf_decoder *dec, const uint8_t *buf, uint32_t 
 }
 
 cnerf_status cn_open_with(cnerf_decoder *dec, const uint8_t *buf, size_t len, uint32_t scene,
-                          void *ws, size_t ws_size, const cn_dot_variant *v)
+                          void *ws, size_t ws_size, const cn_dot_variant *v, int fast)
 {
     if (!dec)
         return CNERF_E_NULL;
@@ -526,6 +539,10 @@ cnerf_status cn_open_with(cnerf_decoder *dec, const uint8_t *buf, size_t len, ui
     if (st == CNERF_OK && ws_size < cnerf_workspace_size(info))
         st = CNERF_E_WS_SMALL;
     if (st == CNERF_OK) {
+        /* Latents of int8 range kept as int16 where the kernels sum those faster and the
+         * caller gave the room: the same sums, so the same pixels. */
+        ds->k16 = (uint8_t)(fast && v->mac8_cost > v->mac_cost &&
+                            ws_size >= cnerf_workspace_size_fast(info));
         ds->layout = v->layout;
         ds->layout8 = v->layout8;
         /* the layers' arrays, the grid, and open's scratch last */
@@ -558,7 +575,7 @@ cnerf_status cnerf_open_scene(cnerf_decoder *dec, const uint8_t *buf, size_t len
                               uint32_t scene, void *ws, size_t ws_size)
 {
     const cn_dot_variant v = cn_dot_select();
-    return cn_open_with(dec, buf, len, scene, ws, ws_size, &v);
+    return cn_open_with(dec, buf, len, scene, ws, ws_size, &v, 1);
 }
 
 cnerf_status cnerf_open(cnerf_decoder *dec, const uint8_t *buf, size_t len, void *ws,
@@ -592,7 +609,7 @@ static cnerf_status packed_layer(cnerf_decoder *dec, uint32_t l, uint32_t live, 
     cn_state *ds = cn_state_of(dec);
     const cnerf_layer_info *L = &dec->info.layer[l];
     const uint32_t n_out = L->n_out, pad = in_pad(L), pairs = pad / 2u;
-    const unsigned es = k_bytes(L);
+    const unsigned es = k_bytes(ds, L);
     if (live > n_out || form > CN_FORM_SPARSE || shift_wide > 1u ||
         (shift_wide && !ds->shift[l]) || (form == CN_FORM_SPARSE && ds->shift[l]))
         return CNERF_E_IMAGE;
@@ -776,7 +793,7 @@ static int32_t packed_at(const cnerf_decoder *dec, uint32_t l, const void *m, ui
         return 0;
     }
     const int shift = m != ds->latent[l];
-    return m_get(m, shift ? 2u : k_bytes(L), cn_packed_index(j, c, ds->n_live[l], ds->n_pairs[l],
+    return m_get(m, shift ? 2u : k_bytes(ds, L), cn_packed_index(j, c, ds->n_live[l], ds->n_pairs[l],
                                                              layout_of(dec, l, shift)));
 }
 

@@ -223,7 +223,7 @@ static uint32_t linear(const cnerf_decoder *dec, unsigned l, const int32_t *x, i
     const int final = cn_layer_final(L);
     const int32_t *bq = ds->bias_q16[l];
     const void *k = ds->latent[l];
-    const int k8 = cn_latents_s8(L->kmin, L->kmax); /* int8 latents, else int16 */
+    const int k8 = cn_layer_s8(ds, L); /* int8 latents, else int16 */
     const unsigned form = ds->form[l];
     if (work) { /* the work done, for cost models: only when the caller asked for it */
         work->layer_values += n_in + n_out;

@@ -22,7 +22,7 @@ cnerf_status cnerf_open_as(cnerf_decoder *dec, const uint8_t *buf, size_t len, u
             cn_memzero(dec, sizeof *dec);
         return CNERF_E_NULL;
     }
-    return cn_open_with(dec, buf, len, scene, ws, ws_size, &v);
+    return cn_open_with(dec, buf, len, scene, ws, ws_size, &v, 1);
 }
 
 size_t cnerf_grid_workspace_size(const cnerf_info *info)
@@ -89,7 +89,7 @@ cnerf_status cnerf_pack(cnerf_decoder *dec, const uint8_t *buf, size_t len, uint
     }
     if (ws && !((uintptr_t)ws & (CNERF_WS_ALIGN - 1u)))
         cn_memzero(ws, ws_size); /* the places' padding too: the same image every time */
-    const cnerf_status st = cn_open_with(dec, buf, len, scene, ws, ws_size, &v);
+    const cnerf_status st = cn_open_with(dec, buf, len, scene, ws, ws_size, &v, 0);
     if (st != CNERF_OK)
         return st;
     const cnerf_info *info = &dec->info;

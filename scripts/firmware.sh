@@ -45,6 +45,9 @@
 #                  each tile's stream is embedded as its packed image for that set (cnerf
 #                  pack), which the firmware opens in place in flash (cnerf_open_packed), with
 #                  no workspace in RAM; the MD5s must be the stream's
+#   FW_FAST        1: the workspace sized by cnerf_workspace_size_fast, so that the decoder
+#                  keeps every latent as int16 (faster int8-range layers on the DSP cores,
+#                  more RAM); streams only, not with FW_PACK
 #   FW_LEVEL       a level (1..3): the decoder built with CNERF_MAX_LEVEL, its workspace and
 #                  scratch the level's (CNERF_LEVEL_WORKSPACE, CNERF_LEVEL_SCRATCH), whatever
 #                  the streams need; a stream above the level fails to open
@@ -158,6 +161,13 @@ printf '%s\n' "$job" | sed '/^$/d' > "$jobs.new"
 if cmp -s "$jobs.new" "$jobs"; then rm "$jobs.new"; else mv "$jobs.new" "$jobs"; fi
 
 # ---- the firmware ----
+case ${FW_FAST:-0} in
+  0) fw_fast=OFF ;;
+  1) fw_fast=ON ;;
+  *) echo "firmware.sh: FW_FAST must be 0 or 1, not '$FW_FAST'" >&2; exit 2 ;;
+esac
+[ "$fw_fast" = OFF ] || [ -z "${FW_PACK:-}" ] ||
+  { echo "firmware.sh: FW_FAST is for streams decoded into RAM, not with FW_PACK" >&2; exit 2; }
 case ${FW_WORK:-1} in
   0) fw_work=OFF fw_work_first=OFF ;;
   first) fw_work=ON fw_work_first=ON ;;
@@ -168,7 +178,7 @@ if ! { cmake -S . -B "$bdir" -DCMAKE_TOOLCHAIN_FILE="$toolchain" -DCNERF_FW_BOAR
          -DCMAKE_BUILD_TYPE="$btype" -DCNERF_FW_JOBS="$jobs" -DCNERF_FW_STACK="$stack" \
          -DCNERF_AMALGAMATED="${FW_AMALGAMATED:-0}" -DCNERF_FW_WORK="$fw_work" \
          -DCNERF_FW_WORK_FIRST="$fw_work_first" -DCNERF_FW_PACK="${FW_PACK:-}" \
-         -DCNERF_MAX_LEVEL="${FW_LEVEL:-0}" &&
+         -DCNERF_MAX_LEVEL="${FW_LEVEL:-0}" -DCNERF_FW_FAST="$fw_fast" &&
        cmake --build "$bdir" -j1 --target cnerf_fw; } > "$log" 2>&1; then
   cat "$log" >&2
   echo "firmware.sh: the firmware build failed (log: $log)" >&2

@@ -62,7 +62,8 @@ with tempfile.TemporaryDirectory() as tmp:
         pick = [l for l in lines if job["camname"] == "-" or l.split()[-1] == job["camname"]]
         with open(cam, "w") as f:
             f.write(" ".join(pick[0].split()[:18]) + "\n" if pick else "")
-        env = dict(os.environ, CNERF_SCENE=job["scene"], CNERF_CORE=core, CNERF_CORE_SET=kset)
+        env = dict(os.environ, CNERF_SCENE=job["scene"], CNERF_CORE=core, CNERF_CORE_SET=kset,
+                   CNERF_WS_FAST=os.environ.get("FW_FAST", "0"))
         r = subprocess.run([host, job["stream"], cam] + job["args"], env=env, capture_output=True)
         if r.returncode != 0:
             sys.stderr.write(r.stderr.decode())

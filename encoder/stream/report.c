@@ -202,6 +202,9 @@ void cn_print_info(FILE *f, const char *name, const uint8_t *buf, const cnerf_in
     fprintf(f, "decoder memory: workspace %zu bytes", ws);
     if (grid)
         fprintf(f, " (the grid's %zu)", grid);
+    const size_t fast = cnerf_workspace_size_fast(I);
+    if (fast > ws)
+        fprintf(f, " or %zu with every latent as int16 (faster on DSP cores)", fast);
     fprintf(f, ", render scratch %zu bytes, decoder state %zu bytes (this host)\n",
             cnerf_render_scratch_size(I), sizeof(cnerf_decoder));
     /* the level: the one declared, else the lowest the scene fits */

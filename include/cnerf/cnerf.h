@@ -196,6 +196,13 @@ cnerf_status cnerf_peek_scene(const uint8_t *buf, size_t len, uint32_t scene,
 /* Workspace bytes cnerf_open needs for this stream (0 if info is NULL). */
 size_t cnerf_workspace_size(const cnerf_info *info);
 
+/* Workspace bytes with which cnerf_open keeps every latent as int16 (0 if info is NULL):
+ * cnerf_workspace_size stores a layer whose latents fit int8 as int8, and on cores whose
+ * int8 sums cost more (the DSP extension's: Cortex-M4, M7, M33; Advanced SIMD) a workspace
+ * of at least this size buys the int16 sums' speed (docs/decoder.md, Memory). The pixels
+ * are the same either way; like cnerf_workspace_size it depends on the stream alone. */
+size_t cnerf_workspace_size_fast(const cnerf_info *info);
+
 /* Upper bound of cnerf_workspace_size over all streams whose layers are at most
  * `params` latents and `outputs` biases in total, with at most `layers` layers and an
  * occupancy grid of at most `grid` cells per axis (0: streams without a grid; the grid takes

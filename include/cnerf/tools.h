@@ -30,7 +30,9 @@ cnerf_status cnerf_grid_bitmap(const uint8_t *buf, const cnerf_info *info, void 
  * stored packed or as lists of its non-zero latents by that set's costs (docs/decoder.md,
  * Zero latents), and summed here by the portable C, which gives the same values. Renders of
  * it count the work that device does (cnerf_render_stats.list_macs and list_nz): what a cost
- * model of that device needs. CNERF_E_NULL for an unknown set. */
+ * model of that device needs. Given cnerf_workspace_size_fast bytes, it keeps every latent
+ * as int16 where that set's int8 sums cost more, as cnerf_open on the device would.
+ * CNERF_E_NULL for an unknown set. */
 cnerf_status cnerf_open_as(cnerf_decoder *dec, const uint8_t *buf, size_t len, uint32_t scene,
                            void *ws, size_t ws_size, const char *set);
 

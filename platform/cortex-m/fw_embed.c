@@ -225,11 +225,19 @@ static int pack_job(job *j, const stream *s, const char *set)
 
 int main(int argc, char **argv)
 {
+    /* --fast: the workspace sized by cnerf_workspace_size_fast (every latent as int16) */
+    const int fast = argc > 1 && strcmp(argv[1], "--fast") == 0;
+    argc -= fast;
+    argv += fast;
     if (argc != 3 && argc != 4) {
-        fprintf(stderr, "usage: cnerf_fw_embed OUT.h JOBS [SET]\n");
+        fprintf(stderr, "usage: cnerf_fw_embed [--fast] OUT.h JOBS [SET]\n");
         return 2;
     }
     const char *out_path = argv[1], *jobs_path = argv[2], *set = argc == 4 ? argv[3] : NULL;
+    if (fast && set) {
+        fprintf(stderr, "cnerf_fw_embed: --fast is for streams decoded into RAM, not packed images\n");
+        return 2;
+    }
     FILE *f = fopen(jobs_path, "r");
     if (!f)
         return die(jobs_path, strerror(errno));
@@ -254,7 +262,8 @@ int main(int argc, char **argv)
         const cnerf_status st = cnerf_peek_scene(s->buf, s->len, (uint32_t)j->scene, &info);
         j->host_peek = (int)st;
         if (st == CNERF_OK) {
-            const size_t a = cnerf_workspace_size(&info), b = cnerf_render_scratch_size(&info);
+            const size_t a = fast ? cnerf_workspace_size_fast(&info) : cnerf_workspace_size(&info);
+            const size_t b = cnerf_render_scratch_size(&info);
             ws = a > ws ? a : ws;
             scratch = b > scratch ? b : scratch;
         } else {

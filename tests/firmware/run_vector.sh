@@ -3,7 +3,7 @@
 # under qemu-system-arm, must have the MD5 that vectors/valid/NAME.md5 lists (and the host's).
 # The firmware is built in BUILD_DIR, for the board FW_BOARD names (scripts/firmware.sh:
 # an386, the Cortex-M4, by default; an547, the Cortex-M55); BUILD_DIR must be the board's own.
-#   [FW_BOARD=an386|an547] run_vector.sh VECTORS_DIR NAME BUILD_DIR [LINE [FLAGS [SCENE]]]
+#   [FW_BOARD=an386|an547] [FW_FAST=1] run_vector.sh VECTORS_DIR NAME BUILD_DIR [LINE [FLAGS [SCENE]]]
 # LINE (1, the first tile, by default) picks the tile line of NAME.md5; FLAGS (0) is
 # cnerf_render_opts.flags: with 1 (CNERF_RENDER_NO_SKIP, the occupancy grid ignored) the
 # tile's MD5 is checked against the host's render only, as the vector lists none for it.
@@ -22,3 +22,10 @@ expect=$md5
 FW_BOARD=${FW_BOARD:-an386} FW_BUILD_DIR=$build FW_EXPECT_MD5=$expect FW_SCENE=$scene \
   "$root/scripts/firmware.sh" "$vectors/valid/$name.cnrf" "$build.cam" "$x0 $y0 $w $h" "$nc" "$nf" \
   "$ts" "$flags"
+# FW_FAST=1 (a workspace of cnerf_workspace_size_fast bytes): the same MD5, and the
+# firmware's own count of its work must show no int8 sums, every latent kept as int16.
+if [ "${FW_FAST:-0}" = 1 ]; then
+  s8=$(sed -n 's/.* s8_macs \([0-9]*\).*/\1/p' "$build/firmware.out" | head -n 1)
+  [ "$s8" = 0 ] || { echo "run_vector.sh: FW_FAST=1 but the firmware summed ${s8:-?} int8 MACs" >&2; exit 1; }
+  echo "run_vector.sh: every latent as int16 (s8_macs 0)"
+fi

@@ -1110,7 +1110,7 @@ static void reopen(const scene *s, const cn_dot_variant *v, scene *c)
     *c = *s;
     const size_t n = cnerf_workspace_size(&s->dec.info);
     c->ws = aligned_alloc(CNERF_WS_ALIGN, (n + 7) & ~(size_t)7);
-    assert_int_equal(cn_open_with(&c->dec, s->buf.p, s->buf.n, 0, c->ws, n, v), CNERF_OK);
+    assert_int_equal(cn_open_with(&c->dec, s->buf.p, s->buf.n, 0, c->ws, n, v, 0), CNERF_OK);
 }
 
 /* A layer stored as lists of its non-zero latents gives the same sums as packed: the same
@@ -1191,6 +1191,64 @@ static void test_sparse_exact(void **state)
     assert_true(sparse_layers > 0 && kept_packed > 0 && listed > 0);
 }
 
+/* cnerf_workspace_size_fast: given that much, kernels whose int8 sums cost more (the DSP
+ * extension's, Advanced SIMD's) keep every latent as int16, and the decoder holds the same
+ * latents and renders the same pixels with the same work, none of it int8 sums; given less,
+ * or on kernels whose int8 sums cost the same, the int8 layers stay int8. */
+static void test_open_fast(void **state)
+{
+    (void)state;
+    cnerf_info hdr;
+    tu_small_header(&hdr, 4, 24, 1);
+    scene s;
+    make_scene_edit(&s, &hdr, 3.0, 41, sparsify);
+    const cnerf_info *info = &s.dec.info;
+    const size_t n = cnerf_workspace_size(info), nf = cnerf_workspace_size_fast(info);
+    unsigned s8_layers = 0;
+    for (unsigned l = 0; l < info->n_layers; l++)
+        s8_layers += cn_latents_s8(info->layer[l].kmin, info->layer[l].kmax);
+    assert_true(s8_layers > 0); /* else there is nothing to widen */
+    assert_true(nf > n);
+    assert_int_equal(cnerf_workspace_size_fast(NULL), 0);
+    cn_camera cam;
+    look_at(&cam, 2.0, -2.5, 1.5, 15, 11, 50);
+    static const char *const sets[] = {"c", "dsp", "mve", "neon", "avx2"};
+    for (size_t k = 0; k < sizeof sets / sizeof sets[0]; k++) {
+        cn_dot_variant v;
+        assert_true(cn_dot_variant_as(sets[k], &v));
+        const int widens = v.mac8_cost > v.mac_cost;
+        scene a = s, b = s;
+        a.ws = aligned_alloc(CNERF_WS_ALIGN, (n + 7) & ~(size_t)7);
+        b.ws = aligned_alloc(CNERF_WS_ALIGN, (nf + 7) & ~(size_t)7);
+        /* room for int16 but not asked (fast 0), and asked with one byte too few */
+        assert_int_equal(cn_open_with(&a.dec, s.buf.p, s.buf.n, 0, b.ws, nf, &v, 0), CNERF_OK);
+        assert_int_equal(cn_cstate_of(&a.dec)->k16, 0);
+        assert_int_equal(cn_open_with(&a.dec, s.buf.p, s.buf.n, 0, b.ws, nf - 1, &v, 1), CNERF_OK);
+        assert_int_equal(cn_cstate_of(&a.dec)->k16, 0);
+        assert_int_equal(cn_open_with(&a.dec, s.buf.p, s.buf.n, 0, a.ws, n, &v, 1), CNERF_OK);
+        assert_int_equal(cn_cstate_of(&a.dec)->k16, 0);
+        assert_int_equal(cn_open_with(&b.dec, s.buf.p, s.buf.n, 0, b.ws, nf, &v, 1), CNERF_OK);
+        assert_int_equal(cn_cstate_of(&b.dec)->k16, widens);
+        for (unsigned l = 0; l < info->n_layers; l++)
+            for (unsigned o = 0; o < info->layer[l].n_out; o++)
+                for (unsigned i = 0; i < info->layer[l].n_in; i++)
+                    assert_int_equal(cnerf_latent(&a.dec, l, o, i), cnerf_latent(&b.dec, l, o, i));
+        cnerf_render_stats sa, sb;
+        uint8_t *pa = render_counted(&a, &cam, 0u, &sa), *pb = render_counted(&b, &cam, 0u, &sb);
+        assert_memory_equal(pa, pb, (size_t)cam.w * cam.h * 3);
+        assert_true(sa.macs == sb.macs && sa.evals == sb.evals);
+        if (widens)
+            assert_true(sb.s8_macs == 0 && (sa.s8_macs > 0 || sa.list_macs > 0));
+        else
+            assert_true(sb.s8_macs == sa.s8_macs);
+        free(pa);
+        free(pb);
+        free(a.ws);
+        free(b.ws);
+    }
+    free_scene(&s);
+}
+
 /* cnerf_open_as: a device's forms, computed here: every named set opens the stream with the
  * layers its costs choose (the same as cn_open_with with that set's costs) and renders the
  * same pixels; an unknown name is refused and leaves the decoder zeroed. */
@@ -1216,7 +1274,7 @@ static void test_open_as(void **state)
         assert_true(cn_dot_variant_as(sets[k], &v));
         cnerf_decoder d;
         void *ws = aligned_alloc(CNERF_WS_ALIGN, (n + 7) & ~(size_t)7);
-        assert_int_equal(cn_open_with(&d, s.buf.p, s.buf.n, 0, ws, n, &v), CNERF_OK);
+        assert_int_equal(cn_open_with(&d, s.buf.p, s.buf.n, 0, ws, n, &v, 0), CNERF_OK);
         for (unsigned l = 0; l < s.dec.info.n_layers; l++) {
             assert_int_equal(cn_cstate_of(&c.dec)->form[l], cn_cstate_of(&d)->form[l]);
             listed += cn_cstate_of(&c.dec)->form[l] == CN_FORM_SPARSE;
@@ -1383,6 +1441,7 @@ int main(void)
         cmocka_unit_test(test_rgb565),
         cmocka_unit_test(test_sparse_exact),
         cmocka_unit_test(test_open_as),
+        cmocka_unit_test(test_open_fast),
         cmocka_unit_test(test_div_sqrt),
         cmocka_unit_test(test_matches_float),
         cmocka_unit_test(test_rays_miss),

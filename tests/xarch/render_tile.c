@@ -9,7 +9,10 @@
  * CNERF_CORE naming a core of cost_model.c in the environment, it also opens the stream as
  * that core would (cnerf_open_as), renders the tile again counting the work, and prints the
  * work and the cost model's instructions to stderr. A core the model has no fit for is
- * named with its kernel set in CNERF_CORE_SET ("dsp", "c"): the work only. */
+ * named with its kernel set in CNERF_CORE_SET ("dsp", "c"): the work only.
+ * CNERF_WS_FAST=1 opens the stream (and the cost's copy) with cnerf_workspace_size_fast
+ * bytes: every latent as int16 where the kernels' int8 sums cost more (as a firmware of
+ * FW_FAST=1 does), the same pixels. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -37,7 +40,10 @@ static int cost(const char *name, const uint8_t *buf, size_t len, uint32_t scene
     static cnerf_decoder d;
     if (cnerf_peek_scene(buf, len, scene, &d.info) != CNERF_OK)
         return 1;
-    const size_t ws_n = cnerf_workspace_size(&d.info), sc_n = cnerf_render_scratch_size(&d.info);
+    const char *fast = getenv("CNERF_WS_FAST");
+    const size_t ws_n = fast && strcmp(fast, "1") == 0 ? cnerf_workspace_size_fast(&d.info)
+                                                       : cnerf_workspace_size(&d.info);
+    const size_t sc_n = cnerf_render_scratch_size(&d.info);
     uint64_t *ws = malloc(ws_n + 8), *sc = malloc(sc_n + 8);
     uint8_t *px = malloc((size_t)w * h * 3 + 1);
     cnerf_render_stats s;
@@ -105,7 +111,9 @@ int main(int argc, char **argv)
         st = cnerf_peek_scene(buf, len, scene, &dec.info);
         if (st != CNERF_OK)
             return fail(argv[1], st);
-        const size_t ws_n = cnerf_workspace_size(&dec.info);
+        const char *fast = getenv("CNERF_WS_FAST"); /* 1: every latent as int16 */
+        const size_t ws_n = fast && strcmp(fast, "1") == 0 ? cnerf_workspace_size_fast(&dec.info)
+                                                           : cnerf_workspace_size(&dec.info);
         sc_n = cnerf_render_scratch_size(&dec.info);
         ws = malloc(ws_n + 8), sc = malloc(sc_n + 8);
         if (!ws || !sc)
