@@ -64,6 +64,9 @@ typedef struct {
 #ifndef CNERF_FW_WORK_FIRST
 #define CNERF_FW_WORK_FIRST 0
 #endif
+#ifndef CNERF_FW_FAST
+#define CNERF_FW_FAST 0 /* 1: the whole workspace given (fw_embed --fast sized it) */
+#endif
 
 #define FW_EXIT_DECODER 1
 #define FW_EXIT_BUFFERS 2
@@ -216,7 +219,11 @@ static int run_job(uint32_t j, size_t *ws_max, size_t *sc_max)
         return too_small("render scratch", sc_need, sizeof scratch);
 
     const uint64_t t2 = ticks_now();
-    st = cnerf_open_scene(&dec, job->stream, job->len, job->scene, ws, sizeof ws);
+    /* A device sized for the stream: its workspace is cnerf_workspace_size bytes (the array
+     * is the largest job's), or with CNERF_FW_FAST the whole array, at least each stream's
+     * cnerf_workspace_size_fast: every latent as int16. */
+    st = cnerf_open_scene(&dec, job->stream, job->len, job->scene, ws,
+                          CNERF_FW_FAST ? sizeof ws : ws_need);
     const uint64_t t3 = ticks_now();
     if (st != CNERF_OK)
         return fail(j, "cnerf_open", st);
