@@ -13,8 +13,6 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:?usage: experiments/fog.sh OUT DATASET [ITERS]} data=${2:?dataset} iters=${3:-600}
-cnerf=${CNERF:-./build/cnerf}
-mkdir -p "$out"
 runs=("small-seed1|--preset small --seed 1"
       "small-seed2|--preset small --seed 2"
       "small-seed1-warmup100|--preset small --seed 1 --lr-warmup 100"
@@ -22,16 +20,4 @@ runs=("small-seed1|--preset small --seed 1"
       "small-seed1-view16|--preset small --seed 1 --view-width 16"
       "small-seed1-lr2.5e-3|--preset small --seed 1 --lr 2.5e-3"
       "tiny-seed1|--preset tiny --seed 1")
-echo "| run | validation (dB) | training views (dB) | occupied |" > "$out/fog.md"
-echo "|---|---|---|---|" >> "$out/fog.md"
-for r in "${runs[@]}"; do
-  name=${r%%|*} args=${r#*|}
-  log=$out/$name.log
-  [ -s "$log" ] && grep -q "^validation:" "$log" ||
-    $cnerf train "$data" -o "$out/$name.ckpt" --force --iters "$iters" --max-size 100 --threads 1 \
-      $args > "$log" 2>&1
-  val=$(sed -n 's/^validation: psnr \([0-9.]*\) dB.*, \([0-9.]*\) dB on the training views.*/\1 | \2/p' "$log")
-  occ=$(grep -o "occupied [0-9]*%" "$log" | tail -n 1 | cut -d' ' -f2)
-  echo "| $name | $val | $occ |" >> "$out/fog.md"
-done
-cat "$out/fog.md"
+experiments/tools/train_runs.sh "$out" "$data" "$iters" "$out/fog.md" "${runs[@]}"

@@ -10,8 +10,6 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:?usage: experiments/warmup.sh OUT DATASET [ITERS]} data=${2:?dataset} iters=${3:-600}
-cnerf=${CNERF:-./build/cnerf}
-mkdir -p "$out"
 runs=("small-seed1-nowarmup|--preset small --seed 1 --lr-warmup 0"
       "small-seed1-warmup|--preset small --seed 1"
       "small-seed2-nowarmup|--preset small --seed 2 --lr-warmup 0"
@@ -20,16 +18,4 @@ runs=("small-seed1-nowarmup|--preset small --seed 1 --lr-warmup 0"
       "small-seed1-view16-nowarmup|--preset small --seed 1 --view-width 16 --lr-warmup 0"
       "small-seed1-view32-nowarmup|--preset small --seed 1 --view-width 32 --lr-warmup 0"
       "tiny-seed1-warmup|--preset tiny --seed 1")
-echo "| run | validation (dB) | training views (dB) | occupied |" > "$out/warmup.md"
-echo "|---|---|---|---|" >> "$out/warmup.md"
-for r in "${runs[@]}"; do
-  name=${r%%|*} args=${r#*|}
-  log=$out/$name.log
-  [ -s "$log" ] && grep -q "^validation:" "$log" ||
-    $cnerf train "$data" -o "$out/$name.ckpt" --force --iters "$iters" --max-size 100 --threads 1 \
-      $args > "$log" 2>&1
-  val=$(sed -n 's/^validation: psnr \([0-9.]*\) dB.*, \([0-9.]*\) dB on the training views.*/\1 | \2/p' "$log")
-  occ=$(grep -o "occupied [0-9]*%" "$log" | tail -n 1 | cut -d' ' -f2)
-  echo "| $name | $val | $occ |" >> "$out/warmup.md"
-done
-cat "$out/warmup.md"
+experiments/tools/train_runs.sh "$out" "$data" "$iters" "$out/warmup.md" "${runs[@]}"
