@@ -1,17 +1,19 @@
 #!/usr/bin/env bash
 # Freestanding Cortex-M4 build of the decoder: -std=c99 -ffreestanding -nostdlib, linked with
 # a minimal entry point and nothing else. Prints code/data sizes, sizeof(cnerf_decoder) and
-# the worst-case stack, and fails if docs/decoder.md states other numbers.
+# the worst-case stack, and fails if docs/decoder.md states other numbers. BUILD_M4 names the
+# build directory (default build-m4; emptied first).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # From an empty directory: call-graph files of sources that no longer exist would otherwise
 # be read as part of the decoder (scripts/stack_usage.py refuses two definitions of one name).
-rm -rf build-m4
-cmake -S . -B build-m4 -DCMAKE_TOOLCHAIN_FILE=cmake/toolchains/arm-none-eabi.cmake \
+build=${BUILD_M4:-build-m4}
+rm -rf "$build"
+cmake -S . -B "$build" -DCMAKE_TOOLCHAIN_FILE=cmake/toolchains/arm-none-eabi.cmake \
       -DCMAKE_BUILD_TYPE=MinSizeRel
 log=$(mktemp)
 trap 'rm -f "$log"' EXIT
-cmake --build build-m4 | tee "$log"
+cmake --build "$build" | tee "$log"
 
 text=$(awk '/\(TOTALS\)/ {print $1}' "$log")
 data=$(awk '/\(TOTALS\)/ {print $2}' "$log")
