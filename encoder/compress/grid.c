@@ -50,7 +50,7 @@ float *cn_grid_lattice(const cn_model *m, int M)
             sig[c0 + j] = 0.0f;
         for (unsigned n = 0; n < T->n_nets; n++) {
             cn_net_inputs(T, n, &nb[n], pts, P, vpe, NULL, 1);
-            cn_net_forward(m, n, &nb[n], P);
+            cn_net_density(m, n, &nb[n], P);
             for (size_t j = 0; j < P; j++)
                 sig[c0 + j] = fmaxf(sig[c0 + j], nb[n].out[4 * j + 3]);
         }
@@ -239,7 +239,8 @@ int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes,
     int ok = 1;
     cn_model plain = *m;
     plain.grid = NULL;
-    const double psnr0 = views_psnr(&plain, ds, &ok);
+    double psnr0 = 0; /* the views without a grid: measured once a grid is to be tried */
+    int have_psnr0 = 0;
     const float thr0 = (float)(-log(0.99) / diag);
     for (int tries = 0; ok && tries < GRID_TRIES && !out->g; tries++) {
         /* First the lattice as measured, then dilated at the same threshold, then dilated
@@ -304,9 +305,13 @@ int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes,
             ok = 0;
             break;
         }
+        if (!have_psnr0) {
+            psnr0 = views_psnr(&plain, ds, &ok);
+            have_psnr0 = 1;
+        }
         cn_model with = *m;
         with.grid = &o;
-        const double psnr1 = views_psnr(&with, ds, &ok);
+        const double psnr1 = ok ? views_psnr(&with, ds, &ok) : 0;
         cn_occ_free(&o);
         if (say) {
             snprintf(line, sizeof line,

@@ -161,6 +161,10 @@ void cn_net_buf_free(cn_net_buf *nb);
  * nb->in (columns 0..in_pos) and, with a view branch, nb->view_in (columns W..W+in_dir).
  * Raw outputs (r, g, b, sigma before sigmoid/ReLU) land in nb->out. */
 void cn_net_forward(const cn_model *m, unsigned net, cn_net_buf *nb, size_t P);
+/* The same pass up to the density: nb->out's sigma column (column 3) as cn_net_forward
+ * writes it, bit for bit; the colour branch is skipped (its columns are left as they were,
+ * except in a network without a view branch, whose one output layer writes all four). */
+void cn_net_density(const cn_model *m, unsigned net, cn_net_buf *nb, size_t P);
 /* The same over the chunks [bound[c], bound[c + 1]) of rows, c < n. */
 void cn_net_forward_chunks(const cn_model *m, unsigned net, cn_net_buf *nb, const size_t *bound,
                            size_t n);

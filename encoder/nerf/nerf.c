@@ -548,7 +548,9 @@ static const float *trunk_input(const cnerf_info *T, const cnerf_net_info *N,
     return nb->h[i - 1];
 }
 
-static void forward_rows(const cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
+/* density_only: the trunk and sigma alone (nb->out's colour columns are left as they were) */
+static void forward_rows(const cn_model *m, unsigned net, cn_net_buf *nb, size_t P,
+                         int density_only)
 {
     const cnerf_info *T = &m->topo;
     const cnerf_net_info *N = &T->net[net];
@@ -569,6 +571,8 @@ static void forward_rows(const cn_model *m, unsigned net, cn_net_buf *nb, size_t
         const size_t ldv = N->view_width;
         cn_linear_forward(nb->out + 3, 4, h, ldh, cn_model_kernel(m, l),
                           m->params + m->layer[l].b, P, U, 1, 0);
+        if (density_only)
+            return;
         cn_linear_forward(nb->view_in, N->width + T->in_dir, h, ldh, cn_model_kernel(m, l + 1),
                           m->params + m->layer[l + 1].b, P, U, F, 0);
         cn_linear_forward(nb->view_h, ldv, nb->view_in, N->width + T->in_dir,
@@ -697,7 +701,7 @@ static size_t chunk_view(const cn_net_buf *nb, const size_t *bound, size_t P, si
 }
 
 static void forward_chunks(const cn_model *m, unsigned net, cn_net_buf *nb, const size_t *bound,
-                           size_t n, size_t P)
+                           size_t n, size_t P, int density_only)
 {
 #pragma omp parallel
     {
@@ -705,20 +709,25 @@ static void forward_chunks(const cn_model *m, unsigned net, cn_net_buf *nb, cons
 #pragma omp for schedule(dynamic, 1)
         for (size_t c = 0; c < n; c++) {
             cn_net_buf v;
-            forward_rows(m, net, &v, chunk_view(nb, bound, P, c, &v));
+            forward_rows(m, net, &v, chunk_view(nb, bound, P, c, &v), density_only);
         }
     }
 }
 
 void cn_net_forward(const cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
 {
-    forward_chunks(m, net, nb, NULL, (P + CN_CHUNK_ROWS - 1) / CN_CHUNK_ROWS, P);
+    forward_chunks(m, net, nb, NULL, (P + CN_CHUNK_ROWS - 1) / CN_CHUNK_ROWS, P, 0);
+}
+
+void cn_net_density(const cn_model *m, unsigned net, cn_net_buf *nb, size_t P)
+{
+    forward_chunks(m, net, nb, NULL, (P + CN_CHUNK_ROWS - 1) / CN_CHUNK_ROWS, P, 1);
 }
 
 void cn_net_forward_chunks(const cn_model *m, unsigned net, cn_net_buf *nb, const size_t *bound,
                            size_t n)
 {
-    forward_chunks(m, net, nb, bound, n, 0);
+    forward_chunks(m, net, nb, bound, n, 0, 0);
 }
 
 /* The parameters of network net's layers: [*lo, *hi) of the block. */

@@ -101,7 +101,7 @@ double cn_occ_update(cn_occ *o, const cn_model *m, unsigned net, cn_net_buf *nb,
                 pts[3 * j + a] = o->lo[a] + ((float)idx[a] + (float)cn_rng_uniform(rng)) / o->scale[a];
         }
         cn_net_inputs(T, net, nb, pts, P, vpe, NULL, 1);
-        cn_net_forward(m, net, nb, P);
+        cn_net_density(m, net, nb, P);
         for (size_t j = 0; j < P; j++) {
             const size_t c = c0 + j;
             const float sigma = fmaxf(nb->out[4 * j + 3], 0.0f);

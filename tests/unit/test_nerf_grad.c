@@ -276,6 +276,46 @@ static void test_render_grads_no_view(void **state)
     cn_model_free(&gm);
 }
 
+/* cn_net_density (the grid's lattice, the training grid's refresh) writes the density that
+ * cn_net_forward writes, bit for bit, over more rows than one chunk, with and without a view
+ * branch, float, compressed and pruned; with a view branch it leaves the colours alone. */
+static void test_density_only(void **state)
+{
+    (void)state;
+    enum { P = CN_CHUNK_ROWS + 77 };
+    static float pts[3 * P], sigma[P];
+    cn_rng r = cn_rng_seed(21);
+    fill(pts, 3 * P, &r, 1.5);
+    const float dir[3] = {0.6f, -0.48f, 0.64f};
+    for (int kind = 0; kind < 6; kind++) {
+        const int view = kind & 1, compressed = kind == 2 || kind == 3, pruned = kind >= 4;
+        setup_model(view, compressed, pruned);
+        for (unsigned net = 0; net < gm.topo.n_nets; net++) {
+            cn_net_buf nb;
+            assert_int_equal(cn_net_buf_init(&nb, &gm.topo, net, P), 0);
+            float vpe[CNERF_MAX_IN_DIR];
+            if (gm.topo.in_dir)
+                cn_posenc(vpe, gm.topo.in_dir, dir, 1, gm.topo.l_dir,
+                          gm.topo.pe_flags & CNERF_PE_INCLUDE_INPUT);
+            cn_net_inputs(&gm.topo, net, &nb, pts, P, vpe, NULL, 1);
+            cn_net_forward(&gm, net, &nb, P);
+            for (size_t j = 0; j < P; j++)
+                sigma[j] = nb.out[4 * j + 3];
+            for (size_t j = 0; j < 4 * (size_t)P; j++)
+                nb.out[j] = -12345.0f;
+            cn_net_density(&gm, net, &nb, P);
+            for (size_t j = 0; j < P; j++) {
+                assert_memory_equal(&nb.out[4 * j + 3], &sigma[j], sizeof(float));
+                if (view)
+                    assert_true(nb.out[4 * j] == -12345.0f && nb.out[4 * j + 2] == -12345.0f);
+            }
+            cn_net_buf_free(&nb);
+        }
+        cn_batch_free(&gb);
+        cn_model_free(&gm);
+    }
+}
+
 /* Layers narrower than the width (a pruned stream's float model), and a background per
  * ray (training on views with transparency): the gradients still match. */
 static void test_render_grads_pruned(void **state)
@@ -622,6 +662,7 @@ int main(void)
         cmocka_unit_test(test_render_grads_view),
         cmocka_unit_test(test_render_grads_no_view),
         cmocka_unit_test(test_render_grads_pruned),
+        cmocka_unit_test(test_density_only),
         cmocka_unit_test(test_render_grads_group),
         cmocka_unit_test(test_render_all_outside),
         cmocka_unit_test(test_compressed_kernels),
