@@ -46,7 +46,7 @@ grep -q "^saved r4.ckpt at iteration 12" r4.log || fail "train on 4 ranks: no su
 echo "train: 1 process and 1 to 4 ranks: $(md5sum < one.ckpt | cut -c1-32)"
 
 # (a run this short misses its --size: that exits 1 with the file written)
-enc=(encode "$data/lego" --preset tiny --downscale 8 --batch 1000 --iters 30 --size 30000 --every 100 --seed 3)
+enc=(encode "$data/lego" --preset tiny --downscale 8 --batch 1000 --iters 10 --size 30000 --every 100 --seed 3)
 "$cnerf" "${enc[@]}" -o one.cnrf --threads 2 > enc-one.log 2>&1 || grep -q "(the file is written)" enc-one.log ||
   fail "encode: $(tail -3 enc-one.log)"
 # (1 to 4 ranks, the 2 ranks with 2 threads each: the threads per rank may vary too)
