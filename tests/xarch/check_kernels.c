@@ -528,7 +528,8 @@ int main(int argc, char **argv)
     printf("kernels:");
     for (uint32_t i = 0; i < nv; i++)
         printf(" %s", v[i].name);
-    printf(" (chosen: %s)\n", v[nv - 1].name);
+    printf(" (chosen: %s)%s\n", v[nv - 1].name,
+           v[nv - 1].mac8_cost > v[nv - 1].mac_cost ? ", whose int8 sums cost more" : "");
     int32_t want[MAX_ROWS], got[MAX_ROWS];
     int64_t want64[MAX_ROWS];
     for (long it = 0; it < iters; it++)
