@@ -111,6 +111,8 @@ typedef struct cn_dataset {
     float bg[3];     /* background colour used for compositing */
     cn_view *train, *val, *test;
     int n_train, n_val, n_test;
+    int n_test_listed; /* test views the files list; n_test of them are loaded (test_every,
+                          test_only) */
     int downscale;   /* the factor applied: the option's, or the one max_size chose */
     int n_skipped;   /* frames left out because their image is missing (instant-ngp and
                         nerfstudio layouts); the library prints nothing, the caller tells */
@@ -130,7 +132,16 @@ typedef struct cn_dataset_opts {
     int max_views;    /* 0 = all; else load at most this many views per split */
     int max_size;     /* 0 = none; else the smallest downscale that brings the first image's
                          longer side to at most this many pixels (downscale must be 0 or 1) */
+    int test_every;   /* 0 or 1 = every test view; N > 1: only the test views 0, N, 2N, ... of
+                         the split (after max_views) are loaded, as a command that evaluates
+                         every Nth test view needs */
+    int test_only;    /* 1: the training and validation views are not loaded (n_train and
+                         n_val are 0), for a command that renders test views only */
 } cn_dataset_opts;
+/* Views left out by test_every and test_only are not read at all (nor are their cameras
+ * checked against their images), but the files must still list training views, every rule
+ * that uses the cameras (recentring, bounds, max_size's first image) sees every frame as
+ * before, and outputs are kept off their image files too. */
 
 /* Loads the dataset in `dir` (o may be NULL for the defaults). Returns 0, or -1 with a
  * message naming the file and the problem in err; *ds is then empty. */

@@ -167,6 +167,8 @@ static void cn_intr_resolve(const cn_intr *in, int file_w, int file_h, int crop_
 typedef struct cn_frame {
     char *path; /* image file */
     int split;  /* CN_TRAIN, CN_VAL or CN_TEST */
+    int unread; /* 1: listed but left out of the dataset (cn_dataset_opts' test_every and
+                   test_only): its image is not read */
     cn_view v;  /* name and c2w; size, intrinsics and pixels once loaded */
     cn_intr in;
     int file_w, file_h; /* size of the image file */
@@ -179,6 +181,8 @@ typedef struct cn_frames {
     int n, cap;
     int count[3];      /* frames kept per split */
     int max_views;     /* per split, 0 = all */
+    int test_every;    /* cn_dataset_opts' */
+    int test_only;
     int factor;        /* downscale applied to every image file */
     int offered;       /* frames offered to cn_frames_add, kept or not */
     int skipped;       /* frames skipped for a missing image */
@@ -224,6 +228,10 @@ static int cn_frames_add(cn_frames *L, const char *path, int split, const double
         return cn_fail(err, errlen, "%s: out of memory", path);
     cn_stem(path, fr->v.name);
     memcpy(fr->v.c2w, c2w, sizeof fr->v.c2w);
+    if (split == CN_TEST)
+        fr->unread = L->test_every > 1 && L->count[split] % L->test_every != 0;
+    else
+        fr->unread = L->test_only;
     L->n++;
     L->count[split]++;
     return 0;
@@ -380,8 +388,9 @@ static int cn_frames_load_images(cn_frames *L, const float bg[3], char *err, siz
     }
 #pragma omp parallel for schedule(dynamic)
     for (int i = 0; i < L->n; i++)
-        rc[i] = cn_frame_load(&L->f[i], L->factor, bg, msg + (size_t)i * CN_VIEW_ERR,
-                              CN_VIEW_ERR);
+        rc[i] = L->f[i].unread ? 0
+                               : cn_frame_load(&L->f[i], L->factor, bg,
+                                               msg + (size_t)i * CN_VIEW_ERR, CN_VIEW_ERR);
     int bad = -1;
     for (int i = 0; i < L->n && bad < 0; i++)
         if (rc[i] != 0)
@@ -403,6 +412,8 @@ static int cn_frames_load_images(cn_frames *L, const float bg[3], char *err, siz
     const cn_frame *a = NULL;
     for (int i = 0; i < L->n; i++) {
         const cn_frame *b = &L->f[i];
+        if (b->unread)
+            continue;
         const double rw = b->in.ref_w, rh = b->in.ref_h;
         if (b->in.sized && !isnan(rw) && !isnan(rh)) {
             if (fabs((double)b->file_w * rh / ((double)b->file_h * rw) - 1) > 0.01) {
@@ -1853,11 +1864,17 @@ static int cn_dataset_take(cn_dataset *ds, cn_frames *L, char *err, size_t errle
 {
     cn_view **dst[3] = {&ds->train, &ds->val, &ds->test};
     int *cnt[3] = {&ds->n_train, &ds->n_val, &ds->n_test};
+    int read[3] = {0, 0, 0};
+    for (int i = 0; i < L->n; i++)
+        read[L->f[i].split] += !L->f[i].unread;
     for (int s = 0; s < 3; s++)
-        if (L->count[s] && !(*dst[s] = calloc((size_t)L->count[s], sizeof(cn_view))))
+        if (read[s] && !(*dst[s] = calloc((size_t)read[s], sizeof(cn_view))))
             return cn_fail(err, errlen, "out of memory");
+    ds->n_test_listed = L->count[CN_TEST];
     for (int i = 0; i < L->n; i++) {
         cn_frame *fr = &L->f[i];
+        if (fr->unread)
+            continue;
         (*dst[fr->split])[(*cnt[fr->split])++] = fr->v;
         fr->v.rgb = NULL;
         fr->v.alpha = NULL;
@@ -1907,13 +1924,18 @@ int cn_dataset_load(const char *dir, const cn_dataset_opts *o, cn_dataset *ds, c
         return cn_fail(err, errlen, "downscale %d: must be an integer >= 1", o->downscale);
     if (o->max_views < 0)
         return cn_fail(err, errlen, "max_views %d: must be >= 0", o->max_views);
+    if (o->test_every < 0)
+        return cn_fail(err, errlen, "test_every %d: must be >= 0", o->test_every);
     if (o->max_size < 0 || (o->max_size > 0 && f > 1))
         return cn_fail(err, errlen, "max size %d: must be >= 1, and not given with a downscale",
                        o->max_size);
     int kind = cn_detect(dir, err, errlen);
     if (kind < 0)
         return -1;
-    cn_frames L = {.max_views = o->max_views, .factor = f};
+    const cn_frames L0 = {.max_views = o->max_views, .test_every = o->test_every,
+                          .test_only = o->test_only != 0};
+    cn_frames L = L0;
+    L.factor = f;
     int rc = cn_load_layout(dir, kind, o, ds, &L, err, errlen);
     if (rc == 0 && o->max_size > 0 && L.n > 0) {
         /* The factor from the first image's upright size; then the frames again at it (an
@@ -1924,7 +1946,8 @@ int cn_dataset_load(const char *dir, const cn_dataset_opts *o, cn_dataset *ds, c
         f = (big + o->max_size - 1) / o->max_size;
         if (rc == 0) {
             cn_frames_free(&L);
-            L = (cn_frames){.max_views = o->max_views, .factor = f};
+            L = L0;
+            L.factor = f;
             rc = cn_load_layout(dir, kind, o, ds, &L, err, errlen);
         }
     }

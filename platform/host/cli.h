@@ -88,12 +88,13 @@ void cli_stop_before(const char *name, const char *what, const char *resumed);
 /* The training loop shared by train and encode: progress, atomic checkpoints to `ckpt` every
  * ckpt_every iterations (0: every ckpt_secs seconds) and at the end; SIGINT, SIGTERM or
  * SIGHUP saves and sets *stopped to the signal's number. With eval_every > 0, every
- * eval_every iterations (and after the last) renders every `every`-th test view and prints
+ * eval_every iterations (and after the last) renders the test views loaded (the dataset's
+ * every `--every`-th: cli_load_dataset) and prints
  * "eval: iteration I, training S s, test psnr P dB, ssim Q, V views", S being the training
  * time so far without the evaluations. Returns 0 or 1 (error printed). */
 int cli_run_training(const char *cmd, struct cn_trainer *t, const char *ckpt, long ckpt_every,
-                     double ckpt_secs, long log_every, long eval_every, long every,
-                     const char *after, int *stopped);
+                     double ckpt_secs, long log_every, long eval_every, const char *after,
+                     int *stopped);
 /* Measures the trained model on its validation and training rays (cn_validate.h), prints
  * both PSNRs and warns on stderr when the training views beat the validation views by more
  * than CN_VAL_GAP_DB; cli_run_training calls it at the end of a run. 0 or 1 (error printed). */
@@ -109,11 +110,11 @@ typedef struct cli_job {
     long (*done)(void *ctx);
     double (*step)(void *ctx, double *psnr, char *extra, size_t n, char *err, size_t errlen);
     int (*save)(void *ctx, const char *path, char *err, size_t errlen);
-    double (*eval)(void *ctx, long every, double trained);
+    double (*eval)(void *ctx, double trained);
     const char *after;
 } cli_job;
 int cli_run_job(const char *cmd, const cli_job *job, const char *ckpt, long ckpt_every,
-                double ckpt_secs, long log_every, long eval_every, long every, int *stopped);
+                double ckpt_secs, long log_every, long eval_every, int *stopped);
 /* "SIGINT", "SIGTERM" or "SIGHUP". */
 const char *cli_signal_name(int sig);
 /* The stop signal this process took in the training loop, 0 if none. */
@@ -159,9 +160,13 @@ void cli_orbit_camera(int k, int n, double radius, double elev, double fov, int 
 
 /* Loads a dataset with the shared options and holds out val_views of its training views
  * for validation (cn_dataset_hold_out; -1: the default rule, which every command applies
- * alike so that their splits agree); prints the error and returns 1 on failure. */
+ * alike so that their splits agree); prints the error and returns 1 on failure. Of the
+ * test views only every test_every-th is loaded (1: all; cn_dataset_opts), and with
+ * test_only no others (nor is anything held out): ds->test[i] is then the test view
+ * i * test_every of the dataset. */
 int cli_load_dataset(const char *cmd, const char *dir, long downscale, long max_size, int black,
-                     double near, double far, long val_views, struct cn_dataset *ds);
+                     double near, double far, long val_views, long test_every, int test_only,
+                     struct cn_dataset *ds);
 /* --random-bg auto|on|off into cn_train_opts.random_bg (-1, 1, 0); prints the error and
  * returns 1 for another word. */
 int cli_random_bg(const char *cmd, const char *word, int *random_bg);

@@ -8,7 +8,8 @@
 #include "cn_train.h"
 
 int cli_load_dataset(const char *cmd, const char *dir, long downscale, long max_size, int black,
-                     double near, double far, long val_views, cn_dataset *ds)
+                     double near, double far, long val_views, long test_every, int test_only,
+                     cn_dataset *ds)
 {
     if (max_size > 0 && downscale > 1)
         return cli_fail(cmd, "give --downscale or --max-size, not both");
@@ -19,6 +20,8 @@ int cli_load_dataset(const char *cmd, const char *dir, long downscale, long max_
     o.black_bg = black;
     o.near = near;
     o.far = far;
+    o.test_every = (int)test_every;
+    o.test_only = test_only;
     char err[1024];
     if (cn_dataset_load(dir, &o, ds, err, sizeof err))
         return cli_fail(cmd, "%s", err);
@@ -36,7 +39,7 @@ int cli_load_dataset(const char *cmd, const char *dir, long downscale, long max_
                 cmd, ds->n_skipped, ds->skipped);
     if (ds->note[0])
         printf("%s\n", ds->note);
-    const int held = cn_dataset_hold_out(ds, (int)val_views, err, sizeof err);
+    const int held = test_only ? 0 : cn_dataset_hold_out(ds, (int)val_views, err, sizeof err);
     if (held < 0) {
         cn_dataset_free(ds);
         return cli_fail(cmd, "%s", err);

@@ -192,12 +192,12 @@ const char *cli_signal_name(int sig)
     return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : sig == SIGHUP ? "SIGHUP" : "a signal";
 }
 /* The test PSNR of the model being trained; returns the seconds it took, or -1. */
-static double eval_now(cn_trainer *t, long every, double trained)
+static double eval_now(cn_trainer *t, double trained)
 {
     const double t0 = cli_now();
     double psnr, ssim, secs;
     cn_model_materialize(&t->model); /* the kernels of the latest step's parameters */
-    const int n = cli_eval_views(&t->model, t->ds->test, t->ds->n_test, t->ds->ndc, every, NULL,
+    const int n = cli_eval_views(&t->model, t->ds->test, t->ds->n_test, t->ds->ndc, 1, NULL,
                                  1, 0, &psnr, &ssim, &secs);
     if (n < 0)
         return -1;
@@ -221,7 +221,7 @@ int cli_resume(const char *cmd, cn_trainer *t, const char *path)
 }
 
 int cli_run_job(const char *cmd, const cli_job *job, const char *ckpt, long ckpt_every,
-                double ckpt_secs, long log_every, long eval_every, long every, int *stopped)
+                double ckpt_secs, long log_every, long eval_every, int *stopped)
 {
     char err[1024];
     int rc = 0;
@@ -259,7 +259,7 @@ int cli_run_job(const char *cmd, const cli_job *job, const char *ckpt, long ckpt
         }
         if (rc == 0 && eval_every > 0 && job->eval && (it % eval_every == 0 || it == job->iters)) {
             cli_progress_break(&p);
-            const double s = job->eval(job->ctx, every, cli_now() - t0 - eval_secs);
+            const double s = job->eval(job->ctx, cli_now() - t0 - eval_secs);
             if (s < 0)
                 rc = 1;
             eval_secs += s;
@@ -334,19 +334,18 @@ static int trainer_save(void *ctx, const char *path, char *err, size_t errlen)
     return cn_checkpoint_save(ctx, path, err, errlen);
 }
 
-static double trainer_eval(void *ctx, long every, double trained)
+static double trainer_eval(void *ctx, double trained)
 {
-    return eval_now(ctx, every, trained);
+    return eval_now(ctx, trained);
 }
 
 int cli_run_training(const char *cmd, cn_trainer *t, const char *ckpt, long ckpt_every,
-                     double ckpt_secs, long log_every, long eval_every, long every,
-                     const char *after, int *stopped)
+                     double ckpt_secs, long log_every, long eval_every, const char *after,
+                     int *stopped)
 {
     const cli_job job = {t, t->opts.iters, trainer_done, trainer_step, trainer_save,
                          trainer_eval, after};
-    int rc = cli_run_job(cmd, &job, ckpt, ckpt_every, ckpt_secs, log_every, eval_every, every,
-                         stopped);
+    int rc = cli_run_job(cmd, &job, ckpt, ckpt_every, ckpt_secs, log_every, eval_every, stopped);
     if (rc == 0 && !*stopped)
         rc = cli_report_validation(cmd, t);
     return rc;

@@ -524,7 +524,7 @@ static int write_and_report(encode_args *A, cn_trainer *t, const cn_dataset *ds,
                est, (unsigned long long)tot.payload, 100.0 * ((double)tot.payload / est - 1));
         double psnr = 0, ssim = 0, secs = 0;
         printf("float reference render of %s, test views:\n", A->out);
-        int n = cli_eval_views(&ref, ds->test, ds->n_test, ds->ndc, A->every, NULL, 0,
+        int n = cli_eval_views(&ref, ds->test, ds->n_test, ds->ndc, 1, NULL, 0,
                                CLI_T_STOP, &psnr, &ssim, &secs);
         if (n < 0)
             rc = 1;
@@ -575,7 +575,7 @@ int cmd_encode(int argc, char **argv)
         return 1;
     cn_dataset ds;
     if (cli_load_dataset("encode", A->pos[0], A->downscale, A->max_size, A->black, 0, 0,
-                         A->val_views, &ds)) {
+                         A->val_views, A->every, 0, &ds)) {
         cli_unlock_outputs(&locks);
         return 1;
     }
@@ -675,7 +675,7 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
         snprintf(after, sizeof after, "%s not written: run the command again with --resume %s "
                  "to write it", A->out, A->ckpt);
         rc = cli_run_training("encode", &t, A->ckpt, A->ckpt_every, A->ckpt_secs, A->log_every,
-                              A->eval_every, A->every, after, &stopped);
+                              A->eval_every, after, &stopped);
         if (rc && t.collapsed && A->autop && !A->resume && !A->init &&
             strcmp(A->o.preset, "tiny")) {
             printf("preset auto: %s collapsed at %.0f bytes; encoding again with preset tiny\n",

@@ -68,7 +68,10 @@ int cmd_eval(int argc, char **argv)
     } else if (cn_checkpoint_load_model(pos[0], &m, &step, err, sizeof err))
         return cli_fail("eval", "%s", err);
     cn_dataset ds;
-    if (cli_load_dataset("eval", pos[1], downscale, max_size, black, 0, 0, -1, &ds)) {
+    /* Of a test split only the views rendered are read (the others are never held out). */
+    const int test = !strcmp(split, "test");
+    if (cli_load_dataset("eval", pos[1], downscale, max_size, black, 0, 0, -1, test ? every : 1,
+                         test, &ds)) {
         cn_model_free(&m);
         return 1;
     }
@@ -84,7 +87,7 @@ int cmd_eval(int argc, char **argv)
     rc = cli_mpi_agree(rc); /* over several ranks, each renders a share of the views */
     if (rc == 0) {
         double psnr, ssim, secs;
-        int count = cli_eval_views(&m, views, n, ds.ndc, every, outdir, 0, 0, &psnr, &ssim, &secs);
+        int count = cli_eval_views(&m, views, n, ds.ndc, test ? 1 : every, outdir, 0, 0, &psnr, &ssim, &secs);
         if (count < 0)
             rc = 1;
         else if (step >= 0)

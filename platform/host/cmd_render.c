@@ -386,10 +386,15 @@ int cmd_render(int argc, char **argv)
     int n = orbit ? (int)orbit : 0;
     const int black = I->background[0] == 0 && I->background[1] == 0 && I->background[2] == 0;
     if (rc == 0 && dataset) {
-        if (cli_load_dataset("render", dataset, downscale, max_size, black, 0, 0, -1, &ds))
+        /* Of a test split only the views rendered are read. */
+        const int test = !strcmp(split, "test");
+        if (cli_load_dataset("render", dataset, downscale, max_size, black, 0, 0, -1,
+                             test ? every : 1, test, &ds))
             rc = 1;
         else
             rc = cli_split_views("render", &ds, dataset, split, &views, &n);
+        if (test)
+            every = 1; /* the views loaded are the ones to render */
         if (rc == 0 && ds.ndc != (I->coord == CNERF_COORD_NDC))
             rc = cli_fail("render", "%s is %s but %s was encoded %s", dataset,
                           ds.ndc ? "forward-facing (NDC)" : "a 360-degree scene", pos[0],

@@ -119,7 +119,8 @@ int cmd_train(int argc, char **argv)
     const char *resumed = resume && access(out, F_OK) == 0 ? out : NULL;
     cli_stop_before("load", "while loading the dataset", resumed);
     cn_dataset ds;
-    if (cli_load_dataset("train", pos[0], downscale, max_size, black, near, far, val_views, &ds)) {
+    if (cli_load_dataset("train", pos[0], downscale, max_size, black, near, far, val_views, every,
+                         0, &ds)) {
         cli_unlock_outputs(&locks);
         return 1;
     }
@@ -129,7 +130,7 @@ int cmd_train(int argc, char **argv)
         return 1;
     }
     printf("dataset %s: %d train, %d val, %d test views, %dx%d, %s\n", pos[0], ds.n_train,
-           ds.n_val, ds.n_test, ds.train[0].w, ds.train[0].h,
+           ds.n_val, ds.n_test_listed, ds.train[0].w, ds.train[0].h,
            ds.ndc ? "forward-facing (NDC)" : "360 degrees");
     if (train_images)
         printf("training views: the %d images in %s instead of the dataset's\n", ds.n_train,
@@ -158,7 +159,7 @@ int cmd_train(int argc, char **argv)
              "eval %s %s measures it)", out, pos[0]);
     if (rc == 0)
         rc = cli_run_training("train", &t, out, ckpt_every, ckpt_secs, log_every, eval_every,
-                              every, after, &stopped);
+                              after, &stopped);
     cn_trainer_free(&t);
     cn_dataset_free(&ds);
     cli_unlock_outputs(&locks);

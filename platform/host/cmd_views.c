@@ -87,7 +87,7 @@ int cmd_views(int argc, char **argv)
     if (cli_check_output_dir("views", outdir, pos[0]))
         return 1;
     cn_dataset ds;
-    if (cli_load_dataset("views", pos[0], downscale, max_size, black, 0, 0, -1, &ds))
+    if (cli_load_dataset("views", pos[0], downscale, max_size, black, 0, 0, -1, 1, 0, &ds))
         return 1;
     const cn_view *views = NULL;
     int n = 0, rc = cli_split_views("views", &ds, pos[0], split, &views, &n);

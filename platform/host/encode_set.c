@@ -185,7 +185,7 @@ static int score_set(const encode_args *A, const cn_dataset *ds, size_t bytes)
             printf("wrote %s: %zu bytes, %u scenes, shared shifts %u bytes\n", A->out, st.len, M,
                    st.dec->info.shared_bytes);
         double psnr = 0, ssim = 0, secs = 0;
-        const int n = cli_eval_views(&ref, ds[m].test, ds[m].n_test, ds[m].ndc, A->every, NULL,
+        const int n = cli_eval_views(&ref, ds[m].test, ds[m].n_test, ds[m].ndc, 1, NULL,
                                      1, CLI_T_STOP, &psnr, &ssim, &secs);
         if (n < 0)
             rc = 1;
@@ -230,7 +230,7 @@ int cli_encode_set(const encode_args *A)
     rc = ds ? 0 : cli_fail("encode", "out of memory");
     for (; rc == 0 && loaded < M; loaded++)
         if (cli_load_dataset("encode", A->pos[loaded], A->downscale, A->max_size, 0, 0, 0, -1,
-                             &ds[loaded]))
+                             A->every, 0, &ds[loaded]))
             rc = 1;
     if (rc) {
         for (unsigned m = 0; m + 1 < loaded; m++)
@@ -269,7 +269,7 @@ int cli_encode_set(const encode_args *A)
                  "to write it", A->out, ckpt);
         const cli_job job = {&j, A->iters, set_done, set_step, set_save, NULL, after};
         rc = cli_run_job("encode", &job, ckpt, A->ckpt_every, A->ckpt_secs, A->log_every,
-                         A->eval_every, A->every, &stopped);
+                         A->eval_every, &stopped);
     }
     if (rc == 0 && stopped) {
         printf("interrupted: resume with --resume %s\n", ckpt);

@@ -18,9 +18,9 @@ fail() { echo "FAIL: $*" >&2; exit 1; }
 "$cnerf" synth -o "$work/small.cnrf" --preset small > /dev/null || fail "fixture: synth small"
 head -c 100 "$work/p.bin" > "$work/p_cut.bin"
 "$cnerf" encode "$data/lego" -o "$work/e.cnrf" --lambda 1 --preset tiny --downscale 16 --iters 2 \
-  --every 200 > "$work/fixture-e.log" || fail "fixture: encode"
+  --every 200 --grid 0 > "$work/fixture-e.log" || fail "fixture: encode"
 "$cnerf" encode "$data/lego" "$data/mic" -o "$work/set.cnrf" --lambda 1 --downscale 16 --iters 2 \
-  --every 200 > "$work/fixture-set.log" || fail "fixture: encode of two scenes"
+  --every 200 --grid 0 > "$work/fixture-set.log" || fail "fixture: encode of two scenes"
 cp -al "$data/lego" "$work/ds"
 cp -al "$data/lego" "$work/ds_dir" # an image that is a directory
 rm "$work/ds_dir/train/r_0.png" && mkdir "$work/ds_dir/train/r_0.png"

@@ -142,7 +142,7 @@ msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --coarse-color m
 [ ! -e "$work/z.cnrf" ] || fail "--coarse-color maybe wrote a file"
 set -e
 out=$("$cnerf" encode "$data/lego" -o "$work/cc.cnrf" --lambda 1e-3 --iters 3 --every 100 \
-  --coarse-color on "${common[@]}")
+  --coarse-color on --grid 0 "${common[@]}")
 ! grep -q "no colour" <<<"$("$cnerf" info "$work/cc.cnrf")" || fail "info: --coarse-color on"
 out=$("$cnerf" render "$work/cc.cnrf" --dataset "$data/lego" --downscale 16 --every 100 --fine 0)
 grep -q "mean over 2 views (fixed point, 8+0 samples" <<<"$out" || fail "render --fine 0: $out"
@@ -151,19 +151,19 @@ grep -q "mean over 2 views (fixed point, 8+0 samples" <<<"$out" || fail "render 
 # --precrop-iters 0 draws the first iterations' rays from the whole views (a model from
 # --init needs no centre crop): the same command otherwise trains other latents.
 "$cnerf" encode "$data/lego" -o "$work/pc.cnrf" --lambda 1e-3 --iters 3 --every 100 \
-  --coarse-color on --precrop-iters 0 "${common[@]}" > /dev/null
+  --coarse-color on --grid 0 --precrop-iters 0 "${common[@]}" > /dev/null
 cmp -s "$work/pc.cnrf" "$work/cc.cnrf" && fail "encode --precrop-iters 0 changed nothing"
 # From --init the default is --precrop-iters 0; a crop asked for is still taken.
 for pc in "" "--precrop-iters 0" "--precrop-iters 500"; do
   "$cnerf" encode "$data/lego" -o "$work/init${pc##* }.cnrf" --lambda 1e-3 --iters 3 \
-    --every 100 --init "$work/m.ckpt" $pc "${common[@]}" > /dev/null
+    --every 100 --grid 0 --init "$work/m.ckpt" $pc "${common[@]}" > /dev/null
 done
 cmp -s "$work/init.cnrf" "$work/init0.cnrf" || fail "encode --init: the default is not --precrop-iters 0"
 cmp -s "$work/init.cnrf" "$work/init500.cnrf" && fail "encode --init --precrop-iters 500 changed nothing"
 # --average N writes the mean of the last N iterations' parameters: another file than the
 # last iteration's; more iterations than the run has are refused.
 "$cnerf" encode "$data/lego" -o "$work/avg.cnrf" --lambda 1e-3 --iters 3 --every 100 \
-  --init "$work/m.ckpt" --average 2 "${common[@]}" > /dev/null
+  --grid 0 --init "$work/m.ckpt" --average 2 "${common[@]}" > /dev/null
 cmp -s "$work/init.cnrf" "$work/avg.cnrf" && fail "encode --average 2 changed nothing"
 set +e
 msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1e-3 --iters 3 --average 4 2>&1)
@@ -371,7 +371,7 @@ done
 grep -q "coarse-color=off; coarse-weight=0.1" <<<"$("$cnerf" info "$work/set.cnrf")" \
   || fail "set meta: coarse colour"
 "$cnerf" encode "$data/lego" "$data/mic" -o "$work/setc.cnrf" --lambda 1e-3 --iters 3 \
-  --every 100 --coarse-color on "${common[@]}" > /dev/null
+  --every 100 --coarse-color on --grid 0 "${common[@]}" > /dev/null
 ! grep -q "no colour" <<<"$("$cnerf" info --scene 1 "$work/setc.cnrf")" || fail "set: --coarse-color on"
 [ "$(stat -c %s "$work/setc.cnrf")" -gt "$(stat -c %s "$work/set.cnrf")" ] \
   || fail "set: --coarse-color on is not larger than off"

@@ -535,6 +535,63 @@ static void assert_average_pose_identity(const cn_dataset *ds)
     }
 }
 
+/* Two views alike: name, size, camera and every pixel. */
+static void assert_same_view(const cn_view *a, const cn_view *b)
+{
+    assert_string_equal(a->name, b->name);
+    assert_int_equal(a->w, b->w);
+    assert_int_equal(a->h, b->h);
+    assert_memory_equal(a->c2w, b->c2w, sizeof a->c2w);
+    assert_true(a->fx == b->fx && a->fy == b->fy && a->cx == b->cx && a->cy == b->cy);
+    assert_memory_equal(a->rgb, b->rgb, sizeof(float) * 3 * (size_t)a->w * (size_t)a->h);
+    assert_int_equal(a->alpha == NULL, b->alpha == NULL);
+    if (a->alpha)
+        assert_memory_equal(a->alpha, b->alpha, sizeof(float) * (size_t)a->w * (size_t)a->h);
+}
+
+/* test_every and test_only leave views out unread; those kept are the full load's, and the
+ * scene's rules (bounds, NDC, the downscale --max-size chooses) are the same. */
+static void test_test_every(void **state)
+{
+    (void)state;
+    const struct {
+        const char *dir;
+        cn_dataset_opts o;
+    } cases[] = {{LEGO, {.downscale = 16, .max_views = 7}}, {FERN, {.max_size = 60}}};
+    for (size_t c = 0; c < sizeof cases / sizeof *cases; c++) {
+        cn_dataset full;
+        load_ok(cases[c].dir, &cases[c].o, &full);
+        assert_int_equal(full.n_test_listed, full.n_test);
+        assert_true(full.n_test >= 3);
+        for (int every = 1; every <= 3; every++)
+            for (int only = 0; only <= 1; only++) {
+                cn_dataset_opts o = cases[c].o;
+                o.test_every = every;
+                o.test_only = only;
+                cn_dataset ds;
+                load_ok(cases[c].dir, &o, &ds);
+                assert_int_equal(ds.kind, full.kind);
+                assert_int_equal(ds.ndc, full.ndc);
+                assert_true(ds.near == full.near && ds.far == full.far);
+                assert_int_equal(ds.downscale, full.downscale);
+                assert_int_equal(ds.n_test_listed, full.n_test);
+                assert_int_equal(ds.n_test, (full.n_test + every - 1) / every);
+                for (int i = 0; i < ds.n_test; i++)
+                    assert_same_view(&ds.test[i], &full.test[i * every]);
+                assert_int_equal(ds.n_train, only ? 0 : full.n_train);
+                assert_int_equal(ds.n_val, only ? 0 : full.n_val);
+                for (int i = 0; i < ds.n_train; i++)
+                    assert_same_view(&ds.train[i], &full.train[i]);
+                for (int i = 0; i < ds.n_val; i++)
+                    assert_same_view(&ds.val[i], &full.val[i]);
+                cn_dataset_free(&ds);
+            }
+        cn_dataset_free(&full);
+    }
+    EXPECT_FAIL(LEGO, (&(cn_dataset_opts){.downscale = 16, .test_every = -1}), "test_every -1",
+                ">= 0");
+}
+
 static void test_fern(void **state)
 {
     (void)state;
@@ -1256,6 +1313,7 @@ int main(void)
         cmocka_unit_test(test_png_roundtrip),  cmocka_unit_test(test_png_formats),
         cmocka_unit_test(test_png_read_errors), cmocka_unit_test(test_downscale),
         cmocka_unit_test(test_lego),           cmocka_unit_test(test_fern),
+        cmocka_unit_test(test_test_every),
         cmocka_unit_test(test_ngp),            cmocka_unit_test(test_blender_errors),
         cmocka_unit_test(test_ngp_errors),
         cmocka_unit_test(test_ngp_windows_paths),     cmocka_unit_test(test_llff_synthetic),
