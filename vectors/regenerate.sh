@@ -104,8 +104,8 @@ vector 006-empty-range-layers "every layer's latents in an empty range (kmin = k
   $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --spread 0
 vector 007-no-view-branch "networks without a view-direction branch" \
   $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --view-width 0
-vector 008-small-preset "the small preset's topology (4x128, 32+32 samples)" \
-  $cnerf synth -o "$tmp/s.cnrf" --preset small --seed $seed
+vector 008-small-preset "4x128 networks with a view branch of 64, 32+32 samples" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset small --view-width 64 --seed $seed
 CAMS="--orbit 1 --size 8"
 vector 009-largest-limits "the largest depth, octaves and sample counts, and latents near +-32767 (sums in int64)" \
   $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --depth 16 --width 8 --view-width 8 \
@@ -178,8 +178,8 @@ vector 028-lego-encode-contract "a real scene encoded contracted (Lego, 50x50, l
 CAMS="--orbit 2 --size 24"
 vector 029-level-1 "a stream that declares level 1 (levl), its grid coded by blocks: a decoder of level 1 renders it" \
   $cnerf synth -o "$tmp/s.cnrf" --preset tiny --seed $seed --grid 32 --level 1
-vector 030-level-2 "a stream that declares level 2 (the small preset's 4x128 networks): a decoder of level 1 refuses it with CNERF_E_LEVEL" \
-  $cnerf synth -o "$tmp/s.cnrf" --preset small --seed $seed --level 2
+vector 030-level-2 "a stream that declares level 2 (4x128 networks): a decoder of level 1 refuses it with CNERF_E_LEVEL" \
+  $cnerf synth -o "$tmp/s.cnrf" --preset small --view-width 64 --seed $seed --level 2
 CAMS="--dataset $data/lego --downscale 8 --every 100"
 vector 031-lego-encode-level-1 "a real scene encoded for level 1 by cnerf encode --level 1 (Lego, 50x50, lambda 3, 300 iterations, the automatic grid)" \
   $cnerf encode "$data/lego" -o "$tmp/s.cnrf" --lambda 3 --preset tiny --downscale 8 \

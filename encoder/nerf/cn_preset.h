@@ -5,8 +5,11 @@
 #include "cnerf/cnerf.h"
 
 /* Named presets fill the topology and render parameters of a Blender-style scene:
- * "tiny" (D 4, W 64, 32+32 samples), "small" (D 4, W 128, 32+32), "paper" (D 8, W 256,
- * 64+128). Returns 0, or -1 for an unknown name. */
+ * "tiny" (D 4, W 64, a view branch of 32, 32+32 samples), "small" (D 4, W 128, view 32,
+ * 32+32), "paper" (D 8, W 256, view 128, 64+128). small's view branch is tiny's, not half its
+ * width: a wider one lets colour that changes with the direction stand in for the geometry
+ * on captures of few, small views (docs/training.md, "Warm-up"). Returns 0, or -1 for an
+ * unknown name. */
 int cn_preset_header(const char *name, cnerf_info *hdr);
 
 #endif /* CNERF_ENC_PRESET_H */

@@ -7,8 +7,10 @@ int cn_preset_header(const char *name, cnerf_info *hdr)
 {
     static const struct {
         const char *name;
-        unsigned depth, width, n_coarse, n_fine;
-    } presets[] = {{"tiny", 4, 64, 32, 32}, {"small", 4, 128, 32, 32}, {"paper", 8, 256, 64, 128}};
+        unsigned depth, width, view_width, n_coarse, n_fine;
+    } presets[] = {{"tiny", 4, 64, 32, 32, 32},
+                   {"small", 4, 128, 32, 32, 32},
+                   {"paper", 8, 256, 128, 64, 128}};
     for (size_t i = 0; i < sizeof presets / sizeof presets[0]; i++) {
         if (strcmp(name, presets[i].name) != 0)
             continue;
@@ -31,7 +33,7 @@ int cn_preset_header(const char *name, cnerf_info *hdr)
             hdr->net[n].depth = (uint8_t)presets[i].depth;
             hdr->net[n].width = (uint16_t)presets[i].width;
             hdr->net[n].skip = (uint8_t)(presets[i].depth / 2);
-            hdr->net[n].view_width = (uint16_t)(presets[i].width / 2);
+            hdr->net[n].view_width = (uint16_t)presets[i].view_width;
         }
         return 0;
     }
