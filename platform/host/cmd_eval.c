@@ -87,7 +87,8 @@ int cmd_eval(int argc, char **argv)
     rc = cli_mpi_agree(rc); /* over several ranks, each renders a share of the views */
     if (rc == 0) {
         double psnr, ssim, secs;
-        int count = cli_eval_views(&m, views, n, ds.ndc, test ? 1 : every, outdir, 0, 0, &psnr, &ssim, &secs);
+        int count = cli_eval_views(&m, views, n, ds.ndc, test ? 1 : every, outdir, 0, 0, &psnr,
+                                   &ssim, &secs);
         if (count < 0)
             rc = 1;
         else if (step >= 0)
