@@ -198,6 +198,9 @@ typedef struct cn_trainer {
     double val_best, val_best_size;
     long val_best_step;
     int collapsed, from_float;
+    /* The validation PSNR of a flat colour, the training rays' mean (cn_val_flat_psnr);
+     * NaN without validation views. */
+    double flat_psnr;
     char err[512]; /* why cn_trainer_step returned NaN, when it says */
     /* The processes that share each batch (cn_trainer_share), or NULL: this one alone; the
      * sum of their votes to stop (cn_share.vote) at the last step: when it is not 0, every
@@ -229,6 +232,9 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits);
  * L = gscale / 2 * SE (the trainer's gscale: 2 / (3 rays) for the mean squared error,
  * 2 pixels / rays for compression's summed squared error). */
 double cn_sq_error(float *grad, const float *x, const float *y, size_t n, float gscale);
+/* 1 when the last validation found fog: after at least CN_VAL_FOG_ITERS iterations, a
+ * validation PSNR less than CN_VAL_FOG_DB above the flat colour's (cn_validate.h). */
+int cn_trainer_fog(const cn_trainer *t);
 /* Pixels in the training views (the distortion's scale). */
 double cn_trainer_pixels(const cn_trainer *t);
 /* lambda's scene-independent unit, 3 x training pixels / latents sent: the summed squared

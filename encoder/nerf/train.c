@@ -195,7 +195,7 @@ int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o,
         }
         t->batch.bg = t->bg;
     }
-    t->val_psnr = t->fit_psnr = NAN;
+    t->val_psnr = t->fit_psnr = t->flat_psnr = NAN;
     if (ds->n_val > 0 &&
         (cn_val_rays_init(&t->val_rays, ds->val, ds->n_val, ds->ndc, CN_VAL_RAYS, o->seed) ||
          cn_val_rays_init(&t->fit_rays, ds->train, ds->n_train, ds->ndc, CN_VAL_RAYS,
@@ -204,6 +204,9 @@ int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o,
         snprintf(err, errlen, "out of memory for the validation rays");
         return -1;
     }
+    float flat[3];
+    if (cn_val_mean_color(&t->fit_rays, flat) == 0)
+        t->flat_psnr = cn_val_flat_psnr(&t->val_rays, flat);
     for (unsigned n = 0; n < t->model.topo.n_nets && o->occ_grid > 0; n++)
         if (cn_occ_init(&t->occ[n], &t->model.topo, o->occ_grid)) {
             cn_trainer_free(t);
@@ -570,6 +573,12 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
     if (bits)
         *bits = rate;
     return loss;
+}
+
+int cn_trainer_fog(const cn_trainer *t)
+{
+    return t->val_step >= CN_VAL_FOG_ITERS && t->val_step == t->step &&
+           t->val_psnr < t->flat_psnr + CN_VAL_FOG_DB;
 }
 
 int cn_trainer_validate(cn_trainer *t)

@@ -115,3 +115,29 @@ double cn_val_psnr(const cn_model *m, const cn_val_rays *v)
     cn_batch_free(&b);
     return cn_psnr_from_mse(se / (3.0 * (double)v->n));
 }
+
+int cn_val_mean_color(const cn_val_rays *v, float mean[3])
+{
+    if (v->n == 0)
+        return -1;
+    double s[3] = {0, 0, 0};
+    for (size_t i = 0; i < v->n; i++)
+        for (int c = 0; c < 3; c++)
+            s[c] += v->gt[3 * i + c];
+    for (int c = 0; c < 3; c++)
+        mean[c] = (float)(s[c] / (double)v->n);
+    return 0;
+}
+
+double cn_val_flat_psnr(const cn_val_rays *v, const float color[3])
+{
+    if (v->n == 0)
+        return NAN;
+    double se = 0;
+    for (size_t i = 0; i < v->n; i++)
+        for (int c = 0; c < 3; c++) {
+            const double e = (double)v->gt[3 * i + c] - color[c];
+            se += e * e;
+        }
+    return cn_psnr_from_mse(se / (3.0 * (double)v->n));
+}

@@ -362,7 +362,14 @@ int cli_report_validation(const char *cmd, cn_trainer *t)
         return cli_fail(cmd, "out of memory for validation");
     const double gap = t->fit_psnr - t->val_psnr;
     printf("validation: psnr %.2f dB on %d held-out views, %.2f dB on the training views "
-           "(%zu fixed rays each)\n", t->val_psnr, t->ds->n_val, t->fit_psnr, t->val_rays.n);
+           "(%zu fixed rays each); a flat colour %.2f dB\n", t->val_psnr, t->ds->n_val,
+           t->fit_psnr, t->val_rays.n, t->flat_psnr);
+    /* An encode to a size refuses fog itself (cmd_encode.c). */
+    if (cn_trainer_fog(t) && !t->rate_control)
+        fprintf(stderr, "cnerf %s: warning: the model has not found the scene: its validation "
+                "PSNR %.2f dB is less than %.0f dB above a flat colour's %.2f dB (fog); try "
+                "%smore --iters\n", cmd, t->val_psnr, CN_VAL_FOG_DB, t->flat_psnr,
+                t->opts.preset && strcmp(t->opts.preset, "tiny") ? "--preset tiny or " : "");
     if (gap > CN_VAL_GAP_DB)
         fprintf(stderr, "cnerf %s: warning: the model does not generalize: %.1f dB better on "
                 "its training views than on views it did not see (more than %.0f dB); the "

@@ -685,6 +685,25 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
             cn_trainer_free(&t);
             goto step_down;
         }
+        /* Fog (cn_trainer_fog): a file that would not show the scene is not written. */
+        if (rc == 0 && !stopped && t.rate_control && cn_trainer_fog(&t)) {
+            if (A->autop && !A->resume && !A->init && strcmp(A->o.preset, "tiny")) {
+                printf("preset auto: %s is fog at %.0f bytes (validation psnr %.2f dB, a flat "
+                       "colour %.2f dB); encoding again with preset tiny\n", A->o.preset,
+                       t.rc.target, t.val_psnr, t.flat_psnr);
+                A->o.preset = "tiny";
+                stepped_down = 1;
+                cn_trainer_free(&t);
+                goto step_down;
+            }
+            rc = cli_fail("encode", "%.0f bytes is too small for this scene at preset %s in %ld "
+                          "iterations: its validation PSNR %.2f dB is less than %.0f dB above a "
+                          "flat colour's %.2f dB, the model has not found the scene (fog); %s "
+                          "not written (the model is in %s); try %sa larger --size or more "
+                          "--iters", t.rc.target, A->o.preset, t.step, t.val_psnr,
+                          CN_VAL_FOG_DB, t.flat_psnr, A->out, A->ckpt,
+                          strcmp(A->o.preset, "tiny") ? "--preset tiny, " : "");
+        }
     }
     if (rc == 0 && stopped) {
         printf("interrupted: resume with --resume %s\n", A->ckpt);

@@ -6,7 +6,8 @@
 #   not warned about;
 # - a capture with one bad pose, made from Lego's views: the view the default rule holds out
 #   for validation looks away from the object, as a view whose pose went wrong would; the
-#   model cannot reproduce it, and train warns that it does not generalize.
+#   model cannot reproduce it, and train warns that it does not generalize;
+# - a capture of noise: train warns of fog, and an encode to a size refuses it.
 set -euo pipefail
 cnerf=$1 data=$2 work=$3
 rm -rf "$work" && mkdir -p "$work"
@@ -55,4 +56,34 @@ b=$("$cnerf" train "$work/bad" -o "$work/bad.ckpt" --preset tiny --iters 600 --t
     --batch 256 --log-every 1000 2>&1)
 echo "# bad pose: $(grep '^validation' <<<"$b")"
 grep -q "warning: the model does not generalize" <<<"$b" || fail "bad pose: no warning: $b"
+# A capture with no scene: Lego's cameras, each view noise. No model can predict a view it did
+# not see better than a flat colour: train warns of fog, and an encode to a size refuses to
+# write it, saying why, with nothing at the output.
+mkdir -p "$work/noise/images"
+python3 - "$data/lego/transforms_train.json" "$work/noise" <<'EOF'
+import json, random, struct, sys, zlib
+src = json.load(open(sys.argv[1]))
+out = sys.argv[2]
+rng = random.Random(7)
+def chunk(t, d):
+    return struct.pack('>I', len(d)) + t + d + struct.pack('>I', zlib.crc32(t + d) & 0xffffffff)
+frames = []
+for i, fr in enumerate(src['frames'][:24]):
+    raw = b''.join(b'\0' + bytes(rng.randrange(256) for _ in range(25 * 3)) for _ in range(25))
+    with open('%s/images/%04d.png' % (out, i), 'wb') as f:
+        f.write(b'\x89PNG\r\n\x1a\n' + chunk(b'IHDR', struct.pack('>IIBBBBB', 25, 25, 8, 2, 0, 0, 0))
+                + chunk(b'IDAT', zlib.compress(raw)) + chunk(b'IEND', b''))
+    frames.append({'file_path': 'images/%04d.png' % i, 'transform_matrix': fr['transform_matrix']})
+json.dump({'camera_angle_x': src['camera_angle_x'], 'frames': frames}, open(out + '/transforms.json', 'w'))
+EOF
+fog=(--preset tiny --iters 1000 --threads 2 --seed 1 --batch 64 --coarse 8 --fine 8 --log-every 1000)
+n=$("$cnerf" train "$work/noise" -o "$work/noise.ckpt" "${fog[@]}" 2>&1)
+echo "# noise: $(grep '^validation' <<<"$n")"
+grep -q "warning: the model has not found the scene: its validation PSNR [0-9.]* dB is less than 3 dB above a flat colour's [0-9.]* dB (fog)" \
+  <<<"$n" || fail "noise: train did not warn of fog: $n"
+rc=0
+n=$("$cnerf" encode "$work/noise" -o "$work/noise.cnrf" --size 9000 "${fog[@]}" 2>&1) || rc=$?
+[ $rc = 1 ] && grep -q "9000 bytes is too small for this scene at preset tiny in 1000 iterations: .* the model has not found the scene (fog); $work/noise.cnrf not written (the model is in $work/noise.cnrf.ckpt)" \
+  <<<"$n" || fail "noise: encode --size did not refuse fog: $rc $n"
+[ ! -e "$work/noise.cnrf" ] || fail "noise: the refused file was written"
 echo "suite_small: passed"

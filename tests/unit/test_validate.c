@@ -168,6 +168,54 @@ static void test_rays_and_psnr(void **state)
     cn_dataset_free(&ds);
 }
 
+/* The flat colour: its PSNR is the mean squared error of one colour painted on every ray;
+ * the rays' own mean scores best; the trainer's is the training rays' mean on the
+ * validation rays; the fog verdict waits for CN_VAL_FOG_ITERS and is CN_VAL_FOG_DB wide. */
+static void test_flat_colour_and_fog(void **state)
+{
+    (void)state;
+    float gt[4 * 3] = {0, 0, 0, 1, 1, 1, 0.5f, 0.25f, 0, 0.5f, 0.75f, 1};
+    cn_val_rays v = {4, NULL, NULL, NULL, gt};
+    float mean[3];
+    assert_int_equal(cn_val_mean_color(&v, mean), 0);
+    assert_float_equal(mean[0], 0.5, 1e-7);
+    assert_float_equal(mean[1], 0.5, 1e-7);
+    assert_float_equal(mean[2], 0.5, 1e-7);
+    /* squared errors from 0.5: 3 x 0.25, 3 x 0.25, 0 + 1/16 + 1/4, 0 + 1/16 + 1/4 */
+    const double mse = (0.75 + 0.75 + 0.3125 + 0.3125) / 12;
+    assert_float_equal(cn_val_flat_psnr(&v, mean), -10 * log10(mse), 1e-9);
+    const float off[3] = {0.6f, 0.5f, 0.5f};
+    assert_true(cn_val_flat_psnr(&v, off) < cn_val_flat_psnr(&v, mean));
+    cn_val_rays empty = {0, NULL, NULL, NULL, NULL};
+    assert_int_equal(cn_val_mean_color(&empty, mean), -1);
+    assert_true(isnan(cn_val_flat_psnr(&empty, mean)));
+
+    cn_dataset ds;
+    load(CNERF_DATA_DIR "/lego", &ds);
+    cn_train_opts o;
+    cn_train_defaults(&o);
+    o.preset = "tiny";
+    cn_trainer t;
+    char err[256];
+    assert_int_equal(cn_trainer_init(&t, &ds, &o, err, sizeof err), 0);
+    assert_int_equal(cn_val_mean_color(&t.fit_rays, mean), 0);
+    assert_float_equal(t.flat_psnr, cn_val_flat_psnr(&t.val_rays, mean), 1e-12);
+    assert_true(t.flat_psnr > 5 && t.flat_psnr < 30);
+    t.step = t.val_step = CN_VAL_FOG_ITERS;
+    t.val_psnr = t.flat_psnr + CN_VAL_FOG_DB - 0.01;
+    assert_int_equal(cn_trainer_fog(&t), 1);
+    t.val_psnr = t.flat_psnr + CN_VAL_FOG_DB + 0.01;
+    assert_int_equal(cn_trainer_fog(&t), 0);
+    t.val_psnr = t.flat_psnr;
+    t.step = t.val_step = CN_VAL_FOG_ITERS - 1; /* too short a run to tell */
+    assert_int_equal(cn_trainer_fog(&t), 0);
+    t.step = CN_VAL_FOG_ITERS + 1; /* the measurement is not the current model's */
+    assert_int_equal(cn_trainer_fog(&t), 0);
+    t.step = 0;
+    cn_trainer_free(&t);
+    cn_dataset_free(&ds);
+}
+
 /* Validating every iteration changes no bit of the training, float or compressed, and
  * leaves the last measurement in the trainer. */
 static void test_validation_leaves_training_alone(void **state)
@@ -290,6 +338,7 @@ int main(void)
         cmocka_unit_test(test_hold_out_fern),
         cmocka_unit_test(test_hold_out_blender),
         cmocka_unit_test(test_rays_and_psnr),
+        cmocka_unit_test(test_flat_colour_and_fog),
         cmocka_unit_test(test_validation_leaves_training_alone),
         cmocka_unit_test(test_collapse_stops_rate_control),
         cmocka_unit_test(test_preset_trial),
