@@ -699,10 +699,13 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
             rc = cli_fail("encode", "%.0f bytes is too small for this scene at preset %s in %ld "
                           "iterations: its validation PSNR %.2f dB is less than %.0f dB above a "
                           "flat colour's %.2f dB, the model has not found the scene (fog); %s "
-                          "not written (the model is in %s); try %sa larger --size or more "
-                          "--iters", t.rc.target, A->o.preset, t.step, t.val_psnr,
-                          CN_VAL_FOG_DB, t.flat_psnr, A->out, A->ckpt,
-                          strcmp(A->o.preset, "tiny") ? "--preset tiny, " : "");
+                          "not written (the model is in %s); try %sa larger --size%s",
+                          t.rc.target, A->o.preset, t.step, t.val_psnr, CN_VAL_FOG_DB,
+                          t.flat_psnr, A->out, A->ckpt,
+                          strcmp(A->o.preset, "tiny") ? "--preset tiny, " : "",
+                          A->init ? " or more --iters"
+                                  : ", more --iters, or a float model from cnerf train as "
+                                    "--init");
         }
     }
     if (rc == 0 && stopped) {
