@@ -676,26 +676,24 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
                  "to write it", A->out, A->ckpt);
         rc = cli_run_training("encode", &t, A->ckpt, A->ckpt_every, A->ckpt_secs, A->log_every,
                               A->eval_every, after, &stopped);
-        if (rc && t.collapsed && A->autop && !A->resume && !A->init &&
+        /* A model the rate collapsed, or fog (cn_trainer_fog): a file that would not show
+         * the scene is not written; --preset auto encodes again with tiny instead. */
+        const int fog = rc == 0 && !stopped && t.rate_control && cn_trainer_fog(&t);
+        if ((fog || (rc && t.collapsed)) && A->autop && !A->resume && !A->init &&
             strcmp(A->o.preset, "tiny")) {
-            printf("preset auto: %s collapsed at %.0f bytes; encoding again with preset tiny\n",
-                   A->o.preset, t.rc.target);
+            if (fog)
+                printf("preset auto: %s is fog at %.0f bytes (validation psnr %.2f dB, a flat "
+                       "colour %.2f dB); encoding again with preset tiny\n", A->o.preset,
+                       t.rc.target, t.val_psnr, t.flat_psnr);
+            else
+                printf("preset auto: %s collapsed at %.0f bytes; encoding again with preset "
+                       "tiny\n", A->o.preset, t.rc.target);
             A->o.preset = "tiny";
             stepped_down = 1;
             cn_trainer_free(&t);
             goto step_down;
         }
-        /* Fog (cn_trainer_fog): a file that would not show the scene is not written. */
-        if (rc == 0 && !stopped && t.rate_control && cn_trainer_fog(&t)) {
-            if (A->autop && !A->resume && !A->init && strcmp(A->o.preset, "tiny")) {
-                printf("preset auto: %s is fog at %.0f bytes (validation psnr %.2f dB, a flat "
-                       "colour %.2f dB); encoding again with preset tiny\n", A->o.preset,
-                       t.rc.target, t.val_psnr, t.flat_psnr);
-                A->o.preset = "tiny";
-                stepped_down = 1;
-                cn_trainer_free(&t);
-                goto step_down;
-            }
+        if (fog)
             rc = cli_fail("encode", "%.0f bytes is too small for this scene at preset %s in %ld "
                           "iterations: its validation PSNR %.2f dB is less than %.0f dB above a "
                           "flat colour's %.2f dB, the model has not found the scene (fog); %s "
@@ -706,7 +704,6 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
                           A->init ? " or more --iters"
                                   : ", more --iters, or a float model from cnerf train as "
                                     "--init");
-        }
     }
     if (rc == 0 && stopped) {
         printf("interrupted: resume with --resume %s\n", A->ckpt);

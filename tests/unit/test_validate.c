@@ -22,6 +22,17 @@ static void load(const char *scene, cn_dataset *ds)
         fail_msg("%s", err);
 }
 
+/* A trainer of preset tiny with the default options. */
+static void tiny_trainer(cn_trainer *t, const cn_dataset *ds)
+{
+    cn_train_opts o;
+    cn_train_defaults(&o);
+    o.preset = "tiny";
+    char err[256];
+    if (cn_trainer_init(t, ds, &o, err, sizeof err))
+        fail_msg("%s", err);
+}
+
 static void test_default_rule(void **state)
 {
     (void)state;
@@ -148,12 +159,8 @@ static void test_rays_and_psnr(void **state)
         cn_camera_ray(&cam, ds.ndc, (double)(p % w->w), (double)(p / w->w), all.o + 3 * p,
                       all.d + 3 * p, all.vd + 3 * p);
     memcpy(all.gt, w->rgb, sizeof(float) * 3 * n);
-    cn_train_opts o;
-    cn_train_defaults(&o);
-    o.preset = "tiny";
     cn_trainer t;
-    char err[256];
-    assert_int_equal(cn_trainer_init(&t, &ds, &o, err, sizeof err), 0);
+    tiny_trainer(&t, &ds);
     float *rgb = malloc(sizeof(float) * 3 * n);
     assert_non_null(rgb);
     assert_int_equal(cn_render_view(&t.model, &cam, ds.ndc, rgb, 1024), 0);
@@ -192,12 +199,8 @@ static void test_flat_colour_and_fog(void **state)
 
     cn_dataset ds;
     load(CNERF_DATA_DIR "/lego", &ds);
-    cn_train_opts o;
-    cn_train_defaults(&o);
-    o.preset = "tiny";
     cn_trainer t;
-    char err[256];
-    assert_int_equal(cn_trainer_init(&t, &ds, &o, err, sizeof err), 0);
+    tiny_trainer(&t, &ds);
     assert_int_equal(cn_val_mean_color(&t.fit_rays, mean), 0);
     assert_float_equal(t.flat_psnr, cn_val_flat_psnr(&t.val_rays, mean), 1e-12);
     assert_true(t.flat_psnr > 5 && t.flat_psnr < 30);
