@@ -15,7 +15,8 @@ export async function launch(chromium) {
   const browser = spawn(chromium, ['--headless=new', '--remote-debugging-pipe', '--no-sandbox',
     '--disable-gpu', '--no-first-run', '--no-default-browser-check', '--disable-extensions',
     `--user-data-dir=${profile}`, '--allow-file-access-from-files', 'about:blank'],
-  { stdio: ['ignore', 'ignore', 'pipe', 'pipe', 'pipe'] });
+  // Its own process group, so that close() can end the renderers and helpers with it.
+  { stdio: ['ignore', 'ignore', 'pipe', 'pipe', 'pipe'], detached: true });
   let chromeLog = '';
   browser.stdio[2].on('data', (d) => { chromeLog = (chromeLog + d).slice(-4000); });
   const pending = new Map(), listeners = [];
@@ -89,11 +90,29 @@ export async function launch(chromium) {
     return page;
   }
 
+  // Asks the browser to shut down (it flushes its profile and ends its helpers), waits for
+  // it, then ends whatever of its process group is left before removing the profile: a
+  // helper still writing there made the removal fail with ENOTEMPTY under load.
   const close = async () => {
-    const exited = new Promise((ok) => browser.once('exit', ok));
-    browser.kill();
-    await Promise.race([exited, new Promise((ok) => setTimeout(ok, 5000))]);
-    rmSync(profile, { recursive: true, force: true, maxRetries: 5, retryDelay: 200 });
+    const exited = browser.exitCode !== null || browser.signalCode !== null ? Promise.resolve()
+      : new Promise((ok) => browser.once('exit', ok));
+    const wait = (ms) => new Promise((ok) => setTimeout(ok, ms));
+    send('Browser.close').catch(() => {});
+    await Promise.race([exited, wait(30000)]);
+    try { process.kill(-browser.pid, 'SIGKILL'); } catch { /* the group has ended */ }
+    await Promise.race([exited, wait(5000)]);
+    for (let attempt = 0; ; attempt++) {
+      try {
+        rmSync(profile, { recursive: true, force: true });
+        return;
+      } catch (e) {
+        if (attempt >= 20) {
+          process.stderr.write(`cdp: ${profile} left behind: ${e.message}\n`);
+          return;
+        }
+        await wait(250);
+      }
+    }
   };
   return { send, newPage, close, log: () => chromeLog };
 }
