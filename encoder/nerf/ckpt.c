@@ -116,7 +116,8 @@ int cn_ckpt_parse(const char *path, const uint8_t *data, size_t len, cn_ckpt *c,
         c->compressed = cn_rd_u32(&r);
         uint32_t hl = cn_rd_u32(&r);
         c->hdr.version_minor = CNERF_VERSION_MINOR; /* a model may use any HEAD value */
-        if (version != CN_CKPT_VERSION && version != CN_CKPT_VERSION_NO_AVERAGE &&
+        if (version != CN_CKPT_VERSION && version != CN_CKPT_VERSION_NO_FLOAT &&
+            version != CN_CKPT_VERSION_NO_AVERAGE &&
             version != CN_CKPT_VERSION_NO_QUALITY &&
             version != CN_CKPT_VERSION_NO_RC &&
             version != CN_CKPT_VERSION_NO_RUN &&
@@ -148,8 +149,15 @@ int cn_ckpt_parse(const char *path, const uint8_t *data, size_t len, cn_ckpt *c,
                              (c->quality > 0 && c->has_rc))
                         why = "invalid quality setting";
                 }
-                if (!why && version == CN_CKPT_VERSION)
+                if (!why && version >= CN_CKPT_VERSION_NO_FLOAT)
                     why = ckpt_read_average(&r, c);
+                if (!why && version >= CN_CKPT_VERSION) {
+                    c->float_iters = cn_rd_u64(&r);
+                    if (r.err)
+                        why = "truncated before the float phase";
+                    else if (c->float_iters > 0 && !c->compressed)
+                        why = "a float phase in a float model";
+                }
                 if (!why && cn_rd_left(&r) != 0)
                     why = "unexpected bytes at the end";
             }

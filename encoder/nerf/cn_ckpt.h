@@ -22,7 +22,10 @@
  * cn_train_opts.quality_slope). Versions 3 and 4 load as runs without one.
  * Version 6 adds the mean of the parameters (cnerf encode --average): u64 the iterations
  * averaged at the end of the run (0: none), u64 those done so far, and when that is not 0
- * the mean, n_params f64. Versions 3 to 5 load as runs without it. */
+ * the mean, n_params f64. Versions 3 to 5 load as runs without it.
+ * Version 7 adds after that a u64: the iteration at which the latents' rounding starts
+ * (cn_train_opts.float_iters; 0: from the first). Earlier versions load as 0, which they
+ * were. */
 #ifndef CNERF_ENC_CKPT_H
 #define CNERF_ENC_CKPT_H
 
@@ -35,7 +38,8 @@
 /* The checkpoint of an encode of several scenes (compress/joint.c): named here so that a
  * one-scene run can tell it apart. */
 #define CN_CKPT_JOINT_MAGIC "CNJT"
-#define CN_CKPT_VERSION 6u
+#define CN_CKPT_VERSION 7u
+#define CN_CKPT_VERSION_NO_FLOAT 6u
 #define CN_CKPT_VERSION_NO_AVERAGE 5u
 #define CN_CKPT_VERSION_NO_QUALITY 4u
 #define CN_CKPT_VERSION_NO_RC 3u
@@ -62,6 +66,7 @@ typedef struct cn_ckpt {
     double quality; /* version 5: the quality slope, 0 for none */
     uint64_t average, avg_n; /* version 6: the window and the iterations averaged so far */
     const uint8_t *avg;      /* avg_n > 0: the mean, n_params little-endian f64 */
+    uint64_t float_iters;    /* version 7: the first rounded iteration (0 before) */
 } cn_ckpt;
 
 /* Parses a checkpoint's bytes (path names it in messages); c's pointers point into data.

@@ -60,6 +60,9 @@ struct cn_model {
      * the network uses is materialized as W = a round(Phi) + b. Parameters before
      * off_prior learn at the main rate, the priors at their own. */
     int compressed;
+    /* 1: the kernels are materialized without rounding, W = a Phi + b (the trainer's float
+     * phase, cn_train_opts.float_iters); 0 (the default): W = a round(Phi) + b. */
+    int unrounded;
     size_t off_ab, off_prior;
     float *kernel, *kgrad;  /* materialized kernels and their gradients */
     size_t kofs[CNERF_MAX_LAYERS];

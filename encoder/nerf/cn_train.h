@@ -21,6 +21,9 @@
 /* The default warm-up of the learning rate, in iterations (docs/training.md, "Warm-up"). */
 #define CN_LR_WARMUP 20
 
+/* The share of a compressed run from scratch trained unrounded first (float_iters). */
+#define CN_FLOAT_SHARE 0.25
+
 typedef struct cn_train_opts {
     const char *preset; /* "tiny", "small" or "paper" */
     int depth, width, view_width, n_coarse, n_fine; /* overrides; -1 keeps the preset's */
@@ -29,8 +32,8 @@ typedef struct cn_train_opts {
     double lr;             /* initial learning rate */
     double lr_decay_steps; /* lr = lr0 * 0.1^(step / lr_decay_steps); 0: over iters */
     /* The first lr_warmup steps ramp lr linearly up to it (step k at (k + 1) / lr_warmup of it);
-     * -1 (the default): for the float model CN_LR_WARMUP, at most a tenth of iters; for a
-     * compressed one (compress) none. */
+     * -1 (the default): CN_LR_WARMUP, at most a tenth of iters, for a float model and for a
+     * compressed one with a float phase (float_iters); none for one rounded from the start. */
     long lr_warmup;
     /* The first precrop_iters iterations draw their rays from the centre crop only (360-degree
      * scenes); -1 (the default): CN_PRECROP_ITERS when some training view has transparency,
@@ -107,6 +110,14 @@ typedef struct cn_train_opts {
      * validation views and on its training views, CN_VAL_RAYS fixed rays each
      * (cn_validate.h); 100 by default. Training itself does not change. */
     long val_every;
+    /* Compressed runs: the first float_iters iterations train the latents unrounded
+     * (cn_model.unrounded), a float model in the affine decoders' coordinates that finds the
+     * scene's geometry before rounding starts at iteration float_iters; they also warm the
+     * learning rate up (lr_warmup). -1 (the default): CN_FLOAT_SHARE of the iterations;
+     * 0: rounded from the first iteration (the paper's, and the one before the option).
+     * Rounding from scratch kept preset small in fog on a phone capture whatever the rate
+     * (docs/training.md, "The float phase"). */
+    long float_iters;
 } cn_train_opts;
 
 /* 1024 rays, 5e-3 decaying tenfold over the run (NeRF: 5e-4 over 500k steps), preset
@@ -198,6 +209,7 @@ typedef struct cn_trainer {
     double val_best, val_best_size;
     long val_best_step;
     int collapsed, from_float;
+    long float_asked; /* opts.float_iters as asked (-1: the default share), before a resume */
     /* The validation PSNR of a flat colour, the training rays' mean (cn_val_flat_psnr);
      * NaN without validation views. */
     double flat_psnr;

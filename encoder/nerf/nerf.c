@@ -305,9 +305,11 @@ void cn_model_materialize(cn_model *m)
         const float *phi = m->params + m->layer[l].w;
         float *w = m->kernel + m->kofs[l], *dw = m->kgrad + m->kofs[l];
         const float *gs = m->shift ? m->shift->kernel + m->shift->kofs[l] : NULL;
+        const int unrounded = m->unrounded;
 #pragma omp parallel for schedule(static)
         for (size_t i = 0; i < n; i++) {
-            w[i] = a * roundf(phi[i]) + b; /* ties away from zero, as the export */
+            /* ties away from zero, as the export */
+            w[i] = a * (unrounded ? phi[i] : roundf(phi[i])) + b;
             if (gs)
                 w[i] += gs[i]; /* the shared shift g round(S) */
             dw[i] = 0;
@@ -325,13 +327,15 @@ void cn_model_kernels_backward(cn_model *m)
         const float *phi = m->params + m->layer[l].w, *dw = m->kgrad + m->kofs[l];
         float *dphi = m->grads + m->layer[l].w;
         cn_xsum da = 0, db = 0; /* exact: the same for any thread count */
+        const int unrounded = m->unrounded;
 #pragma omp parallel
         {
             cn_xsum la = 0, lb = 0;
 #pragma omp for schedule(static)
             for (size_t i = 0; i < n; i++) {
                 dphi[i] += a * dw[i]; /* straight-through: d round(x) / dx := 1 */
-                la = cn_xsum_plus(la, cn_xsum_of((double)dw[i] * roundf(phi[i])));
+                const float q = unrounded ? phi[i] : roundf(phi[i]);
+                la = cn_xsum_plus(la, cn_xsum_of((double)dw[i] * q));
                 lb = cn_xsum_plus(lb, cn_xsum_of(dw[i]));
             }
 #pragma omp critical

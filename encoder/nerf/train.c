@@ -44,6 +44,7 @@ void cn_train_defaults(cn_train_opts *o)
     o->coarse_color = 1;
     o->coarse_weight = 1;
     o->val_every = 100;
+    o->float_iters = -1;
 }
 
 static int32_t q16(double v) { return (int32_t)lround(v * 65536.0); }
@@ -139,6 +140,9 @@ int cn_trainer_init(cn_trainer *t, const cn_dataset *ds, const cn_train_opts *o,
     memset(t, 0, sizeof *t);
     t->ds = ds;
     t->opts = *o;
+    t->float_asked = o->float_iters;
+    if (o->float_iters < 0)
+        t->opts.float_iters = o->compress ? (long)((double)o->iters * CN_FLOAT_SHARE) : 0;
     if (ds->n_train < 1) {
         snprintf(err, errlen, "no training views");
         return -1;
@@ -244,8 +248,8 @@ double cn_trainer_lr(const cn_trainer *t)
     const double span = t->opts.lr_decay_steps > 0 ? t->opts.lr_decay_steps
                         : t->opts.iters > 0 ? (double)t->opts.iters : 1.0;
     long warmup = t->opts.lr_warmup;
-    if (warmup < 0) /* the float trainer's default; the encoder's is none (docs/training.md) */
-        warmup = t->opts.compress ? 0
+    if (warmup < 0) /* with a float phase, or for a float model (docs/training.md) */
+        warmup = t->opts.compress && t->opts.float_iters <= 0 ? 0
                  : t->opts.iters / 10 < CN_LR_WARMUP ? t->opts.iters / 10 : CN_LR_WARMUP;
     const double warm = warmup > 0 && t->step < warmup
                             ? (double)(t->step + 1) / (double)warmup : 1.0;
@@ -332,7 +336,8 @@ static void my_rays(const cn_trainer *t, size_t R, size_t *r0, size_t *r1)
 /* Adam over params[lo, hi) at learning rate lr; zeroes the gradients. */
 void cn_adam_range(cn_model *m, size_t lo, size_t hi, double lr, long step)
 {
-    const float b1 = 0.9f, b2 = 0.999f, eps = 1e-7f;
+    const float b1 = 0.9f, b2 = 0.999f;
+    const float eps = getenv("CN_EXP_EPS") ? (float)atof(getenv("CN_EXP_EPS")) : 1e-7f;
     const float c1 = (float)(1.0 - pow(b1, (double)step)), c2 = (float)(1.0 - pow(b2, (double)step));
     const float a = (float)lr * sqrtf(c2) / c1;
     float *p = m->params, *g = m->grads, *mm = m->adam_m, *vv = m->adam_v;
@@ -500,6 +505,7 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
     t->batch.ray0 = r0;
     draw_rays(t, R, r0, r1);
     const uint64_t seed = t->opts.seed + 0x9E3779B97F4A7C15ull * (uint64_t)(t->step + 1);
+    m->unrounded = m->compressed && t->step < t->opts.float_iters;
     cn_model_materialize(m);
     if (t->step_hook && t->step_hook(t))
         return NAN;
@@ -668,6 +674,7 @@ void cn_checkpoint_put(const cn_trainer *t, cn_buf *out)
     cn_buf_u64(&b, (uint64_t)t->avg_n);
     if (t->avg_n > 0)
         cn_buf_f64s(&b, t->avg, t->model.n_params);
+    cn_buf_u64(&b, (uint64_t)(t->model.compressed ? t->opts.float_iters : 0));
     cn_buf_u32(&b, cnerf_crc32(0, b.p, b.n));
     cn_buf_put(out, b.p, b.n);
     out->oom |= b.oom;
@@ -790,6 +797,13 @@ int cn_checkpoint_resume_data(cn_trainer *t, const char *path, const uint8_t *da
             snprintf(err, errlen, "%s was encoded without --average: resume without it, or "
                      "start a new run", path);
         rc = -1;
+    } else if (t->model.compressed && t->float_asked >= 0 &&
+               c.float_iters != (uint64_t)t->float_asked) {
+        snprintf(err, errlen, "%s was encoded with its latents rounded from iteration %llu: "
+                 "resume without --float-iters (or with --float-iters %llu), or start a new "
+                 "run", path, (unsigned long long)c.float_iters,
+                 (unsigned long long)c.float_iters);
+        rc = -1;
     } else if (c.has_run && !c.has_rc && c.quality == 0 && c.lambda != t->opts.lambda) {
         snprintf(err, errlen, "%s was encoded with --lambda %g: resume with that lambda (this "
                  "run has %g), or start a new run", path, c.lambda, t->opts.lambda);
@@ -798,6 +812,8 @@ int cn_checkpoint_resume_data(cn_trainer *t, const char *path, const uint8_t *da
         ckpt_fill(&c, &t->model);
         t->step = (long)c.step;
         t->avg_n = (long)c.avg_n;
+        if (t->model.compressed) /* the run's own, whatever --iters now makes the default */
+            t->opts.float_iters = (long)c.float_iters;
         if (c.avg_n > 0)
             cn_get_f64s(t->avg, c.avg, c.n_params);
         if (c.quality > 0) /* the last step's; the next step sets its own */

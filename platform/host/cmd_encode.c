@@ -34,7 +34,7 @@
     "       [--resume CKPT | --force]\n"                                                     \
     "       [--levels X] [--batch R] [--every N] [--black] [--ckpt-every N | --ckpt-secs S]\n" \
     "       [--log-every N] [--depth D] [--width W] [--view-width V] [--coarse N] [--fine N]\n"                \
-    "       [--latent-lr latent|weight] [--init FLOAT.ckpt]\n"                                                   \
+    "       [--latent-lr latent|weight] [--init FLOAT.ckpt] [--float-iters N]\n"                                            \
     "       [--eval-every N] [--prior-lr X] [--affine-lr X] [--scale-lr R]\n"   \
     "       [--skip-saturated EPS] [--grid G|0] [--grid-verbose] [--random-bg auto|on|off]\n" \
     "       [--background auto|constant|contract]\n"                                               \
@@ -163,6 +163,16 @@ static int check_args(encode_args *A)
     if (A->init && A->resume)
         return cli_usage("encode", "--init starts a run from a float model and --resume goes on "
                          "with an encode's checkpoint: give one of them");
+    if (A->init && A->o.float_iters > 0)
+        return cli_usage("encode", "--init starts from a float model, which has found the "
+                         "scene already: leave out --float-iters (a run from --init rounds its "
+                         "latents from the first iteration)");
+    if (A->init)
+        A->o.float_iters = 0;
+    if (A->o.float_iters > 0 && A->o.float_iters >= A->iters)
+        return cli_usage("encode", "--float-iters %ld leaves no iteration of the %ld for the "
+                         "rounded latents that the file holds: give fewer than --iters",
+                         A->o.float_iters, A->iters);
     if (A->init && A->preset && !strcmp(A->preset, "auto"))
         return cli_usage("encode", "--init takes the model of its checkpoint: leave out "
                          "--preset auto");
@@ -291,6 +301,7 @@ static int parse_args(int argc, char **argv, encode_args *A)
         {"--coarse-color", CLI_STR, &A->coarse_color, 0, 0},
         {"--coarse-weight", CLI_DOUBLE, &A->coarse_weight, 1e-3, 10},
         {"--shift-lr", CLI_DOUBLE, &A->lr_shift, 0, 1},
+        {"--float-iters", CLI_LONG, &A->o.float_iters, 0, 1e9},
     };
     if (cli_parse("encode", ENCODE_USAGE, argc, argv, opts, sizeof opts / sizeof opts[0], A->pos,
                   CNERF_MAX_SCENES, &A->n_pos))
@@ -346,9 +357,10 @@ static int start_rate_control(encode_args *A, cn_trainer *t, const cn_dataset *d
         const int mlen = snprintf(meta0, sizeof meta0,
                                   "encoder=cnerf %s; command=encode; dataset=%s; preset=%s; "
                                   "iters=%ld; size=%.0f; lambda=%g; downscale=%ld; seed=%llu; "
-                                  "levels=%g; latent-lr=%s%s%s", CNERF_VERSION_STRING,
-                                  A->pos[0], A->o.preset, A->iters, target, 1.0, (long)ds->downscale,
-                                  (unsigned long long)A->seed, A->levels, A->latent_lr,
+                                  "levels=%g; latent-lr=%s; float-iters=%ld%s%s",
+                                  CNERF_VERSION_STRING, A->pos[0], A->o.preset, A->iters, target,
+                                  1.0, (long)ds->downscale, (unsigned long long)A->seed,
+                                  A->levels, A->latent_lr, t->opts.float_iters,
                                   A->init ? "; init=" : "", A->init ? A->init : "");
         cn_trainer_rate_control(t, target, mlen + 16, strcmp(A->scheme, "dual") ? CN_RC_LOG_PI
                                                                                 : CN_RC_DUAL,
@@ -438,11 +450,11 @@ static int write_and_report(encode_args *A, cn_trainer *t, const cn_dataset *ds,
         snprintf(sizebuf, sizeof sizebuf, "quality=%g; ", A->quality);
     snprintf(meta, sizeof meta,
              "encoder=cnerf %s; command=encode; dataset=%s; preset=%s; iters=%ld; %slambda=%g; "
-             "downscale=%ld; seed=%llu; levels=%g; latent-lr=%s; coarse-color=%s; "
-             "coarse-weight=%g%s%s%s",
+             "downscale=%ld; seed=%llu; levels=%g; latent-lr=%s; float-iters=%ld; "
+             "coarse-color=%s; coarse-weight=%g%s%s%s",
              CNERF_VERSION_STRING, A->pos[0], A->o.preset, t->step, sizebuf, t->opts.lambda,
-             (long)ds->downscale, (unsigned long long)A->seed, A->levels, A->latent_lr, A->coarse_color,
-             A->o.coarse_weight, A->init ? "; init=" : "", A->init ? A->init : "", levelbuf);
+             (long)ds->downscale, (unsigned long long)A->seed, A->levels, A->latent_lr,
+             t->opts.float_iters, A->coarse_color, A->o.coarse_weight, A->init ? "; init=" : "", A->init ? A->init : "", levelbuf);
     if (rc == 0) {
         cn_model *model = &t->model;
         const cn_dataset *views = ds;

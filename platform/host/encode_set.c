@@ -76,7 +76,7 @@ static int check_set(const encode_args *A)
         {A->val_views >= 0, "--val-views"},    {A->view_width >= 0, "--view-width"},
         {A->latent_lr != NULL, "--latent-lr"}, {A->precrop >= 0, "--precrop-iters"},
         {A->o.sat_eps != 0, "--skip-saturated"}, {A->o.group != 0, "--group-penalty"},
-        {A->grid_verbose, "--grid-verbose"},
+        {A->grid_verbose, "--grid-verbose"},   {A->o.float_iters >= 0, "--float-iters"},
     };
     for (size_t k = 0; k < sizeof single / sizeof single[0]; k++)
         if (single[k].given)
@@ -123,6 +123,9 @@ static int set_options(const encode_args *A, cn_train_opts *o)
     o->lambda = A->quality >= 0 ? 0 : A->lambda;
     o->levels = A->levels;
     o->latent_lr_weight_units = 1;
+    /* Rounded from the first iteration: the shared shifts are integers from the start, and
+     * the float phase was measured on single scenes (docs/training.md, "The float phase"). */
+    o->float_iters = 0;
     if (A->quality >= 0)
         o->quality_slope = cn_quality_slope(A->quality);
     return 0;

@@ -171,6 +171,26 @@ rc=$?
 [ $rc = 2 ] && grep -q "give at most --iters" <<<"$msg" || fail "--average 4 of 3: $rc $msg"
 [ ! -e "$work/z.cnrf" ] || fail "--average 4 of 3 wrote a file"
 set -e
+# The float phase: by default a quarter of the run trains the latents unrounded (2 of 8
+# iterations here), which the stream's text records; --float-iters 0 rounds from the first
+# iteration and trains other latents. Refused: a phase as long as the run, one after --init.
+"$cnerf" encode "$data/lego" -o "$work/fp.cnrf" --lambda 1e-3 --iters 8 --every 100 --grid 0 \
+  "${common[@]}" > /dev/null
+"$cnerf" encode "$data/lego" -o "$work/fp0.cnrf" --lambda 1e-3 --iters 8 --every 100 --grid 0 \
+  --float-iters 0 "${common[@]}" > /dev/null
+cmp -s "$work/fp.cnrf" "$work/fp0.cnrf" && fail "encode --float-iters 0 changed nothing"
+grep -q "float-iters=2;" <<<"$("$cnerf" info "$work/fp.cnrf")" || fail "info: no float-iters=2"
+grep -q "float-iters=0;" <<<"$("$cnerf" info "$work/fp0.cnrf")" || fail "info: no float-iters=0"
+set +e
+msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1e-3 --iters 3 --float-iters 3 2>&1)
+rc=$?
+[ $rc = 2 ] && grep -q "leaves no iteration" <<<"$msg" || fail "--float-iters 3 of 3: $rc $msg"
+msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1e-3 --iters 3 --init "$work/m.ckpt" \
+  --float-iters 1 2>&1)
+rc=$?
+[ $rc = 2 ] && grep -q "leave out --float-iters" <<<"$msg" || fail "--init --float-iters: $rc $msg"
+[ ! -e "$work/z.cnrf" ] || fail "a refused --float-iters wrote a file"
+set -e
 # quantize sends the coarse colour unless --coarse-color off; without it every image with
 # fine samples is the same bits, and the file is smaller.
 "$cnerf" quantize "$work/m.ckpt" -o "$work/q1.cnrf" --bits 6 > /dev/null
@@ -391,6 +411,8 @@ msg=$("$cnerf" encode "$data/lego" "$data/mic" -o "$work/z.cnrf" --lambda 1 --pr
 [ $rc = 2 ] && grep -q "keeps every unit" <<<"$msg" || fail "set --prune on: $rc $msg"
 msg=$("$cnerf" encode "$data/lego" "$data/mic" -o "$work/z.cnrf" --lambda 1 --average 2 2>&1); rc=$?
 [ $rc = 2 ] && grep -q -- "--average encodes one scene" <<<"$msg" || fail "set --average: $rc $msg"
+msg=$("$cnerf" encode "$data/lego" "$data/mic" -o "$work/z.cnrf" --lambda 1 --float-iters 2 2>&1); rc=$?
+[ $rc = 2 ] && grep -q -- "--float-iters encodes one scene" <<<"$msg" || fail "set --float-iters: $rc $msg"
 msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --shift-lr 0.01 2>&1); rc=$?
 [ $rc = 2 ] && grep -q "this encode has one" <<<"$msg" || fail "one scene --shift-lr: $rc $msg"
 msg=$("$cnerf" encode "$data/lego" "$data/lego" -o "$work/z.cnrf" --lambda 1 2>&1); rc=$?

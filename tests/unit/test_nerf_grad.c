@@ -219,13 +219,22 @@ static void setup_model(int view, int compressed, int pruned)
 
 static void setup_small_model(int view, int compressed) { setup_model(view, compressed, 0); }
 
-static void check_render_grads(unsigned net)
+/* The analytic gradients of network net's loss; with latents, mapped on to the latents, a
+ * and b of a compressed model. */
+static void net_grads(unsigned net, int latents)
 {
     memset(gm.grads, 0, sizeof(float) * gm.n_params);
     render_loss(net);
     float *dcol[2] = {NULL, NULL};
     dcol[net] = gg[net];
     cn_render_backward(&gm, &gb, GR, dcol);
+    if (latents)
+        cn_model_kernels_backward(&gm);
+}
+
+static void check_render_grads(unsigned net)
+{
+    net_grads(net, 0);
     const cnerf_net_info *N = &gm.topo.net[net];
     int bad = 0, checked = 0;
     cn_rng r = cn_rng_seed(7 + net);
@@ -414,12 +423,7 @@ static void test_compressed_kernels(void **state)
                                1e-7);
     }
     for (unsigned net = 0; net < 2; net++) {
-        memset(gm.grads, 0, sizeof(float) * gm.n_params);
-        render_loss(net);
-        float *dcol[2] = {NULL, NULL};
-        dcol[net] = gg[net];
-        cn_render_backward(&gm, &gb, GR, dcol);
-        cn_model_kernels_backward(&gm);
+        net_grads(net, 1);
         const cnerf_net_info *N = &gm.topo.net[net];
         int bad = 0;
         for (unsigned l = N->first_layer; l < (unsigned)N->first_layer + N->n_layers; l++) {
@@ -471,6 +475,74 @@ static void test_compressed_kernels(void **state)
     assert_float_equal(cn_model_rate(&gm, 3, 1.0f), bits, 1e-9 * bits);
     assert_float_equal(gm.grads[gm.layer[0].w] * 2, g1, 1e-6 * fabs(g1) + 1e-12);
     assert_float_equal(gm.grads[gm.off_prior] * 2, p1, 1e-5 * fabs(p1) + 1e-9);
+    cn_batch_free(&gb);
+    cn_model_free(&gm);
+}
+
+/* The trainer's float phase (cn_model.unrounded): W = a Phi + b, so that every latent has a
+ * true derivative: finite differences through latents, a and b; rounding returns with the
+ * flag cleared. */
+static void test_unrounded_kernels(void **state)
+{
+    (void)state;
+    setup_small_model(1, 1);
+    gm.unrounded = 1;
+    cn_model_materialize(&gm);
+    int fractional = 0;
+    for (unsigned l = 0; l < gm.topo.n_layers; l++) {
+        const float a = gm.params[gm.off_ab + 2 * l], b = gm.params[gm.off_ab + 2 * l + 1];
+        for (size_t i = 0; i < 5; i++) {
+            const float phi = gm.params[gm.layer[l].w + i];
+            assert_float_equal(cn_model_kernel(&gm, l)[i], a * phi + b, 1e-7);
+            fractional += phi != roundf(phi);
+        }
+    }
+    assert_true(fractional > 0); /* the check would not tell rounding apart otherwise */
+    for (unsigned net = 0; net < 2; net++) {
+        net_grads(net, 1);
+        const cnerf_net_info *N = &gm.topo.net[net];
+        int bad = 0, checked = 0;
+        for (unsigned l = N->first_layer; l < (unsigned)N->first_layer + N->n_layers; l++) {
+            size_t idx[5] = {gm.layer[l].w, gm.layer[l].w + 3, gm.layer[l].w + 11,
+                             gm.off_ab + 2 * l, gm.off_ab + 2 * l + 1};
+            for (int k = 0; k < 5; k++) {
+                const float keep = gm.params[idx[k]];
+                /* as test_compressed_kernels: three steps, one of them clear of ReLU kinks;
+                 * a latent's in latent units, a's relative to it, b's as there */
+                const double hs[3][3] = {{1e-2, 2.5e-3, 6.25e-4},
+                                         {1e-3 * keep, 2.5e-4 * keep, 6.25e-5 * keep},
+                                         {6.25e-5, 2.5e-4, 1.5625e-5}};
+                const double *h3 = hs[k < 3 ? 0 : k - 2];
+                double num = 0;
+                int agree = 0;
+                for (int j = 0; j < 3 && !agree; j++) {
+                    const double h = h3[j];
+                    gm.params[idx[k]] = keep + (float)h;
+                    const double lp = render_loss(net);
+                    gm.params[idx[k]] = keep - (float)h;
+                    const double lm = render_loss(net);
+                    gm.params[idx[k]] = keep;
+                    num = (lp - lm) / ((double)(keep + (float)h) - (double)(keep - (float)h));
+                    agree = fabs(gm.grads[idx[k]] - num) <=
+                            REL_TOL * fmax(fabs(gm.grads[idx[k]]), fabs(num)) + RENDER_ABS_TOL;
+                }
+                checked++;
+                if (!agree) {
+                    print_error("net %u layer %u param %d: analytic %g numeric %g\n", net, l, k,
+                                gm.grads[idx[k]], num);
+                    bad++;
+                }
+            }
+        }
+        assert_true(checked > 0);
+        assert_int_equal(bad, 0);
+    }
+    gm.unrounded = 0;
+    cn_model_materialize(&gm);
+    for (size_t i = 0; i < 5; i++) {
+        const float a = gm.params[gm.off_ab], b = gm.params[gm.off_ab + 1];
+        assert_float_equal(cn_model_kernel(&gm, 0)[i], a * cn_model_latent(&gm, 0, i) + b, 1e-7);
+    }
     cn_batch_free(&gb);
     cn_model_free(&gm);
 }
@@ -666,6 +738,7 @@ int main(void)
         cmocka_unit_test(test_render_grads_group),
         cmocka_unit_test(test_render_all_outside),
         cmocka_unit_test(test_compressed_kernels),
+        cmocka_unit_test(test_unrounded_kernels),
         cmocka_unit_test(test_shared_shift),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -172,23 +172,28 @@ static void test_pinned_trajectory(void **state)
     assert_int_equal(bad, 0);
 }
 
-/* The learning rate's warm-up: by default CN_LR_WARMUP iterations of the float trainer, at most
- * a tenth of the run, and none for the encoder; step k at (k + 1) / warm-up of the decayed
- * rate; --lr-warmup N sets it, 0 turns it off. */
+/* The learning rate's warm-up: by default CN_LR_WARMUP iterations, at most a tenth of the
+ * run, for the float trainer and for the encoder with a float phase (float_iters, by default
+ * a share of the run); none for the encoder rounding from the first iteration; step k at
+ * (k + 1) / warm-up of the decayed rate; --lr-warmup N sets it, 0 turns it off. */
 static void test_lr_warmup(void **state)
 {
     (void)state;
     const struct {
         long iters, warmup, want; /* want: the warm-up's length */
         int compress;
-    } cases[] = {{2000, -1, CN_LR_WARMUP, 0}, {100, -1, 10, 0}, {5, -1, 0, 0}, {2000, 0, 0, 0},
-                 {2000, 400, 400, 0}, {2000, -1, 0, 1}, {2000, 50, 50, 1}};
+        long float_iters;
+    } cases[] = {{2000, -1, CN_LR_WARMUP, 0, -1}, {100, -1, 10, 0, -1}, {5, -1, 0, 0, -1},
+                 {2000, 0, 0, 0, -1}, {2000, 400, 400, 0, -1}, {2000, -1, CN_LR_WARMUP, 1, -1},
+                 {2000, -1, CN_LR_WARMUP, 1, 300}, {100, -1, 10, 1, -1}, {2000, -1, 0, 1, 0},
+                 {2000, 50, 50, 1, 0}, {2000, 0, 0, 1, -1}};
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         cn_train_opts o;
         small_opts(&o);
         o.iters = cases[c].iters;
         o.lr_warmup = cases[c].warmup;
         o.compress = cases[c].compress;
+        o.float_iters = cases[c].float_iters;
         o.lr_decay_steps = 0;
         cn_trainer t;
         char err[512];
@@ -543,7 +548,9 @@ static void rate_control(cn_trainer *t, int on)
 }
 
 /* mode: 0 plain, 1 compressed, 2 with --size, 3 with --quality, 4 with --size and the
- * mean of the last 8 iterations (the resume in that window, a controller measurement too). */
+ * mean of the last 8 iterations (the resume in that window, a controller measurement too),
+ * 5 compressed with a float phase of 9 iterations (the resume within it; the resuming
+ * trainer asks for the default share, which the checkpoint's phase overrides). */
 static void run_split(int mode)
 {
     cn_train_opts o;
@@ -555,6 +562,7 @@ static void run_split(int mode)
     o.lambda = mode == 1 ? 1.0 : 0.0;
     o.quality_slope = mode == 3 ? cn_quality_slope(50) : 0.0;
     o.average = mode == 4 ? 8 : 0;
+    o.float_iters = mode == 5 ? 9 : 0;
     o.iters = 12; /* the controller's plan spans the run */
     enum { N = 12, HALF = 7 }; /* N = o.iters */
     char err[512], path[512];
@@ -577,9 +585,20 @@ static void run_split(int mode)
     rate_control(&first, mode == 2 || mode == 4);
     for (int i = 0; i < HALF; i++)
         loss_split[i] = cn_trainer_step(&first, NULL, NULL);
+    assert_int_equal(first.model.unrounded, mode == 5);
     assert_int_equal(cn_checkpoint_save(&first, path, err, sizeof err), 0);
     cn_trainer_free(&first);
-    assert_int_equal(cn_trainer_init(&second, &ds, &o, err, sizeof err), 0);
+    cn_train_opts o2 = o;
+    if (mode == 5) { /* refused: another phase asked for; then the default, overridden */
+        o2.float_iters = 4;
+        assert_int_equal(cn_trainer_init(&second, &ds, &o2, err, sizeof err), 0);
+        assert_int_equal(cn_checkpoint_resume(&second, path, err, sizeof err), -1);
+        print_message("# another float phase: %s\n", err);
+        assert_non_null(strstr(err, "rounded from iteration 9"));
+        cn_trainer_free(&second);
+        o2.float_iters = -1;
+    }
+    assert_int_equal(cn_trainer_init(&second, &ds, &o2, err, sizeof err), 0);
     if (mode == 2) { /* refused: a fixed lambda, another size, another controller */
         assert_int_equal(cn_checkpoint_resume(&second, path, err, sizeof err), -1);
         print_message("# a fixed lambda: %s\n", err);
@@ -656,6 +675,7 @@ static void test_resume_continues_exactly(void **state)
     run_split(2);
     run_split(3);
     run_split(4);
+    run_split(5);
 }
 
 /* --average W: the model at the end of the run is the mean of the parameters over its last
@@ -795,8 +815,9 @@ static void test_checkpoint_grids(void **state)
     const size_t cells = (size_t)o.occ_grid * o.occ_grid * o.occ_grid;
     const size_t grids = 4 + t.model.topo.n_nets * (8 + 4 * cells);
     /* lambda, views, width, height, poses hash; then version 4's rate-control flag (0),
-     * version 5's quality (0) and version 6's window and iterations averaged (0, 0) */
-    const size_t run = 8 + 3 * 4 + 8 + 4 + 8 + 16;
+     * version 5's quality (0), version 6's window and iterations averaged (0, 0) and
+     * version 7's first rounded iteration (0) */
+    const size_t run = 8 + 3 * 4 + 8 + 4 + 8 + 16 + 8;
     const size_t body = len - 4 - run - grids; /* up to the end of the Adam moments */
     uint8_t *buf = malloc(len + 4);
     assert_non_null(buf);
@@ -841,10 +862,10 @@ static void test_checkpoint_grids(void **state)
     assert_int_equal(cn_checkpoint_resume(&r, path, err, sizeof err), 0);
     assert_true(r.occ[0].valid && r.occ[1].valid);
     cn_trainer_free(&r);
-    /* Versions 3 (the run's record, no rate-control flag), 4 (no quality) and 5 (no mean of
-     * the parameters) resume and still check lambda. */
-    for (uint32_t v = 3; v <= 5; v++) {
-        const size_t n = len - 4 - (v == 3 ? 28 : v == 4 ? 24 : 16);
+    /* Versions 3 (the run's record, no rate-control flag), 4 (no quality), 5 (no mean of
+     * the parameters) and 6 (no float phase) resume and still check lambda. */
+    for (uint32_t v = 3; v <= 6; v++) {
+        const size_t n = len - 4 - (v == 3 ? 36 : v == 4 ? 32 : v == 5 ? 24 : 8);
         memcpy(buf, v2, n);
         put_le32(buf + 4, v);
         write_with_crc(path, buf, n);
@@ -863,17 +884,20 @@ static void test_checkpoint_grids(void **state)
         long cut;       /* bytes removed before the CRC (negative: added) */
         long count_ofs; /* when >= 0: the grid count becomes 1 */
         const char *message;
-        int poke; /* 1: the quality becomes -1; 2: one iteration averaged, in no window */
+        int poke; /* 1: the quality becomes -1; 2: one iteration averaged, in no window;
+                     3: a float phase (this model is a float one) */
     } bad[] = {
         {"one grid for two networks", 0, 1, "occupancy grids do not match the model", 0},
         {"a grid cut short", (long)run + 4, -1, "occupancy grid truncated", 0},
-        {"the mean's window cut short", 12, -1, "truncated before the mean of the parameters",
+        {"the float phase cut short", 4, -1, "truncated before the float phase", 0},
+        {"a float phase in a float model", 0, -1, "a float phase in a float model", 3},
+        {"the mean's window cut short", 20, -1, "truncated before the mean of the parameters",
          0},
         {"a mean longer than its window", 0, -1, "invalid mean of the parameters", 2},
-        {"the quality cut short", 20, -1, "truncated before the quality setting", 0},
+        {"the quality cut short", 28, -1, "truncated before the quality setting", 0},
         {"a negative quality", 0, -1, "invalid quality setting", 1},
-        {"the rate-control flag cut short", 26, -1, "invalid rate-control flag", 0},
-        {"the run's record cut short", 32, -1, "truncated after the occupancy grids", 0},
+        {"the rate-control flag cut short", 34, -1, "invalid rate-control flag", 0},
+        {"the run's record cut short", 40, -1, "truncated after the occupancy grids", 0},
         {"bytes after the run's record", -4, -1, "unexpected bytes at the end", 0},
         {"no grid section", (long)(grids + run), -1, "grid", 0},
     };
@@ -883,10 +907,12 @@ static void test_checkpoint_grids(void **state)
         if (bad[k].count_ofs >= 0)
             put_le32(buf + body, 1);
         if (bad[k].poke == 1) { /* -1.0: f64 0xBFF0000000000000 */
-            put_le32(buf + len - 28, 0);
-            put_le32(buf + len - 24, 0xBFF00000u);
+            put_le32(buf + len - 36, 0);
+            put_le32(buf + len - 32, 0xBFF00000u);
         }
         if (bad[k].poke == 2)
+            put_le32(buf + len - 20, 1);
+        if (bad[k].poke == 3)
             put_le32(buf + len - 12, 1);
         write_with_crc(path, buf, (size_t)((long)len - 4 - bad[k].cut));
         err[0] = 0;
