@@ -21,7 +21,7 @@
 /* The default warm-up of the learning rate, in iterations (docs/training.md, "Warm-up"). */
 #define CN_LR_WARMUP 20
 
-/* The share of a compressed run from scratch trained unrounded first (float_iters). */
+/* The most of a compressed run from scratch trained unrounded first (float_iters). */
 #define CN_FLOAT_SHARE 0.25
 
 typedef struct cn_train_opts {
@@ -113,10 +113,12 @@ typedef struct cn_train_opts {
     /* Compressed runs: the first float_iters iterations train the latents unrounded
      * (cn_model.unrounded), a float model in the affine decoders' coordinates that finds the
      * scene's geometry before rounding starts at iteration float_iters; they also warm the
-     * learning rate up (lr_warmup). -1 (the default): CN_FLOAT_SHARE of the iterations;
-     * 0: rounded from the first iteration (the paper's, and the one before the option).
-     * Rounding from scratch kept preset small in fog on a phone capture whatever the rate
-     * (docs/training.md, "The float phase"). */
+     * learning rate up (lr_warmup). -1 (the default): until the first validation (every
+     * val_every iterations) that finds the model out of the fog (cn_trainer_fog's
+     * yardstick), at most CN_FLOAT_SHARE of the iterations; 0: rounded from the first
+     * iteration (the paper's, and the training before the option). Rounding from scratch
+     * kept preset small in fog on a phone capture whatever the rate (docs/training.md, "The
+     * float phase"). */
     long float_iters;
 } cn_train_opts;
 

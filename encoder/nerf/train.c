@@ -485,6 +485,17 @@ static int collapse_check(cn_trainer *t)
     return -1;
 }
 
+/* The default float phase ends at the first validation that finds the model out of the fog
+ * (its validation PSNR CN_VAL_FOG_DB above a flat colour's, cn_trainer_fog's yardstick): the
+ * network has found the scene, and the rest of the run trains the integers the file holds.
+ * At most the share it started with (no validation views: all of it). */
+static void float_phase_check(cn_trainer *t)
+{
+    if (t->model.compressed && t->float_asked < 0 && t->step < t->opts.float_iters &&
+        t->val_step == t->step && t->val_psnr >= t->flat_psnr + CN_VAL_FOG_DB)
+        t->opts.float_iters = t->step;
+}
+
 double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
 {
     const size_t R = (size_t)t->opts.batch;
@@ -498,6 +509,7 @@ double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)
         }
         if (collapse_check(t))
             return NAN;
+        float_phase_check(t);
     }
     size_t r0, r1;
     my_rays(t, R, &r0, &r1);

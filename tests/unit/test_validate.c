@@ -219,7 +219,8 @@ static void test_flat_colour_and_fog(void **state)
     cn_dataset_free(&ds);
 }
 
-/* Validating every iteration changes no bit of the training, float or compressed, and
+/* Validating every iteration changes no bit of the training, float or compressed (its float
+ * phase's length given: by default a validation may end it, test_float_phase_end), and
  * leaves the last measurement in the trainer. */
 static void test_validation_leaves_training_alone(void **state)
 {
@@ -239,6 +240,7 @@ static void test_validation_leaves_training_alone(void **state)
             o.iters = 6;
             o.compress = compress;
             o.lambda = compress ? 1 : 0;
+            o.float_iters = compress ? 2 : 0;
             o.val_every = k ? 1 : 0;
             assert_int_equal(cn_trainer_init(&t[k], &ds, &o, err, sizeof err), 0);
             for (int i = 0; i < 6; i++)
@@ -255,6 +257,49 @@ static void test_validation_leaves_training_alone(void **state)
         assert_true(t[1].fit_psnr > 3 && t[1].fit_psnr < 60);
         cn_trainer_free(&t[0]);
         cn_trainer_free(&t[1]);
+    }
+    cn_dataset_free(&ds);
+}
+
+/* The default float phase ends at the first validation that finds the model out of the fog,
+ * and lasts its whole share when none does, when there is no validation, or when its length
+ * was given. The flat colour is moved so that every model is out of the fog, or none. */
+static void test_float_phase_end(void **state)
+{
+    (void)state;
+    cn_dataset ds;
+    load(CNERF_DATA_DIR "/fern", &ds);
+    char err[256];
+    assert_int_equal(cn_dataset_hold_out(&ds, -1, err, sizeof err), 1);
+    const struct {
+        double flat;      /* the flat colour's PSNR, as the trainer is told */
+        long val_every, asked, want; /* want: the first rounded iteration */
+    } cases[] = {{-1e9, 2, -1, 2}, {1e9, 2, -1, 10}, {-1e9, 0, -1, 10}, {-1e9, 2, 7, 7},
+                 {-1e9, 4, -1, 4}};
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        cn_train_opts o;
+        cn_train_defaults(&o);
+        o.preset = "tiny";
+        o.batch = 128;
+        o.n_coarse = o.n_fine = 8;
+        o.iters = 40; /* the share: 10 */
+        o.compress = 1;
+        o.lambda = 1;
+        o.float_iters = cases[c].asked;
+        o.val_every = cases[c].val_every;
+        cn_trainer t;
+        assert_int_equal(cn_trainer_init(&t, &ds, &o, err, sizeof err), 0);
+        assert_int_equal(t.opts.float_iters, cases[c].asked < 0 ? 10 : cases[c].asked);
+        t.flat_psnr = cases[c].flat;
+        for (long i = 0; i < 12; i++) {
+            assert_false(isnan(cn_trainer_step(&t, NULL, NULL)));
+            /* the step just taken was unrounded when it came before the phase's end */
+            if (t.model.unrounded != (t.step - 1 < cases[c].want))
+                fail_msg("case %zu, iteration %ld: unrounded %d, the phase ends at %ld", c,
+                         t.step, t.model.unrounded, cases[c].want);
+        }
+        assert_int_equal(t.opts.float_iters, cases[c].want);
+        cn_trainer_free(&t);
     }
     cn_dataset_free(&ds);
 }
@@ -343,6 +388,7 @@ int main(void)
         cmocka_unit_test(test_rays_and_psnr),
         cmocka_unit_test(test_flat_colour_and_fog),
         cmocka_unit_test(test_validation_leaves_training_alone),
+        cmocka_unit_test(test_float_phase_end),
         cmocka_unit_test(test_collapse_stops_rate_control),
         cmocka_unit_test(test_preset_trial),
     };
