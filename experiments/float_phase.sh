@@ -5,11 +5,14 @@
 # quarter of the run unrounded, with the warm-up); one thread, --max-size 100, seed 1. The
 # encode's own test line (the float reference of the file on the scene's test views) scores
 # each. Resumable: a file already written is not encoded again.
-#   experiments/float_phase.sh OUT [SCENE_DIR ...]   (default: ../shared/data/lego and fern)
-# Writes OUT/float_phase.md.
+#   experiments/float_phase.sh [--table] OUT [SCENE_DIR ...]   (default: ../shared/data/lego and fern)
+# Writes OUT/float_phase.md; --table only tabulates the runs already in OUT (a missing one:
+# "not run").
 set -euo pipefail
 cd "$(dirname "$0")/.."
-out=${1:?usage: experiments/float_phase.sh OUT [SCENE_DIR ...]}
+table_only=0
+[ "${1:-}" = --table ] && { table_only=1; shift; }
+out=${1:?usage: experiments/float_phase.sh [--table] OUT [SCENE_DIR ...]}
 shift
 [ $# -gt 0 ] || set -- ../shared/data/lego ../shared/data/fern
 cnerf=${CNERF:-./build/cnerf}
@@ -27,12 +30,15 @@ for dir in "$@"; do
       f=$out/$scene-$preset-$phase.cnrf
       opt=()
       [ "$phase" = default ] || opt=(--float-iters "$phase")
-      [ -s "$f" ] || "$cnerf" encode "$dir" -o "$f" --force --size 30000 --preset "$preset" \
+      [ -s "$f" ] || [ $table_only = 1 ] || "$cnerf" encode "$dir" -o "$f" --force --size 30000 --preset "$preset" \
         --iters 2000 --max-size 100 --threads 1 --seed 1 "${opt[@]}" > "$f.log" 2>&1 || true
-      p=$(sed -n 's/^test: .* psnr \([0-9.]*\) dB.*/\1/p' "$f.log" | tail -n 1)
+      p=""
+      [ ! -e "$f.log" ] || p=$(sed -n 's/^test: .* psnr \([0-9.]*\) dB.*/\1/p' "$f.log" | tail -n 1)
       if [ -s "$f" ] && [ -n "$p" ]; then
         row="$row $p dB, $(stat -c %s "$f") B |"
         psnrs+=("$p")
+      elif [ ! -e "$f.log" ]; then
+        row="$row not run |"
       elif grep -q "the model has not found the scene (fog)" "$f.log"; then
         v=$(sed -n 's/.*its validation PSNR \([0-9.]*\) dB.*/\1/p' "$f.log")
         row="$row refused: fog (validation $v dB) |"
