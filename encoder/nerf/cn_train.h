@@ -212,6 +212,7 @@ typedef struct cn_trainer {
     long val_best_step;
     int collapsed, from_float;
     long float_asked; /* opts.float_iters as asked (-1: the default share), before a resume */
+    int float_left_fog; /* this process ended the default float phase at a validation */
     /* The validation PSNR of a flat colour, the training rays' mean (cn_val_flat_psnr);
      * NaN without validation views. */
     double flat_psnr;

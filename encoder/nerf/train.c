@@ -492,8 +492,10 @@ static int collapse_check(cn_trainer *t)
 static void float_phase_check(cn_trainer *t)
 {
     if (t->model.compressed && t->float_asked < 0 && t->step < t->opts.float_iters &&
-        t->val_step == t->step && t->val_psnr >= t->flat_psnr + CN_VAL_FOG_DB)
+        t->val_step == t->step && t->val_psnr >= t->flat_psnr + CN_VAL_FOG_DB) {
         t->opts.float_iters = t->step;
+        t->float_left_fog = 1;
+    }
 }
 
 double cn_trainer_step(cn_trainer *t, double *mse_last, double *bits)

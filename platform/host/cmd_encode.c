@@ -691,8 +691,7 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
         if (rc == 0 && !stopped && t.opts.float_iters > 0)
             printf("float phase: the latents trained unrounded for the first %ld iterations%s\n",
                    t.opts.float_iters, t.float_asked >= 0 ? " (--float-iters)"
-                   : t.opts.float_iters < (long)((double)A->iters * CN_FLOAT_SHARE)
-                       ? ", until the model left the fog" : ", a quarter of the run");
+                   : t.float_left_fog ? ", until the model left the fog" : "");
         /* A model the rate collapsed, or fog (cn_trainer_fog): a file that would not show
          * the scene is not written; --preset auto encodes again with tiny instead. */
         const int fog = rc == 0 && !stopped && t.rate_control && cn_trainer_fog(&t);
