@@ -7,6 +7,8 @@
 set -euo pipefail
 cnerf=$1 data=$2 work=$3
 rm -rf "$work" && mkdir -p "$work"
+# (Lego and Mic with 10 training and 10 validation views: each run reads fewer images)
+data=$(bash "$(dirname "$0")/few_views.sh" "$data" "$work/data")
 fail() { echo "FAIL: $*" >&2; exit 1; }
 
 # Fixtures: a float checkpoint, a stream, a dataset copy made of hard links (a file written
@@ -52,8 +54,8 @@ open(sys.argv[2] + "/ds_nanpose/transforms_train.json", "w").write(s.replace('"I
 j["frames"][3]["transform_matrix"][0][3] = 0.5
 open(sys.argv[2] + "/ds_mism/transforms_train.json", "w").write(json.dumps(j))
 PY
-rm "$work/ds_mism/train/r_1.png" # a hard link: removed first, so the shared data is untouched
-python3 - "$work/ds_mism/train/r_1.png" <<'PY'
+rm "$work/ds_mism/train/r_10.png" # (the second training view) a hard link: removed first, so the shared data is untouched
+python3 - "$work/ds_mism/train/r_10.png" <<'PY'
 import struct, sys, zlib
 def chunk(t, d):
     return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))
@@ -80,12 +82,12 @@ with zipfile.ZipFile(sys.argv[1] + "/ds_dtu/cameras.npz", "w") as z:
         z.writestr("scale_mat_%d.npy" % i, npy(S))
 open(sys.argv[1] + "/ds_npz/cameras.npz", "w").write("world_mat_0\n")
 PY
-for i in 0 1 2; do cp "$work/ds_mism/train/r_1.png" "$work/ds_dtu/image/00000$i.png"; done
+for i in 0 1 2; do cp "$work/ds_mism/train/r_10.png" "$work/ds_dtu/image/00000$i.png"; done
 # Training views for --train-images: as written, one missing, one too many, one with alpha.
 "$cnerf" views "$data/lego" -o "$work/v" --downscale 16 > /dev/null || fail "fixture: views"
 for d in missing extra alpha; do cp -r "$work/v" "$work/v_$d"; done
 rm "$work/v_missing/0003.png"
-cp "$work/v/0000.png" "$work/v_extra/0100.png"
+cp "$work/v/0000.png" "$work/v_extra/$(printf %04d "$(ls "$work/v" | grep -c "png$")").png" # the next index
 python3 - "$work/v_alpha/0002.png" <<'PY'
 import struct, sys, zlib
 def chunk(t, d):
@@ -238,7 +240,7 @@ rows=(
   "1|(nested 100000 deep; the parser stops at 1000)|train $work/ds_deep -o $work/x.ckpt ${T[*]}"
   "1|transforms_train.json: frames: missing|train $work/ds_nokey -o $work/x.ckpt ${T[*]}"
   "1|frames[3].transform_matrix: non-finite entry [0][3]|train $work/ds_nanpose -o $work/x.ckpt ${T[*]}"
-  "1|images differ in size: $work/ds_mism/train/r_0.png is 400x400 but $work/ds_mism/train/r_1.png is 40x30|train $work/ds_mism -o $work/x.ckpt ${T[*]}"
+  "1|images differ in size: $work/ds_mism/train/r_0.png is 400x400 but $work/ds_mism/train/r_10.png is 40x30|train $work/ds_mism -o $work/x.ckpt ${T[*]}"
   "1|r_0.png: 100000 x 100000 pixels, more than the 268435456 that cnerf loads|train $work/ds_big -o $work/x.ckpt ${T[*]}"
   "1|ds_dtu/image: 3 images (PNG, JPEG) for 2 poses in $work/ds_dtu/cameras.npz|train $work/ds_dtu -o $work/x.ckpt ${T[*]}"
   "1|ds_npz/cameras.npz: not a zip archive|train $work/ds_npz -o $work/x.ckpt ${T[*]}"
@@ -276,7 +278,7 @@ rows=(
   "2|--coarse-weight: expected a number in [0.001, 10]|encode $D -o $work/x.cnrf --lambda 1 --coarse-weight 0"
   "2|--grid takes 16, 32, 64 or 128|encode $D -o $work/x.cnrf --lambda 1 --grid 17"
   "1|t.ckpt was trained with --seed 1: resume with that seed|train $D -o $work/t.ckpt --resume --seed 7 ${T[*]}"
-  "1|t.ckpt was trained on another dataset (100 training views with other camera poses|train $data/mic -o $work/t.ckpt --resume ${T[*]}"
+  "1|t.ckpt was trained on another dataset (10 training views with other camera poses|train $data/mic -o $work/t.ckpt --resume ${T[*]}"
   "1|t.ckpt was trained on 25x25 images and this run has 50x50: resume with that --downscale|train $D -o $work/t.ckpt --resume --preset tiny --downscale 8 --iters 100000"
   "1|e.cnrf.ckpt was encoded with --lambda 1: resume with that lambda (this run has 2)|encode $D -o $work/e2.cnrf --resume $work/e.cnrf.ckpt --lambda 2 ${T[*]}"
   "1|e.cnrf.ckpt was encoded with a fixed --lambda 1: resume with that lambda|encode $D -o $work/e2.cnrf --resume $work/e.cnrf.ckpt --size 20000 ${T[*]}"
@@ -322,7 +324,7 @@ rows=(
   "2|--iters 0 trains nothing|encode $D -o $work/x.cnrf --lambda 1 --iters 0"
   "1|v_missing/0003.png|train $D -o $work/x.ckpt --train-images $work/v_missing ${T[*]}"
   "1|v/0000.png is 25x25 and training view 0 (r_0) 50x50: give the same --downscale as to \`cnerf views\`|train $D -o $work/x.ckpt --train-images $work/v --preset tiny --downscale 8 --iters 100000"
-  "1|v_extra has more views than the dataset's 100 training views|train $D -o $work/x.ckpt --train-images $work/v_extra ${T[*]}"
+  "1|v_extra has more views than the dataset's 10 training views|train $D -o $work/x.ckpt --train-images $work/v_extra ${T[*]}"
   "1|v_alpha/0002.png has an alpha channel|train $D -o $work/x.ckpt --train-images $work/v_alpha ${T[*]}"
   "2|need a dataset directory and -o DIR|views $D"
   "1|lies inside the dataset|views $D -o $D/v --downscale 16"
@@ -448,7 +450,7 @@ out=$("$cnerf" train "$work/ngp_opaque" -o "$work/bg2.ckpt" "${T2[@]}" --backgro
   fail "background constant: $out"
 ! grep -q "^background:" <<<"$out" || fail "background constant given, auto spoke: $out"
 out=$("$cnerf" train "$D" -o "$work/bg3.ckpt" "${T2[@]}") || fail "background auto, Lego: $out"
-grep -q "^background: the constant colour (auto: 100 of 100 training views have transparency)" \
+grep -q "^background: the constant colour (auto: 10 of 10 training views have transparency)" \
   <<<"$out" || fail "background auto, Lego: $out"
 out=$("$cnerf" train "$data/fern" -o "$work/bg4.ckpt" "${T2[@]}") || fail "background auto, Fern: $out"
 grep -q "^background: the constant colour (auto: a forward-facing scene, in NDC)" <<<"$out" ||
@@ -574,8 +576,8 @@ matrix=(
 )
 # (for train, encode and views the input is an image of the dataset, linked outside its
 # folder: known as an input only once the dataset is loaded)
-input_of=("$D/train/r_0.png" "$D/train/r_1.png" "" "$work/t.ckpt" "$work/s.cnrf" "$work/s.cnrf" "$work/s.cnrf" "$work/t.ckpt"
-          "$D/train/r_2.png" "$work/s.cnrf" "$D/test/r_0.png")
+input_of=("$D/train/r_0.png" "$D/train/r_10.png" "" "$work/t.ckpt" "$work/s.cnrf" "$work/s.cnrf" "$work/s.cnrf" "$work/t.ckpt"
+          "$D/train/r_20.png" "$work/s.cnrf" "$D/test/r_0.png")
 kinds=(link fifo input)
 [ $have_dev = 1 ] && kinds+=(dev)
 m=0
