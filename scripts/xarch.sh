@@ -143,11 +143,27 @@ for md5f in vectors/valid/*.md5; do
   echo "$(wc -l < "$work/tiles") $want $base" >> "$work/vector_md5"
 done
 
+# Every tile of a list in one process (render_tile --jobs: under qemu-user and Node, starting a
+# process costs more than most tiles), one file each, then their MD5s a line each.
+render_list() { # NAME RUN LIST OUT: the MD5s of LIST's tiles into OUT
+  local name=$1 run=$2 list=$3 out=$4 dir=$4.d
+  rm -rf "$dir" && mkdir -p "$dir"
+  on "$run" "$work/render_tile.$name" --jobs "$list" "$dir" ||
+    echo "xarch.sh: $name: render_tile --jobs $list failed" >&2
+  local i n
+  n=$(wc -l < "$list")
+  for ((i = 1; i <= n; i++)); do
+    [ -f "$dir/$i.rgb" ] || break
+    md5sum < "$dir/$i.rgb" | cut -c1-32
+  done > "$out"
+  rm -rf "$dir"
+}
+# the tiles with each camera's path: render_tile --jobs's list
+while IFS='|' read -r s scene cam tile knobs; do
+  echo "$s|$scene|$work/$cam|$tile|$knobs"
+done < "$work/tiles" > "$work/jobs"
 render_all() { # NAME RUN: every tile's MD5, a line each, into $work/md5.NAME
-  local name=$1 run=$2 s scene cam tile knobs exe=$work/render_tile.$1
-  while IFS='|' read -r s scene cam tile knobs; do
-    CNERF_SCENE=$scene on "$run" "$exe" "$s" "$work/$cam" $tile $knobs | md5sum | cut -c1-32
-  done < "$work/tiles" > "$work/md5.$name"
+  render_list "$1" "$2" "$work/jobs" "$work/md5.$1"
 }
 jobs_max=$(nproc 2>/dev/null || echo 2)
 pids=()
@@ -206,14 +222,14 @@ done
 # latent as int16 where the kernels' int8 sums cost more: aarch64's and armhf's; on the other
 # architectures that workspace changes nothing): the MD5s the vectors list. An architecture
 # a job, as render_all.
-render_fast() { # NAME RUN: each vector's first tile, "MD5 BASE" a line, into $work/fast_md5.NAME
-  local name=$1 run=$2 line want base s scene cam tile knobs
-  while read -r line want base; do
-    IFS='|' read -r s scene cam tile knobs < <(sed -n "${line}p" "$work/tiles")
-    echo "$(CNERF_WS_FAST=1 CNERF_SCENE=$scene on "$run" "$work/render_tile.$name" "$s" "$work/$cam" \
-            $tile $knobs | md5sum | cut -c1-32) $want $base"
-  done < "$work/vector_md5" > "$work/fast_md5.$name"
+render_fast() { # NAME RUN: each vector's first tile, "MD5 WANT BASE" a line, into $work/fast_md5.NAME
+  local name=$1 run=$2
+  CNERF_WS_FAST=1 render_list "$name" "$run" "$work/fast_jobs" "$work/fast_only.$name"
+  paste -d ' ' "$work/fast_only.$name" <(cut -d ' ' -f 2,3 "$work/vector_md5" |
+    head -n "$(wc -l < "$work/fast_only.$name")") > "$work/fast_md5.$name"
 }
+while read -r line want base; do sed -n "${line}p" "$work/jobs"; done < "$work/vector_md5" \
+  > "$work/fast_jobs"
 fast=0 fast_on=() pids=()
 for t in "${targets[@]}"; do
   read -r name cc run <<< "$t"

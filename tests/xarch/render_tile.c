@@ -2,6 +2,7 @@
  * stdout, row by row. Hosted C99 and the decoder only, so that it cross-compiles for any
  * Linux target; scripts/xarch.sh runs it under qemu-user and compares the MD5s.
  *   render_tile STREAM CAMERA X0 Y0 W H [N_COARSE N_FINE T_STOP [FLAGS]]
+ *   render_tile --jobs LIST OUTDIR   (many tiles, one a file: render_jobs below)
  * STREAM may be a packed image (cnerf pack), opened in place by cnerf_open_packed.
  * CAMERA is a text file of 18 integers: rot[9] (Q30), pos[3] (Q32), fx fy cx cy (Q16),
  * width height.
@@ -76,26 +77,19 @@ static int fail(const char *msg, cnerf_status st)
     return 1;
 }
 
-int main(int argc, char **argv)
+/* One tile: args[0..5] = STREAM CAMERA X0 Y0 W H, then none, 3 or 4 knobs (nargs 6, 9, 10);
+ * its bytes to out. */
+static int render_one(char **args, int nargs, uint32_t scene, FILE *out)
 {
-    if (argc != 7 && argc != 10 && argc != 11) {
-        fprintf(stderr,
-                "usage: [CNERF_SCENE=I] render_tile STREAM CAMERA X0 Y0 W H [N_COARSE N_FINE "
-                "T_STOP [FLAGS]]\n");
-        return 2;
-    }
-    FILE *f = fopen(argv[1], "rb");
+    FILE *f = fopen(args[0], "rb");
     if (!f) {
-        perror(argv[1]);
+        perror(args[0]);
         return 1;
     }
     static uint64_t words[(1 << 22) / 8]; /* aligned for a packed image */
     uint8_t *const buf = (uint8_t *)words;
     const size_t len = fread(buf, 1, sizeof words, f);
     fclose(f);
-    /* CNERF_SCENE in the environment: the scene of a stream of several (0 when unset) */
-    const char *scene_env = getenv("CNERF_SCENE");
-    const uint32_t scene = scene_env ? (uint32_t)strtoul(scene_env, NULL, 10) : 0u;
     static cnerf_decoder dec;
     uint64_t *ws = NULL, *sc;
     size_t sc_n;
@@ -103,14 +97,14 @@ int main(int argc, char **argv)
     if (len >= 4 && memcmp(buf, "CNPK", 4) == 0) { /* a packed image, read in place */
         st = cnerf_open_packed(&dec, buf, len);
         if (st != CNERF_OK)
-            return fail(argv[1], st);
+            return fail(args[0], st);
         sc_n = cnerf_render_scratch_size(&dec.info);
         if (!(sc = malloc(sc_n + 8)))
             return 1;
     } else {
         st = cnerf_peek_scene(buf, len, scene, &dec.info);
         if (st != CNERF_OK)
-            return fail(argv[1], st);
+            return fail(args[0], st);
         const char *fast = getenv("CNERF_WS_FAST"); /* 1: every latent as int16 */
         const size_t ws_n = fast && strcmp(fast, "1") == 0 ? cnerf_workspace_size_fast(&dec.info)
                                                            : cnerf_workspace_size(&dec.info);
@@ -120,19 +114,20 @@ int main(int argc, char **argv)
             return 1;
         st = cnerf_open_scene(&dec, buf, len, scene, ws, ws_n);
         if (st != CNERF_OK)
-            return fail(argv[1], st);
+            return fail(args[0], st);
     }
 
     cnerf_camera cam;
     long long v[18];
-    f = fopen(argv[2], "r");
+    f = fopen(args[1], "r");
     if (!f) {
-        perror(argv[2]);
+        perror(args[1]);
         return 1;
     }
     for (int i = 0; i < 18; i++)
         if (fscanf(f, "%lld", &v[i]) != 1) {
-            fprintf(stderr, "render_tile: %s: expected 18 integers\n", argv[2]);
+            fprintf(stderr, "render_tile: %s: expected 18 integers\n", args[1]);
+            fclose(f);
             return 1;
         }
     fclose(f);
@@ -145,15 +140,15 @@ int main(int argc, char **argv)
 
     cnerf_render_opts o;
     cnerf_render_defaults(&dec.info, &o);
-    if (argc >= 10) {
-        o.n_coarse = (uint16_t)atoi(argv[7]);
-        o.n_fine = (uint16_t)atoi(argv[8]);
-        o.t_stop = (uint32_t)strtoul(argv[9], NULL, 10);
+    if (nargs >= 9) {
+        o.n_coarse = (uint16_t)atoi(args[6]);
+        o.n_fine = (uint16_t)atoi(args[7]);
+        o.t_stop = (uint32_t)strtoul(args[8], NULL, 10);
     }
-    if (argc == 11)
-        o.flags = (uint32_t)strtoul(argv[10], NULL, 10);
-    const uint32_t x0 = (uint32_t)atoi(argv[3]), y0 = (uint32_t)atoi(argv[4]);
-    const uint32_t w = (uint32_t)atoi(argv[5]), h = (uint32_t)atoi(argv[6]);
+    if (nargs == 10)
+        o.flags = (uint32_t)strtoul(args[9], NULL, 10);
+    const uint32_t x0 = (uint32_t)atoi(args[2]), y0 = (uint32_t)atoi(args[3]);
+    const uint32_t w = (uint32_t)atoi(args[4]), h = (uint32_t)atoi(args[5]);
     /* RGB888, or RGB565 in either byte order (FLAGS), rows without padding */
     const size_t bpp = o.flags & (CNERF_RENDER_RGB565 | CNERF_RENDER_RGB565_BE) ? 2u : 3u;
     uint8_t *px = malloc((size_t)w * h * bpp + 1);
@@ -162,7 +157,7 @@ int main(int argc, char **argv)
     st = cnerf_render_tile(&dec, &cam, &o, x0, y0, w, h, px, (size_t)w * bpp, sc, sc_n);
     if (st != CNERF_OK)
         return fail("render", st);
-    fwrite(px, 1, (size_t)w * h * bpp, stdout);
+    fwrite(px, 1, (size_t)w * h * bpp, out);
     free(px), free(ws), free(sc);
 #if defined(CNERF_COST_MODEL)
     const char *core = getenv("CNERF_CORE");
@@ -170,4 +165,82 @@ int main(int argc, char **argv)
         return 1;
 #endif
     return 0;
+}
+
+/* --jobs LIST OUTDIR: LIST has a tile a line, "STREAM|SCENE|CAMERA|X0 Y0 W H|KNOBS" (KNOBS
+ * empty, or N_COARSE N_FINE T_STOP [FLAGS]); tile n (from 1) is written to OUTDIR/n.rgb. One
+ * process for many tiles: under qemu-user or Node, starting one costs more than a small
+ * tile. */
+static int render_jobs(const char *list, const char *outdir)
+{
+    FILE *f = fopen(list, "r");
+    if (!f) {
+        perror(list);
+        return 1;
+    }
+    char line[4096];
+    int n = 0, rc = 0;
+    while (!rc && fgets(line, sizeof line, f)) {
+        n++;
+        char *args[10], *p = line, *fields[5];
+        line[strcspn(line, "\n")] = 0;
+        for (int i = 0; i < 5; i++) { /* split at '|' */
+            fields[i] = p;
+            char *bar = p ? strchr(p, '|') : NULL;
+            if (bar)
+                *bar = 0;
+            p = bar ? bar + 1 : NULL;
+            if (!fields[i] && i < 4) {
+                fprintf(stderr, "render_tile: %s:%d: expected STREAM|SCENE|CAMERA|TILE|KNOBS\n",
+                        list, n);
+                fclose(f);
+                return 1;
+            }
+        }
+        int nargs = 0;
+        args[nargs++] = fields[0];
+        args[nargs++] = fields[2];
+        for (int k = 3; k < 5; k++)
+            for (char *t = fields[k] ? strtok(fields[k], " ") : NULL; t && nargs < 10;
+                 t = strtok(NULL, " "))
+                args[nargs++] = t;
+        if (nargs != 6 && nargs != 9 && nargs != 10) {
+            fprintf(stderr, "render_tile: %s:%d: a tile has 4 numbers, then 0, 3 or 4 knobs\n",
+                    list, n);
+            fclose(f);
+            return 1;
+        }
+        char path[4200];
+        snprintf(path, sizeof path, "%s/%d.rgb", outdir, n);
+        FILE *out = fopen(path, "wb");
+        if (!out) {
+            perror(path);
+            fclose(f);
+            return 1;
+        }
+        rc = render_one(args, nargs, (uint32_t)strtoul(fields[1], NULL, 10), out);
+        if (fclose(out) != 0)
+            rc = 1;
+        if (rc)
+            fprintf(stderr, "render_tile: %s:%d: tile failed\n", list, n);
+    }
+    fclose(f);
+    return rc;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc == 4 && strcmp(argv[1], "--jobs") == 0)
+        return render_jobs(argv[2], argv[3]);
+    if (argc != 7 && argc != 10 && argc != 11) {
+        fprintf(stderr,
+                "usage: [CNERF_SCENE=I] render_tile STREAM CAMERA X0 Y0 W H [N_COARSE N_FINE "
+                "T_STOP [FLAGS]]\n"
+                "       render_tile --jobs LIST OUTDIR\n");
+        return 2;
+    }
+    /* CNERF_SCENE in the environment: the scene of a stream of several (0 when unset) */
+    const char *scene_env = getenv("CNERF_SCENE");
+    const uint32_t scene = scene_env ? (uint32_t)strtoul(scene_env, NULL, 10) : 0u;
+    return render_one(argv + 1, argc - 1, scene, stdout);
 }
