@@ -182,7 +182,7 @@ static int render_jobs(const char *list, const char *outdir)
     int n = 0, rc = 0;
     while (!rc && fgets(line, sizeof line, f)) {
         n++;
-        char *args[10], *p = line, *fields[5];
+        char *args[11], *p = line, *fields[5];
         line[strcspn(line, "\n")] = 0;
         for (int i = 0; i < 5; i++) { /* split at '|' */
             fields[i] = p;
@@ -201,7 +201,7 @@ static int render_jobs(const char *list, const char *outdir)
         args[nargs++] = fields[0];
         args[nargs++] = fields[2];
         for (int k = 3; k < 5; k++)
-            for (char *t = fields[k] ? strtok(fields[k], " ") : NULL; t && nargs < 10;
+            for (char *t = fields[k] ? strtok(fields[k], " ") : NULL; t && nargs < 11;
                  t = strtok(NULL, " "))
                 args[nargs++] = t;
         if (nargs != 6 && nargs != 9 && nargs != 10) {
