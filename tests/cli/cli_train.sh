@@ -450,6 +450,18 @@ for size in 12000 40000; do
   want=tiny && [ $size = 12000 ] || want=small
   grep -q "^preset auto: $want " <<<"$msg" || fail "--size $size did not take $want: $msg"
 done
+# --preset auto resumes the preset its checkpoint holds, whichever the rule would take: an
+# encode that stepped down to tiny (its trials, or fog) and was interrupted goes on with
+# the command it printed. Here the checkpoint is tiny's, at a size where the rule takes small.
+"$cnerf" encode "$data/lego" -o "$work/ar.cnrf" --preset tiny --size 40000 --iters 2 \
+  --every 100 --downscale 16 --batch 64 --threads 2 > /dev/null 2>&1
+[ -s "$work/ar.cnrf.ckpt" ] || fail "encode --preset tiny --size 40000 left no checkpoint"
+msg=$("$cnerf" encode "$data/lego" -o "$work/ar.cnrf" --size 40000 --iters 3 --every 100 \
+  --downscale 16 --batch 64 --threads 2 --resume "$work/ar.cnrf.ckpt" 2>&1); rc=$?
+[ $rc -le 1 ] && grep -q "^resumed $work/ar.cnrf.ckpt at iteration 2" <<<"$msg" ||
+  fail "--preset auto did not resume a tiny checkpoint at a size where the rule takes small: $rc $msg"
+grep -q "^preset auto: tiny, the preset of $work/ar.cnrf.ckpt (the rule: small" <<<"$msg" ||
+  fail "--preset auto's resume did not say it took the checkpoint's preset: $msg"
 set -e
 [ ! -e "$work/z.cnrf.ckpt.tmp" ] || fail "a set left a temporary checkpoint"
 echo "cli_train: all checks passed"
