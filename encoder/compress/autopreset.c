@@ -22,10 +22,11 @@ int cn_preset_floor(const cn_dataset *ds, const cn_train_opts *o, size_t *floor_
     return rc;
 }
 
+static const char *const order[] = {"tiny", "small"}; /* the presets measured, smallest first */
+
 int cn_preset_auto(const cn_dataset *ds, const cn_train_opts *o, double target,
                    const char **preset, double *bits, char *err, size_t errlen)
 {
-    static const char *const order[] = {"tiny", "small"}; /* the presets measured */
     const size_t n = sizeof order / sizeof order[0];
     for (size_t i = n; i-- > 0;) {
         cn_train_opts p = *o;
@@ -72,4 +73,27 @@ double cn_preset_trial(const cn_dataset *ds, const cn_train_opts *o, const char 
         return -1;
     }
     return v;
+}
+
+int cn_preset_of_checkpoint(const cn_dataset *ds, const cn_train_opts *o, const char *path,
+                            const char **preset, char *err, size_t errlen)
+{
+    for (size_t i = 0; i < sizeof order / sizeof order[0]; i++) {
+        cn_train_opts p = *o;
+        p.preset = order[i];
+        cnerf_info hdr;
+        cn_model m;
+        if (cn_header_for_dataset(ds, &p, &hdr, err, errlen) ||
+            cn_model_init_compressed(&m, &hdr, p.seed, p.levels, err, errlen))
+            return -1;
+        const int holds = cn_checkpoint_holds(path, &m, err, errlen);
+        cn_model_free(&m);
+        if (holds < 0)
+            return -1;
+        if (holds) {
+            *preset = order[i];
+            return 0;
+        }
+    }
+    return 1;
 }

@@ -159,6 +159,13 @@ int cn_preset_auto(const cn_dataset *ds, const cn_train_opts *o, double target,
 double cn_preset_trial(const cn_dataset *ds, const cn_train_opts *o, const char *preset,
                        long iters, char *err, size_t errlen);
 
+/* --preset auto resuming the checkpoint at path: of the presets it chooses between, the one
+ * whose model the checkpoint holds (cn_checkpoint_holds), with o's other options; a run that
+ * stepped down from the rule's choice resumes the preset it trained. Returns 0 with *preset
+ * set, 1 when it holds none of them, -1 with a message. */
+int cn_preset_of_checkpoint(const cn_dataset *ds, const cn_train_opts *o, const char *path,
+                            const char **preset, char *err, size_t errlen);
+
 /* The floor (cn_stream_floor) and the latents sent (cn_model_sent_latents) of o's preset on
  * this dataset, with the colour layers that o leaves out (cn_train_drop_color) left out. */
 int cn_preset_floor(const cn_dataset *ds, const cn_train_opts *o, size_t *floor_bytes,
@@ -297,6 +304,10 @@ int cn_checkpoint_resume(cn_trainer *t, const char *path, char *err, size_t errl
 /* The same from a checkpoint's bytes (path names them in messages). */
 int cn_checkpoint_resume_data(cn_trainer *t, const char *path, const uint8_t *data, size_t len,
                               char *err, size_t errlen);
+/* 1 when the checkpoint at path holds a model of m's topology and compression (the model a
+ * cn_checkpoint_resume into a trainer of m needs), 0 when it holds another, -1 with a message
+ * when it cannot be read. */
+int cn_checkpoint_holds(const char *path, const cn_model *m, char *err, size_t errlen);
 /* Loads a checkpoint's model alone (for evaluation); m is initialised by this call.
  * *step receives the iteration count when not NULL. */
 int cn_checkpoint_load_model(const char *path, cn_model *m, long *step, char *err,

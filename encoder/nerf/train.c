@@ -751,6 +751,25 @@ static int other_run(const cn_trainer *t, const cn_ckpt *c, const char *path, co
     return 0;
 }
 
+/* Whether checkpoint c holds a model of m's topology and compression: what a resume needs. */
+static int same_model(const cn_ckpt *c, const cn_model *m)
+{
+    return c->n_params == m->n_params && c->compressed == (uint32_t)m->compressed &&
+           memcmp(&c->hdr.net, &m->topo.net, sizeof c->hdr.net) == 0 &&
+           c->hdr.n_coarse == m->topo.n_coarse && c->hdr.n_fine == m->topo.n_fine;
+}
+
+int cn_checkpoint_holds(const char *path, const cn_model *m, char *err, size_t errlen)
+{
+    uint8_t *data;
+    cn_ckpt c;
+    if (ckpt_read(path, &data, &c, err, errlen))
+        return -1;
+    const int same = same_model(&c, m);
+    free(data);
+    return same;
+}
+
 int cn_checkpoint_resume(cn_trainer *t, const char *path, char *err, size_t errlen)
 {
     uint8_t *data;
@@ -774,10 +793,7 @@ int cn_checkpoint_resume_data(cn_trainer *t, const char *path, const uint8_t *da
                  "has %llu), or start a new run", path, (unsigned long long)c.seed,
                  (unsigned long long)t->opts.seed);
         rc = -1;
-    } else if (c.n_params != t->model.n_params || c.compressed != (uint32_t)t->model.compressed ||
-        memcmp(&c.hdr.net, &t->model.topo.net,
-                                                   sizeof c.hdr.net) != 0 ||
-        c.hdr.n_coarse != t->model.topo.n_coarse || c.hdr.n_fine != t->model.topo.n_fine) {
+    } else if (!same_model(&c, &t->model)) {
         snprintf(err, errlen, "%s: checkpoint model differs from the requested one (preset, "
                  "depth, width, samples or compression)", path);
         rc = -1;

@@ -613,6 +613,23 @@ int cmd_encode(int argc, char **argv)
         }
         printf("preset auto: %s (%.2f bits per latent beyond the topology's floor; small from "
                "%.2f)\n", A->o.preset, bits, CN_AUTO_BITS);
+        /* A resumed run goes on with the preset it trained: its trials, or fog, may have
+         * taken tiny over the rule's choice. */
+        const char *held;
+        const int r = A->resume && access(A->resume, F_OK) == 0
+                          ? cn_preset_of_checkpoint(&ds, &A->o, A->resume, &held, err, sizeof err)
+                          : 1;
+        if (r < 0) {
+            cn_dataset_free(&ds);
+            cli_unlock_outputs(&locks);
+            return cli_fail("encode", "%s", err);
+        }
+        if (r == 0 && strcmp(held, A->o.preset)) {
+            printf("preset auto: %s, the preset of %s (the rule: %s)\n", held, A->resume,
+                   A->o.preset);
+            stepped_down = !strcmp(held, "tiny");
+            A->o.preset = held;
+        }
         /* a level: the largest preset within it, at most the rule's */
         while (A->level && strcmp(A->o.preset, "tiny") &&
                preset_over_level(A->o.preset, &A->o, (unsigned)A->level, NULL, 0)) {
