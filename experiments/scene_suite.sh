@@ -144,8 +144,8 @@ run() {
   [ "${runname#encode}" != "$runname" ] && f=$file.cnrf
   local chosen=$preset
   if [ "$runname" = encode-default ]; then
-    # the rule's choice, then the trials' verdict when they ran (the last line wins)
-    chosen=$(sed -n 's/^preset auto: trials .*: \([a-z]*\)$/\1/p; s/^preset auto: \([a-z]*\) (.*/\1/p' \
+    # the rule's choice, then the race's verdict when it ran (the last line wins)
+    chosen=$(sed -n 's/^preset auto: \([a-z]*\), by the race .*/\1/p; s/^preset auto: \([a-z]*\) (.*/\1/p' \
       "$log" | tail -n 1)
     grep -q "encoding again with preset tiny" "$log" && { chosen=tiny; status=stepped-down; }
   fi

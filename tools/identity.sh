@@ -20,7 +20,7 @@ run() { local name=$1; shift; echo "== $name: cnerf $*" >&2; "$cnerf" "$@" > "$n
 # The README main job (scripts/demo.sh's encode).
 run main encode "$data/lego" -o "$out/main.cnrf" --lambda 0.1 --preset tiny --downscale 4 \
   --iters 2000 --every 40 --log-every 100 --threads 2
-# A byte budget on Fern (rate control, the default preset choice with its trials).
+# A byte budget on Fern (rate control, the default preset choice: the rule, in a run this short).
 run fern encode "$data/fern" -o "$out/fern.cnrf" --size 20000 --iters 400 --max-size 64 \
   --threads 2 --seed 3
 # Two scenes in one stream (shared shifts).

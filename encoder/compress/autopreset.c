@@ -44,35 +44,22 @@ int cn_preset_auto(const cn_dataset *ds, const cn_train_opts *o, double target,
     return -1; /* not reached */
 }
 
-double cn_preset_trial(const cn_dataset *ds, const cn_train_opts *o, const char *preset,
-                       long iters, char *err, size_t errlen)
+int cn_race_step(cn_race *r, long step, long iters, double val_tiny, double val_small)
 {
-    cn_train_opts p = *o;
-    p.preset = preset;
-    p.iters = iters;
-    p.compress = 1;
-    p.lambda = 0;
-    p.quality_slope = 0;
-    p.average = 0;
-    p.val_every = 0;
-    p.precrop_iters = 0; /* measured on whole views: a crop would leave their borders untrained */
-    cn_trainer t;
-    if (cn_trainer_init(&t, ds, &p, err, errlen))
+    const int last = (double)step >= CN_RACE_LAST * (double)iters;
+    if (isnan(val_tiny) || isnan(val_small)) /* no validation yet: nothing to tell */
+        return r->n == 0 ? (last ? 0 : -1) : last ? r->mean > 0 : -1;
+    r->lead[r->n++ % CN_RACE_MEAN] = val_small - val_tiny;
+    const int k = r->n < CN_RACE_MEAN ? r->n : CN_RACE_MEAN;
+    double sum = 0;
+    for (int i = 0; i < k; i++)
+        sum += r->lead[i];
+    r->mean = sum / k;
+    if ((double)step < CN_RACE_FIRST * (double)iters)
         return -1;
-    for (long i = 0; i < iters; i++)
-        if (isnan(cn_trainer_step(&t, NULL, NULL))) {
-            snprintf(err, errlen, "%s", t.err);
-            cn_trainer_free(&t);
-            return -1;
-        }
-    const int rc = cn_trainer_validate(&t);
-    const double v = t.val_psnr; /* NaN without validation views */
-    cn_trainer_free(&t);
-    if (rc) {
-        snprintf(err, errlen, "out of memory for validation");
-        return -1;
-    }
-    return v;
+    if (r->mean > CN_RACE_MARGIN_DB || r->mean < -CN_RACE_MARGIN_DB || last)
+        return r->mean > 0;
+    return -1;
 }
 
 int cn_preset_of_checkpoint(const cn_dataset *ds, const cn_train_opts *o, const char *path,

@@ -141,23 +141,37 @@ void cn_train_defaults(cn_train_opts *o);
 #define CN_AUTO_BITS 1.6
 int cn_preset_auto(const cn_dataset *ds, const cn_train_opts *o, double target,
                    const char **preset, double *bits, char *err, size_t errlen);
-/* --preset auto's check of its choice on the scene: `iters` iterations of a compressed run
- * of `preset` at lambda 0 from whole views (no centre crop), then the validation PSNR
- * (cn_validate.h). When the rule chose small and its trial falls more than CN_AUTO_TRIAL_DB
- * under tiny's, auto takes tiny: a larger network that does not find the scene's geometry
- * in its first iterations (DTU scan 24, docs/results.md) does not find it later.
- * CN_AUTO_TRIAL_DB is set from the scene suite (docs/results.md, "Every scene a user
- * brings"), midway between the two closest scenes that went opposite ways: small's trial
- * 0.35 dB under tiny's where small was the better encode (a phone capture of a fruit bowl),
- * 0.50 to 0.54 dB under where tiny was (a rooftop video). The trials
- * last a tenth of the run, at most CN_AUTO_TRIAL_ITERS, and none is made for runs shorter
- * than 10 x CN_AUTO_TRIAL_MIN. Returns the PSNR, NaN without validation views, -1 with a
- * message on failure. */
-#define CN_AUTO_TRIAL_DB 0.45
-#define CN_AUTO_TRIAL_ITERS 300
-#define CN_AUTO_TRIAL_MIN 100
-double cn_preset_trial(const cn_dataset *ds, const cn_train_opts *o, const char *preset,
-                       long iters, char *err, size_t errlen);
+/* --preset auto's race: where both presets can meet the size, the encode trains tiny and
+ * small side by side, each a whole encode of its own (rate control, float phase), and keeps
+ * the one that the validation views (cn_validate.h) rank first; the other is dropped, and
+ * the winner goes on from where it stands, the same model as an encode of that preset alone.
+ * A preset that learns the scene more slowly, or that the size compresses harder, shows it
+ * on the validation views within the first half of the run (docs/results.md, "Every scene
+ * a user brings"): the trials this replaced, short runs at lambda 0, measured how fast a
+ * preset learns, not what the size leaves of it.
+ * Decisions are taken at validations (every val_every iterations) on the mean of small's
+ * lead over tiny at the last CN_RACE_MEAN of them: from CN_RACE_FIRST of the run, a lead
+ * beyond CN_RACE_MARGIN_DB either way ends the race; at CN_RACE_LAST the leader wins (tiny
+ * on a tie: it renders cheaper). On the suite's encodes at 30 kB (both presets' validations
+ * at every 100 iterations, 2,000 iterations), every lead beyond 1 dB from iteration 300 on
+ * named the better encode on the test views, and where none did the leader at 1,000 was the
+ * better or within 0.12 dB. No race below CN_RACE_BITS bits per latent for small (the
+ * rule's measure, cn_preset_auto: below every crossing of the presets measured), or in runs
+ * shorter than CN_RACE_MIN_ITERS. */
+#define CN_RACE_FIRST 0.15
+#define CN_RACE_LAST 0.5
+#define CN_RACE_MARGIN_DB 1.0
+#define CN_RACE_MEAN 3
+#define CN_RACE_BITS 1.0
+#define CN_RACE_MIN_ITERS 1000
+typedef struct cn_race {
+    double lead[CN_RACE_MEAN]; /* small's validation PSNR minus tiny's, the last ones */
+    int n;                     /* validations seen */
+    double mean;               /* the mean lead at the last decision taken */
+} cn_race;
+/* The validation of both at `step` of `iters` (NaN: none yet, not counted): -1 to go on, 0
+ * for tiny, 1 for small. */
+int cn_race_step(cn_race *r, long step, long iters, double val_tiny, double val_small);
 
 /* --preset auto resuming the checkpoint at path: of the presets it chooses between, the one
  * whose model the checkpoint holds (cn_checkpoint_holds), with o's other options; a run that

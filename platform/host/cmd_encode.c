@@ -402,32 +402,84 @@ static int preset_over_level(const char *preset, const cn_train_opts *o, unsigne
     return over;
 }
 
-/* --preset auto's trials of the rule's choice against tiny (cn_preset_trial), once.
- * Returns 1 when tiny is taken instead, 0 to go on, -1 with a message. */
-static int auto_trials(encode_args *A, const cn_dataset *ds, int *trials_done, char *err,
-                       size_t errlen)
+/* Whether --preset auto races tiny and small (cn_train.h) on this run: an encode to a size
+ * from scratch, long enough, with validation views, at a size that small can meet
+ * (CN_RACE_BITS) within the level. */
+static int race_wanted(const encode_args *A, const cn_dataset *ds, char *err, size_t errlen)
 {
-    /* --preset auto checks the rule's choice of a larger preset on the scene, once the size is
-     * known to be within its reach (cn_preset_trial). */
-    const long trial = A->iters / 10 < CN_AUTO_TRIAL_ITERS ? A->iters / 10 : CN_AUTO_TRIAL_ITERS;
-    if (A->autop && !*trials_done && strcmp(A->o.preset, "tiny") && trial >= CN_AUTO_TRIAL_MIN &&
-        ds->n_val > 0 && !A->init && !A->resume) {
-        *trials_done = 1;
-        const double t0 = cli_now();
-        const double big = cn_preset_trial(ds, &A->o, A->o.preset, trial, err, errlen);
-        const double small = big < 0 ? -1 : cn_preset_trial(ds, &A->o, "tiny", trial, err,
-                                                              errlen);
-        if (big < 0 || small < 0)
-            return -1;
-        const int down = big < small - CN_AUTO_TRIAL_DB;
-        printf("preset auto: trials of %ld iterations (%.0f s), validation psnr %s %.2f dB, "
-               "tiny %.2f dB: %s\n", trial, cli_now() - t0, A->o.preset, big, small,
-               down ? "tiny" : A->o.preset);
-        if (down) {
-            A->o.preset = "tiny";
-            return 1;
-        }
+    if (!A->autop || A->size <= 0 || A->resume || A->init || ds->n_val == 0 ||
+        A->iters < CN_RACE_MIN_ITERS || A->o.val_every <= 0)
+        return 0;
+    cn_train_opts p = A->o;
+    p.preset = "small";
+    size_t floor_bytes, latents;
+    if (cn_preset_floor(ds, &p, &floor_bytes, &latents, err, errlen))
+        return -1;
+    if (8 * (A->size - (double)floor_bytes) / (double)latents < CN_RACE_BITS)
+        return 0;
+    return !(A->level && preset_over_level("small", &A->o, (unsigned)A->level, NULL, 0));
+}
+
+/* --preset auto's race of tiny (tr[0], initialised by the caller with rate control) and
+ * small (tr[1], initialised here) until the validation views rank them (cn_race_step); the
+ * loser is freed (a trainer holds pointers into itself: the winner stays where it is).
+ * *win: 0 tiny, 1 small. Returns 0, or -1 with a message and tr[0] left to the caller. */
+static int auto_race(encode_args *A, const cn_dataset *ds, cn_trainer tr[2], int *win,
+                     char *err, size_t errlen)
+{
+    A->o.preset = "small";
+    if (cn_trainer_init(&tr[1], ds, &A->o, err, errlen))
+        return -1;
+    if (start_rate_control(A, &tr[1], ds, err, errlen)) {
+        cn_trainer_free(&tr[1]);
+        return -1;
     }
+    cli_stop_before("race", "while --preset auto races tiny and small", NULL);
+    printf("preset auto: racing tiny and small, each a whole encode, until the validation "
+           "views rank them (from %.0f%% of the run by more than %.1f dB, else at %.0f%%)\n",
+           100 * CN_RACE_FIRST, CN_RACE_MARGIN_DB, 100 * CN_RACE_LAST);
+    fflush(stdout);
+    const double t0 = cli_now();
+    cn_race race = {{0}, 0, 0};
+    int w = -1;
+    long seen = 0; /* the last validation step looked at */
+    while (w < 0) {
+        int lost = -1; /* a preset that the rate collapsed (cn_trainer_step's check) */
+        for (int k = 0; k < 2; k++)
+            if (isnan(cn_trainer_step(&tr[k], NULL, NULL))) {
+                if (!tr[k].collapsed || lost >= 0) {
+                    snprintf(err, errlen, "%.900s", tr[k].err);
+                    cn_trainer_free(&tr[1]); /* tr[0]: the caller's */
+                    return -1;
+                }
+                printf("race: %s\n", tr[k].err);
+                lost = k;
+            }
+        if (lost >= 0) {
+            w = 1 - lost;
+            break;
+        }
+        /* A trainer validates at the start of the step after each val_every-th: both did in
+         * this step when its val_step moved. */
+        const long step = tr[0].val_step;
+        if (step == seen && tr[0].step < A->iters)
+            continue;
+        seen = step;
+        w = cn_race_step(&race, step, A->iters, tr[0].val_psnr, tr[1].val_psnr);
+        printf("race %ld/%ld: validation psnr tiny %.2f dB, small %.2f dB (%.2f kB, %.2f kB), "
+               "small's lead %+.2f dB over the last %d\n", step, A->iters, tr[0].val_psnr,
+               tr[1].val_psnr, (tr[0].rc.size + tr[0].rc.reserved) / 1000.0,
+               (tr[1].rc.size + tr[1].rc.reserved) / 1000.0, race.mean,
+               race.n < CN_RACE_MEAN ? race.n : CN_RACE_MEAN);
+        fflush(stdout);
+        if (tr[0].step >= A->iters && w < 0)
+            w = race.n > 0 && race.mean > 0;
+    }
+    printf("preset auto: %s, by the race (%.0f s, %ld iterations of each)\n",
+           w ? "small" : "tiny", cli_now() - t0, tr[0].step);
+    cn_trainer_free(&tr[1 - w]);
+    A->o.preset = w ? "small" : "tiny";
+    *win = w;
     return 0;
 }
 
@@ -603,7 +655,8 @@ int cmd_encode(int argc, char **argv)
         cn_model_free(&fm);
     }
     cli_auto_background(&ds, 1, &A->o.contract);
-    int stepped_down = 0, trials_done = 0; /* --preset auto took tiny over the rule's choice */
+    int stepped_down = 0; /* --preset auto took tiny over the rule's choice */
+    int race = 0;         /* --preset auto races tiny and small (auto_race) */
     if (A->autop) {
         double bits;
         if (cn_preset_auto(&ds, &A->o, A->size, &A->o.preset, &bits, err, sizeof err)) {
@@ -638,50 +691,59 @@ int cmd_encode(int argc, char **argv)
             A->o.preset = down;
         }
     }
-    int rc = 0, stopped = 0;
-step_down: /* --preset auto encodes again with tiny when the rate collapses a larger preset */
-    rc = 0;
-    cli_stop_before("start", "before training", A->resume);
-    cn_trainer t;
-    if (cn_trainer_init(&t, &ds, &A->o, err, sizeof err)) {
+    if (A->autop && (race = race_wanted(A, &ds, err, sizeof err)) < 0) {
         cn_dataset_free(&ds);
         cli_unlock_outputs(&locks);
         return cli_fail("encode", "%s", err);
     }
-    cli_say_random_bg(&t);
+    if (race)
+        A->o.preset = "tiny"; /* the first of the two trainers */
+    int rc = 0, stopped = 0;
+step_down: /* --preset auto encodes again with tiny when the rate collapses a larger preset */
+    rc = 0;
+    cli_stop_before("start", "before training", A->resume);
+    cn_trainer tr[2], *tp = &tr[0]; /* tr[1]: small in the race */
+    if (cn_trainer_init(tp, &ds, &A->o, err, sizeof err)) {
+        cn_dataset_free(&ds);
+        cli_unlock_outputs(&locks);
+        return cli_fail("encode", "%s", err);
+    }
+    cli_say_random_bg(tp);
     char why[320];
-    if (A->level && topology_over_level(&t.model.topo, (unsigned)A->level, why, sizeof why)) {
-        cn_trainer_free(&t);
+    if (A->level && topology_over_level(&tp->model.topo, (unsigned)A->level, why, sizeof why)) {
+        cn_trainer_free(tp);
         cn_dataset_free(&ds);
         cli_unlock_outputs(&locks);
         return cli_fail("encode", "the model is over level %ld before any training: %s (a "
                         "smaller preset, --width or fewer --coarse and --fine samples)",
                         A->level, why);
     }
-    int bad = start_rate_control(A, &t, &ds, err, sizeof err);
-    if (bad == 0 && !A->resume && !A->init)
-        bad = auto_trials(A, &ds, &trials_done, err, sizeof err);
+    int bad = start_rate_control(A, tp, &ds, err, sizeof err);
+    if (bad == 0 && race) {
+        int w;
+        race = 0; /* once: a step down from fog does not race again */
+        bad = auto_race(A, &ds, tr, &w, err, sizeof err);
+        if (bad == 0) {
+            tp = &tr[w];
+            stepped_down = !w;
+        }
+    }
     if (bad < 0) {
-        cn_trainer_free(&t);
+        cn_trainer_free(tp);
         cn_dataset_free(&ds);
         cli_unlock_outputs(&locks);
         return cli_fail("encode", "%s", err);
-    }
-    if (bad == 1) {
-        stepped_down = 1;
-        cn_trainer_free(&t);
-        goto step_down;
     }
     if (A->resume) {
         if (access(A->resume, F_OK) != 0)
             rc = cli_fail("encode", "%s: no such checkpoint", A->resume);
         else
-            rc = cli_resume("encode", &t, A->resume);
+            rc = cli_resume("encode", tp, A->resume);
     }
     if (A->init && rc == 0) {
         if (access(A->init, F_OK) != 0)
             rc = cli_fail("encode", "%s: no such checkpoint", A->init);
-        else if (cn_trainer_init_from_float(&t, A->init, err, sizeof err))
+        else if (cn_trainer_init_from_float(tp, A->init, err, sizeof err))
             rc = cli_fail("encode", "%s", err);
         else
             printf("starting from the float model %s\n", A->init);
@@ -696,34 +758,34 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
         printf("encoding %s: %d train views %dx%d, %d validation views, lambda %s, %zu "
                "latents, checkpoint %s\n", A->pos[0], ds.n_train, ds.train[0].w, ds.train[0].h,
                ds.n_val, lam,
-               cn_model_sent_latents(&t.model), A->ckpt);
+               cn_model_sent_latents(&tp->model), A->ckpt);
         if (A->o.average > 0)
             printf("the file will hold the mean of the parameters over the last %ld "
                    "iterations\n", A->o.average);
         char after[8400];
         snprintf(after, sizeof after, "%s not written: run the command again with --resume %s "
                  "to write it", A->out, A->ckpt);
-        rc = cli_run_training("encode", &t, A->ckpt, A->ckpt_every, A->ckpt_secs, A->log_every,
+        rc = cli_run_training("encode", tp, A->ckpt, A->ckpt_every, A->ckpt_secs, A->log_every,
                               A->eval_every, after, &stopped);
-        if (rc == 0 && !stopped && t.opts.float_iters > 0)
+        if (rc == 0 && !stopped && tp->opts.float_iters > 0)
             printf("float phase: the latents trained unrounded for the first %ld iterations%s\n",
-                   t.opts.float_iters, t.float_asked >= 0 ? " (--float-iters)"
-                   : t.float_left_fog ? ", until the model left the fog" : "");
+                   tp->opts.float_iters, tp->float_asked >= 0 ? " (--float-iters)"
+                   : tp->float_left_fog ? ", until the model left the fog" : "");
         /* A model the rate collapsed, or fog (cn_trainer_fog): a file that would not show
          * the scene is not written; --preset auto encodes again with tiny instead. */
-        const int fog = rc == 0 && !stopped && t.rate_control && cn_trainer_fog(&t);
-        if ((fog || (rc && t.collapsed)) && A->autop && !A->resume && !A->init &&
+        const int fog = rc == 0 && !stopped && tp->rate_control && cn_trainer_fog(tp);
+        if ((fog || (rc && tp->collapsed)) && A->autop && !A->resume && !A->init &&
             strcmp(A->o.preset, "tiny")) {
             if (fog)
                 printf("preset auto: %s is fog at %.0f bytes (validation psnr %.2f dB, a flat "
                        "colour %.2f dB); encoding again with preset tiny\n", A->o.preset,
-                       t.rc.target, t.val_psnr, t.flat_psnr);
+                       tp->rc.target, tp->val_psnr, tp->flat_psnr);
             else
                 printf("preset auto: %s collapsed at %.0f bytes; encoding again with preset "
-                       "tiny\n", A->o.preset, t.rc.target);
+                       "tiny\n", A->o.preset, tp->rc.target);
             A->o.preset = "tiny";
             stepped_down = 1;
-            cn_trainer_free(&t);
+            cn_trainer_free(tp);
             goto step_down;
         }
         if (fog)
@@ -731,8 +793,8 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
                           "iterations: its validation PSNR %.2f dB is less than %.0f dB above a "
                           "flat colour's %.2f dB, the model has not found the scene (fog); %s "
                           "not written (the model is in %s); try %sa larger --size%s",
-                          t.rc.target, A->o.preset, t.step, t.val_psnr, CN_VAL_FOG_DB,
-                          t.flat_psnr, A->out, A->ckpt,
+                          tp->rc.target, A->o.preset, tp->step, tp->val_psnr, CN_VAL_FOG_DB,
+                          tp->flat_psnr, A->out, A->ckpt,
                           strcmp(A->o.preset, "tiny") ? "--preset tiny, " : "",
                           A->init ? " or more --iters"
                                   : ", more --iters, or a float model from cnerf train as "
@@ -742,8 +804,8 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
         printf("interrupted: resume with --resume %s\n", A->ckpt);
         rc = 128 + stopped;
     }
-    rc = write_and_report(A, &t, &ds, stepped_down, rc);
-    cn_trainer_free(&t);
+    rc = write_and_report(A, tp, &ds, stepped_down, rc);
+    cn_trainer_free(tp);
     cn_dataset_free(&ds);
     cli_unlock_outputs(&locks);
     return rc;

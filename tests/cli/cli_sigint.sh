@@ -112,6 +112,13 @@ for cmd in train encode; do
     [ ! -e "$o.x" ] && [ ! -e "$o.x.ckpt" ] || fail "$cmd: SIGTERM in the phase $phase wrote a file"
   done
 done
+# --preset auto's race of tiny and small saves nothing (docs/cli.md): a stop in it says so.
+o="$work/race-encode"
+stop_in encode race "$o" "$data/lego" --size 40000 --iters 1000 --every 100 --downscale 16 \
+  --threads 2
+grep -q "^interrupted by SIGTERM while --preset auto races tiny and small: nothing saved; run the command again$" \
+  "$o.log" || fail "encode: SIGTERM in the race said: '$(cat "$o.log")'"
+[ ! -e "$o.x" ] && [ ! -e "$o.x.ckpt" ] || fail "encode: SIGTERM in the race wrote a file"
 o="$work/after-train"
 stop_in train after-training "$o" "$data/lego" "${short[@]}"
 grep -q "^interrupted by SIGTERM after training: saved $o.x at iteration 3; the model is complete, its validation not measured (cnerf eval $o.x $data/lego measures it)$" \

@@ -462,6 +462,20 @@ msg=$("$cnerf" encode "$data/lego" -o "$work/ar.cnrf" --size 40000 --iters 3 --e
   fail "--preset auto did not resume a tiny checkpoint at a size where the rule takes small: $rc $msg"
 grep -q "^preset auto: tiny, the preset of $work/ar.cnrf.ckpt (the rule: small" <<<"$msg" ||
   fail "--preset auto's resume did not say it took the checkpoint's preset: $msg"
+# --preset auto races tiny and small in a run of 1000 iterations or more: both train as
+# whole encodes until the validation views rank them, and the winner goes on as if it had
+# run alone: the file is byte for byte the encode of that preset.
+race=(--size 40000 --iters 1000 --every 100 --downscale 16 --batch 16 --threads 2)
+# (a run this short may end a few per cent off its size: exit 1, the file written)
+msg=$("$cnerf" encode "$data/lego" -o "$work/race.cnrf" "${race[@]}" 2>&1); rc=$?
+[ $rc -le 1 ] && [ -s "$work/race.cnrf" ] || fail "encode with a race: $rc $msg"
+won=$(sed -n 's/^preset auto: \([a-z]*\), by the race (.*/\1/p' <<<"$msg")
+[ -n "$won" ] && grep -q "^race 300/1000: validation psnr tiny [0-9.]* dB, small [0-9.]* dB" <<<"$msg" ||
+  fail "encode --size 40000 --iters 1000 did not race tiny and small: $msg"
+"$cnerf" encode "$data/lego" -o "$work/race-$won.cnrf" --preset "$won" "${race[@]}" > /dev/null 2>&1
+[ $? -le 1 ] && [ -s "$work/race-$won.cnrf" ] || fail "encode --preset $won"
+cmp -s "$work/race.cnrf" "$work/race-$won.cnrf" ||
+  fail "the race's winner ($won) wrote another file than an encode of $won alone"
 set -e
 [ ! -e "$work/z.cnrf.ckpt.tmp" ] || fail "a set left a temporary checkpoint"
 echo "cli_train: all checks passed"

@@ -355,28 +355,47 @@ static void test_collapse_stops_rate_control(void **state)
     cn_dataset_free(&ds);
 }
 
-/* --preset auto's trial: a compressed run's validation PSNR, the same for the same options,
- * NaN where there are no validation views. */
-static void test_preset_trial(void **state)
+/* --preset auto's race: nothing is decided before CN_RACE_FIRST of the run; from there a
+ * mean lead beyond the margin decides; at CN_RACE_LAST the leader wins, tiny on a tie; the
+ * mean is over the last CN_RACE_MEAN validations; no validation (NaN) ends with tiny. */
+static void test_race_rule(void **state)
 {
     (void)state;
-    cn_dataset ds;
-    load(CNERF_DATA_DIR "/fern", &ds);
-    cn_train_opts o;
-    cn_train_defaults(&o);
-    o.batch = 64;
-    o.n_coarse = o.n_fine = 8;
-    char err[256];
-    assert_true(isnan(cn_preset_trial(&ds, &o, "tiny", 4, err, sizeof err)));
-    assert_int_equal(cn_dataset_hold_out(&ds, -1, err, sizeof err), 1);
-    const double a = cn_preset_trial(&ds, &o, "tiny", 4, err, sizeof err);
-    const double b = cn_preset_trial(&ds, &o, "tiny", 4, err, sizeof err);
-    const double c = cn_preset_trial(&ds, &o, "small", 4, err, sizeof err);
-    print_message("# trials: tiny %.4f dB, small %.4f dB\n", a, c);
-    assert_true(a > 3 && a < 60);
-    assert_true(a == b);
-    assert_true(c > 3 && c < 60 && c != a);
-    cn_dataset_free(&ds);
+    cn_race r = {{0}, 0, 0};
+    /* small far behind, but early: go on; from 15% it ends with tiny */
+    assert_int_equal(cn_race_step(&r, 100, 2000, 20, 15), -1);
+    assert_int_equal(cn_race_step(&r, 200, 2000, 20, 15), -1);
+    assert_int_equal(cn_race_step(&r, 500, 2000, 20, 15), 0);
+    /* small ahead by more than the margin from 25% on */
+    cn_race a = {{0}, 0, 0};
+    assert_int_equal(cn_race_step(&a, 200, 2000, 20, 20 + CN_RACE_MARGIN_DB + 0.2), -1);
+    assert_int_equal(cn_race_step(&a, 300, 2000, 20, 20 + CN_RACE_MARGIN_DB + 0.2), 1);
+    /* close: on until 50%, then the leader; the mean is over the last three */
+    cn_race c = {{0}, 0, 0};
+    const double lead[] = {0.9, -0.9, 0.3, 0.2, -0.4, 0.3, 0.2, 0.1, 0.4, -0.2};
+    int w = -1;
+    long step = 0;
+    for (int i = 0; i < 10 && w < 0; i++) {
+        step = 100 * (i + 1);
+        w = cn_race_step(&c, step, 2000, 20, 20 + lead[i]);
+    }
+    assert_int_equal(step, 1000);
+    assert_int_equal(w, 1); /* (0.1 + 0.4 - 0.2) / 3 > 0 */
+    assert_true(fabs(c.mean - 0.1) < 1e-12);
+    cn_race d = {{0}, 0, 0};
+    for (int i = 1; i < 10; i++)
+        assert_int_equal(cn_race_step(&d, 100 * i, 2000, 20, 20), -1);
+    assert_int_equal(cn_race_step(&d, 1000, 2000, 20, 20), 0); /* a tie: tiny */
+    cn_race n = {{0}, 0, 0};
+    assert_int_equal(cn_race_step(&n, 900, 2000, NAN, NAN), -1);
+    assert_int_equal(cn_race_step(&n, 1000, 2000, NAN, NAN), 0);
+    /* a validation not made yet is not counted: the mean is of those made */
+    cn_race m = {{0}, 0, 0};
+    assert_int_equal(cn_race_step(&m, 100, 2000, NAN, 20), -1);
+    assert_int_equal(cn_race_step(&m, 200, 2000, 20, 21.5), -1);
+    assert_int_equal(cn_race_step(&m, 300, 2000, 20, 21.3), 1);
+    assert_int_equal(m.n, 2);
+    assert_true(fabs(m.mean - 1.4) < 1e-12);
 }
 
 int main(void)
@@ -390,7 +409,7 @@ int main(void)
         cmocka_unit_test(test_validation_leaves_training_alone),
         cmocka_unit_test(test_float_phase_end),
         cmocka_unit_test(test_collapse_stops_rate_control),
-        cmocka_unit_test(test_preset_trial),
+        cmocka_unit_test(test_race_rule),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
