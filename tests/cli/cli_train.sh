@@ -472,10 +472,13 @@ msg=$("$cnerf" encode "$data/lego" -o "$work/race.cnrf" "${race[@]}" 2>&1); rc=$
 won=$(sed -n 's/^preset auto: \([a-z]*\), by the race (.*/\1/p' <<<"$msg")
 [ -n "$won" ] && grep -q "^race 300/1000: validation psnr tiny [0-9.]* dB, small [0-9.]* dB" <<<"$msg" ||
   fail "encode --size 40000 --iters 1000 did not race tiny and small: $msg"
-"$cnerf" encode "$data/lego" -o "$work/race-$won.cnrf" --preset "$won" "${race[@]}" > /dev/null 2>&1
-[ $? -le 1 ] && [ -s "$work/race-$won.cnrf" ] || fail "encode --preset $won"
-cmp -s "$work/race.cnrf" "$work/race-$won.cnrf" ||
-  fail "the race's winner ($won) wrote another file than an encode of $won alone"
+# (Under the sanitizers, which check the race's memory, the plain build checks the identity.)
+if [ -z "${CNERF_TEST_SANITIZED:-}" ]; then
+  "$cnerf" encode "$data/lego" -o "$work/race-$won.cnrf" --preset "$won" "${race[@]}" > /dev/null 2>&1
+  [ $? -le 1 ] && [ -s "$work/race-$won.cnrf" ] || fail "encode --preset $won"
+  cmp -s "$work/race.cnrf" "$work/race-$won.cnrf" ||
+    fail "the race's winner ($won) wrote another file than an encode of $won alone"
+fi
 set -e
 [ ! -e "$work/z.cnrf.ckpt.tmp" ] || fail "a set left a temporary checkpoint"
 echo "cli_train: all checks passed"
