@@ -322,6 +322,16 @@ static int parse_args(int argc, char **argv, encode_args *A)
 
 /* Under --size (or --bits-per-param): refuses a target out of the preset's reach on this
  * scene, else puts the trainer under rate control. Returns 0, or -1 with a message. */
+/* The sizes a preset can reach on a scene, from its floor (cn_stream_floor) and the latents
+ * it sends: at least the floor and a tenth of a bit per latent sent (docs/results.md: below
+ * that the models lose several dB); at most every latent sent at 32 bits, as float32
+ * weights would take (the latents' range is bounded far below that). */
+static void size_reach(size_t floor_bytes, double latents, double *least, double *most)
+{
+    *least = (double)floor_bytes + 0.1 * latents / 8 + 300;
+    *most = (double)floor_bytes + 4 * latents;
+}
+
 static int start_rate_control(encode_args *A, cn_trainer *t, const cn_dataset *ds, char *err,
                               size_t errlen)
 {
@@ -330,14 +340,11 @@ static int start_rate_control(encode_args *A, cn_trainer *t, const cn_dataset *d
     {
         const double latents = (double)cn_model_sent_latents(&t->model);
         const double target = A->size > 0 ? A->size : A->bpp * latents / 8;
-        /* The sizes a preset can reach on this scene: at least the topology's floor and a
-         * tenth of a bit per latent sent (docs/results.md: below that the models lose several
-         * dB); at most every latent sent at 32 bits, as float32 weights would take (the
-         * latents' range is bounded far below that). */
+        /* The sizes the preset can reach on this scene (size_reach). */
         size_t floor_bytes = 0;
         int bad = cn_stream_floor(&t->model, A->seed, &floor_bytes, err, errlen);
-        const double least = (double)floor_bytes + 0.1 * latents / 8 + 300;
-        const double most = (double)floor_bytes + 4 * latents;
+        double least, most;
+        size_reach(floor_bytes, latents, &least, &most);
         if (!bad && target < least)
             bad = snprintf(err, errlen, "a %.0f-byte file is too small for preset %s on "
                            "this scene: its headers, affine decoders and biases alone take %zu "
@@ -416,6 +423,13 @@ static int race_wanted(const encode_args *A, const cn_dataset *ds, char *err, si
     if (cn_preset_floor(ds, &p, &floor_bytes, &latents, err, errlen))
         return -1;
     if (8 * (A->size - (double)floor_bytes) / (double)latents < CN_RACE_BITS)
+        return 0;
+    p.preset = "tiny"; /* a size beyond tiny's reach is small's alone */
+    double least, most;
+    if (cn_preset_floor(ds, &p, &floor_bytes, &latents, err, errlen))
+        return -1;
+    size_reach(floor_bytes, (double)latents, &least, &most);
+    if (A->size > most)
         return 0;
     return !(A->level && preset_over_level("small", &A->o, (unsigned)A->level, NULL, 0));
 }
