@@ -2,9 +2,9 @@
 # The measured tables of docs/firmware.md: the memory and flash map of each preset on the
 # Cortex-M4 (a stream of the preset's topology from `cnerf synth`, one pixel rendered by the
 # firmware, scripts/firmware.sh, -Os), and the time of a frame on each core (vector 013, a
-# Lego encode with a 32^3 occupancy grid, its view r_0 rendered whole at 50x50 with the
-# stream's default knobs, instructions per ray by QEMU; the time of a 100x100 frame at the
-# part's clock, at one instruction per cycle).
+# Lego encode with a 32^3 occupancy grid, its view r_0 rendered whole at 25x25, half the
+# vector's resolution, with the stream's default knobs, instructions per ray by QEMU; the
+# time of a 100x100 frame at the part's clock, at one instruction per cycle).
 #   scripts/firmware_doc.sh            prints the tables
 #   scripts/firmware_doc.sh --check    fails unless docs/firmware.md holds them as measured
 # CNERF: the host program (build/cnerf). FW_DOC_BUILD: the build directory (build-fwdoc).
@@ -45,11 +45,16 @@ fmt() { python3 -c "import sys; print(f'{int(sys.argv[1]):,}')" "$1"; }
     echo "| $preset ($topo, $samples samples) | $code | $const | $stream | $ws | $sc | $dec | $stack | $(fmt $all) |"
   done
   echo
-  echo "| core | QEMU board | instructions per ray, vector 013's view r_0 whole (50x50) | per MAC | example part | clock | a 100x100 frame at one instruction per cycle |"
+  echo "| core | QEMU board | instructions per ray, vector 013's view r_0 whole at 25x25 | per MAC | example part | clock | a 100x100 frame at one instruction per cycle |"
   echo "|---|---|---|---|---|---|---|"
   v=vectors/valid/013-lego-encode-grid
-  grep -E '[[:space:]]r_0$' "$v.cam" > "$bd/r_0.cam"
+  # r_0 at half the vector's 50x50 (the same field of view, a quarter of the rays: the M0+
+  # renders the whole view in about a minute under QEMU): the focal lengths and the principal
+  # point halved, rounded to the camera's 1/65536 pixel
+  awk '$19 == "r_0" { for (i = 13; i <= 16; i++) $i = int(($i + 1) / 2); $17 = int($17 / 2);
+                      $18 = int($18 / 2); print }' "$v.cam" > "$bd/r_0.cam"
   read -r w h < <(awk '{print $17, $18}' "$bd/r_0.cam")
+  [ "$w" = 25 ] && [ "$h" = 25 ] || { echo "firmware_doc.sh: $v.cam's r_0 is not 50x50" >&2; exit 1; }
   # core, example part, its clock in MHz
   for c in "m0plus:RP2040:133" "m4:STM32F407:168" "m7:STM32H743:480" "m33:STM32U575:160" "m55:Alif Ensemble E3 (high-efficiency core):160"; do
     IFS=: read -r core part mhz <<< "$c"
