@@ -15,6 +15,8 @@
 set -euo pipefail
 cnerf=$1 src=$2 data=$3 work=$4
 rm -rf "$work/runs" && mkdir -p "$work/runs"
+# (Lego and Mic with 10 training and 10 validation views: every rank reads them all)
+data=$(bash "$(dirname "$0")/few_views.sh" "$data" "$work/data")
 fail() { echo "FAIL: $*" >&2; exit 1; }
 command -v mpirun > /dev/null || fail "no mpirun (Debian: apt-get install openmpi-bin libopenmpi-dev)"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=passive
