@@ -7,6 +7,12 @@
 #                              [--only NAME] [--max-size 100] [--threads 2] [--seed 1]
 #   experiments/scene_suite.sh OUT --table      the markdown table of OUT/suite.csv
 #   experiments/scene_suite.sh ROWS.csv --table the same of a rows file
+#   experiments/scene_suite.sh OUT --trajectories  each encode's course from OUT/log, as CSV
+#     (scene,iters,run,target,build,iter,size_kb,plan_kb,val_psnr): a row per log line
+#     "iter N" (its size and plan, and the latest validation, made at the last multiple of
+#     --every before N), and per race line (run race-tiny or race-small: the validation made
+#     at iteration N, the preset's size then, no plan). experiments/data/scene_suite_trajectories.csv
+#     holds those of the rows docs/results.md reports, where the logs were kept.
 # experiments/data/scene_suite.csv holds the rows docs/results.md reports; copied to
 # OUT/suite.csv, it makes a run go on from them (rows already there are not run again).
 # CNERF=path runs that binary instead of ./build/cnerf (a copy keeps a long run apart from
@@ -29,6 +35,35 @@ shift
 csv=$out/suite.csv
 # --table also reads a rows file itself (experiments/data/scene_suite.csv, the rows measured so far)
 [ "${1:-}" = "--table" ] && [ -f "$out" ] && csv=$out
+if [ "${1:-}" = "--trajectories" ]; then
+  [ -s "$csv" ] && [ -d "$out/log" ] || { echo "scene_suite: no rows or logs in $out" >&2; exit 1; }
+  python3 - "$csv" "$out/log" <<'EOF'
+import csv, os, re, sys
+rows, logs = sys.argv[1], sys.argv[2]
+w = csv.writer(sys.stdout, lineterminator='\n')
+w.writerow(['scene', 'iters', 'run', 'target', 'build', 'iter', 'size_kb', 'plan_kb', 'val_psnr'])
+it = re.compile(r'^iter (\d+)/\d+ .* size ([0-9.]+) kB, plan ([0-9.]+),.* val ([0-9.]+) dB')
+race = re.compile(r'^race (\d+)/\d+: validation psnr tiny ([0-9.]+) dB, small ([0-9.]+) dB '
+                  r'\(([0-9.]+) kB, ([0-9.]+) kB\)')
+for r in csv.DictReader(open(rows)):
+    if not r['run'].startswith('encode'):
+        continue
+    log = os.path.join(logs, '%s-%s-%s-%s.log' % (r['scene'], r['iters'], r['run'], r['target']))
+    if not os.path.exists(log):
+        continue
+    key = [r['scene'], r['iters'], r['run'], r['target'], r.get('build', '')]
+    for line in open(log):
+        m = it.match(line)
+        if m:
+            w.writerow(key + list(m.groups()))
+        m = race.match(line)
+        if m:
+            n, vt, vs, st, ss = m.groups()
+            w.writerow(key[:2] + ['race-tiny'] + key[3:] + [n, st, '', vt])
+            w.writerow(key[:2] + ['race-small'] + key[3:] + [n, ss, '', vs])
+EOF
+  exit 0
+fi
 if [ "${1:-}" = "--table" ]; then
   [ -s "$csv" ] || { echo "scene_suite: no rows in $csv" >&2; exit 1; }
   python3 - "$csv" <<'EOF'

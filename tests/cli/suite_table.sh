@@ -2,7 +2,7 @@
 # experiments/scene_suite.sh --table on rows made up for it: the bounds it prints per scene
 # (the default within 0.3 dB of the better preset, within 3 dB of float tiny; float small
 # within 3 dB of float tiny), a file short of its size counted, a missing run said, and the
-# worst and slowest scenes named.
+# worst and slowest scenes named; --trajectories on a log made up for it.
 set -euo pipefail
 src=$1 work=$2
 rm -rf "$work" && mkdir -p "$work"
@@ -32,4 +32,18 @@ grep -qx "slowest: close at 2000 iterations (1000 s over its runs)" <<<"$out" ||
 # The rows file itself gives the same table as its run folder.
 [ "$("$src/experiments/scene_suite.sh" "$work/suite.csv" --table)" = "$out" ] ||
   fail "the table of $work/suite.csv differs from the folder's"
+# --trajectories: each encode's course from its log, the iteration lines and the race's.
+mkdir -p "$work/log"
+cat > "$work/log/close-2000-encode-default-30000.log" <<'LOG'
+race 100/2000: validation psnr tiny 15.74 dB, small 15.11 dB (24.76 kB, 69.39 kB), small's lead -0.64 dB over the last 1
+preset auto: small, by the race (10 s, 101 iterations of each)
+iter 200/2000 loss 0.02 psnr 21.37 dB  size 36.80 kB, plan 37.11, target 30.00, lambda 0.00194  occupied 59%  val 21.25 dB 0.744 s/it ETA 11m10s
+iter 300/2000 loss 0.02 psnr 21.40 dB  size 36.00 kB, plan 36.00, target 30.00, lambda 0.002 0.7 s/it ETA 11m00s
+LOG
+want='scene,iters,run,target,build,iter,size_kb,plan_kb,val_psnr
+close,2000,race-tiny,30000,,100,24.76,,15.74
+close,2000,race-small,30000,,100,69.39,,15.11
+close,2000,encode-default,30000,,200,36.80,37.11,21.25'
+got=$("$src/experiments/scene_suite.sh" "$work" --trajectories)
+[ "$got" = "$want" ] || fail "--trajectories: $got"
 echo "suite_table: ok"
