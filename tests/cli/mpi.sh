@@ -30,7 +30,8 @@ cmake --build "$work/build" -j2 --target cnerf > "$work/build.log" 2>&1 ||
 mcnerf=$work/build/cnerf
 cd "$work/runs"
 
-train=(train "$data/lego" --preset tiny --downscale 8 --seed 1 --every 100 --batch 1000)
+# (600 rays a batch: 5 chunks of CN_CHUNK_RAYS, which 2, 3 and 4 ranks split unevenly)
+train=(train "$data/lego" --preset tiny --downscale 8 --seed 1 --every 100 --batch 600)
 # (--eval-every: the 2 test views are split among the ranks, 4 ranks leave 2 with none)
 "$cnerf" "${train[@]}" -o one.ckpt --iters 12 --eval-every 6 --threads 2 > one.log 2>&1 ||
   fail "train: $(tail -3 one.log)"
@@ -48,7 +49,7 @@ grep -q "^saved r4.ckpt at iteration 12" r4.log || fail "train on 4 ranks: no su
 echo "train: 1 process and 1 to 4 ranks: $(md5sum < one.ckpt | cut -c1-32)"
 
 # (a run this short misses its --size: that exits 1 with the file written)
-enc=(encode "$data/lego" --preset tiny --downscale 8 --batch 1000 --iters 10 --size 30000 --every 100 --seed 3)
+enc=(encode "$data/lego" --preset tiny --downscale 8 --batch 600 --iters 10 --size 30000 --every 100 --seed 3)
 "$cnerf" "${enc[@]}" -o one.cnrf --threads 2 > enc-one.log 2>&1 || grep -q "(the file is written)" enc-one.log ||
   fail "encode: $(tail -3 enc-one.log)"
 # (1 to 4 ranks, the 2 ranks with 2 threads each: the threads per rank may vary too)
@@ -64,7 +65,7 @@ done
 echo "encode: 1 process, 1 to 4 ranks: $(md5sum < one.cnrf | cut -c1-32)"
 
 # Two scenes in one stream (shared shifts) on 2 ranks: one process's stream and report.
-joint=(encode "$data/lego" "$data/mic" --preset tiny --downscale 8 --batch 1000 --iters 20 --lambda 1 --every 100 --seed 3)
+joint=(encode "$data/lego" "$data/mic" --preset tiny --downscale 8 --batch 600 --iters 20 --lambda 1 --every 100 --seed 3)
 "$cnerf" "${joint[@]}" -o j1.cnrf --threads 2 > j1.log 2>&1 || fail "joint encode: $(tail -3 j1.log)"
 "${mpirun[@]}" -np 2 "$mcnerf" "${joint[@]}" -o j2.cnrf --threads 1 > j2.log 2>&1 ||
   fail "mpirun -np 2 joint encode: $(tail -5 j2.log)"
