@@ -48,9 +48,8 @@ fmt() { python3 -c "import sys; print(f'{int(sys.argv[1]):,}')" "$1"; }
   echo "| core | QEMU board | instructions per ray, vector 013's view r_0 whole at 25x25 | per MAC | example part | clock | a 100x100 frame at one instruction per cycle |"
   echo "|---|---|---|---|---|---|---|"
   v=vectors/valid/013-lego-encode-grid
-  # r_0 at half the vector's 50x50 (the same field of view, a quarter of the rays: the M0+
-  # renders the whole view in about a minute under QEMU): the focal lengths and the principal
-  # point halved, rounded to the camera's 1/65536 pixel
+  # r_0 at half the vector's 50x50, the same field of view in a quarter of the rays: the focal
+  # lengths and the principal point halved, rounded to the camera's 1/65536 pixel
   awk '$19 == "r_0" { for (i = 13; i <= 16; i++) $i = int(($i + 1) / 2); $17 = int($17 / 2);
                       $18 = int($18 / 2); print }' "$v.cam" > "$bd/r_0.cam"
   read -r w h < <(awk '{print $17, $18}' "$bd/r_0.cam")

@@ -1,0 +1,70 @@
+#!/usr/bin/env python3
+"""Replays --preset auto's race on the scene suite's courses (scene_suite.sh --trajectories):
+for each scene whose two presets' courses are both there (the race's validations, then the
+winner's default encode and the other preset's encode alone), prints both presets'
+validation PSNR and size every 100 iterations, small's mean lead over the three validations
+up to half the run, and the same lead over the validations where small is within TOL of its
+target size (the rule "wait until small is at its size"), and at the last validation.
+
+  experiments/race_replay.py experiments/data/scene_suite_trajectories.csv [--tol 0.05]
+
+An "iter N" line's val is the validation made 100 iterations before N (the encodes validate
+every 100); its size is the size at N."""
+import csv, sys
+from collections import defaultdict
+
+path = sys.argv[1]
+tol = float(sys.argv[sys.argv.index('--tol') + 1]) if '--tol' in sys.argv else 0.05
+rows = list(csv.DictReader(open(path)))
+# The winner is the preset with no encode of its own: its course is the default encode's.
+alone = defaultdict(set)
+for r in rows:
+    if r['run'] in ('encode-tiny', 'encode-small'):
+        alone[(r['scene'], int(r['iters']), int(r['target']))].add(r['run'][len('encode-'):])
+V = defaultdict(lambda: {'tiny': {}, 'small': {}})  # key -> preset -> step -> validation PSNR
+S = defaultdict(lambda: {'tiny': {}, 'small': {}})  # key -> preset -> step -> size (kB)
+for r in rows:
+    key, n = (r['scene'], int(r['iters']), int(r['target'])), int(r['iter'])
+    if r['run'].startswith('race-'):
+        p, step = r['run'][len('race-'):], n
+    else:
+        p = r['run'][len('encode-'):]
+        if p == 'default':
+            others = {'tiny', 'small'} - alone[key]
+            if len(others) != 1:
+                continue
+            p = others.pop()
+        step = n - 100
+        S[key][p].setdefault(n, float(r['size_kb']))
+        V[key][p].setdefault(step, float(r['val_psnr']))
+        continue
+    V[key][p][step] = float(r['val_psnr'])
+    S[key][p][step] = float(r['size_kb'])
+
+
+def lead(key, steps):
+    t = [V[key]['tiny'].get(n) for n in steps]
+    s = [V[key]['small'].get(n) for n in steps]
+    if not steps or None in t + s:
+        return None
+    return sum(s) / len(s) - sum(t) / len(t)
+
+
+for key in sorted(V):
+    scene, iters, target = key
+    common = sorted(set(V[key]['tiny']) & set(V[key]['small']))
+    if not common or max(common) < iters // 2:
+        continue
+    print('%s, %d iterations, %d B:' % key)
+    for n in common:
+        print('  %5d  tiny %6.2f dB %6.2f kB   small %6.2f dB %6.2f kB' %
+              (n, V[key]['tiny'][n], S[key]['tiny'].get(n, float('nan')), V[key]['small'][n],
+               S[key]['small'].get(n, float('nan'))))
+    fmt = lambda v: '-' if v is None else '%+.2f dB' % v
+    half = [n for n in common if n <= iters // 2][-3:]
+    at = [n for n in common if S[key]['small'].get(n, 1e9) <= (1 + tol) * target / 1000][-3:]
+    print("  small's lead over the last 3 validations to half the run (%s): %s" %
+          (', '.join(map(str, half)), fmt(lead(key, half))))
+    print("  small's lead over the last 3 where small is within %g%% of its size (%s): %s" %
+          (100 * tol, ', '.join(map(str, at)) or 'none', fmt(lead(key, at))))
+    print("  small's lead at the last validation (%d): %s" % (common[-1], fmt(lead(key, common[-1:]))))
