@@ -7,6 +7,11 @@
 #                              [--only NAME] [--max-size 100] [--threads 2] [--seed 1]
 #   experiments/scene_suite.sh OUT --table      the markdown table of OUT/suite.csv
 #   experiments/scene_suite.sh ROWS.csv --table the same of a rows file
+#     (either with --views VIEWS.csv: the default's lead over the other preset's encode with
+#     its standard error over the test views, from each view's PSNR in both encodes)
+#   experiments/scene_suite.sh OUT --views  each run's PSNR per test view from OUT/log, as CSV
+#     (scene,iters,run,target,view,psnr); experiments/data/scene_suite_views.csv holds those of
+#     the rows docs/results.md reports, where the logs were kept.
 #   experiments/scene_suite.sh OUT --trajectories  each encode's course from OUT/log, as CSV
 #     (scene,iters,run,target,build,iter,size_kb,plan_kb,val_psnr): a row per log line
 #     "iter N" (its size and plan, and the latest validation, made at the last multiple of
@@ -64,11 +69,40 @@ for r in csv.DictReader(open(rows)):
 EOF
   exit 0
 fi
+if [ "${1:-}" = "--views" ]; then
+  [ -s "$csv" ] && [ -d "$out/log" ] || { echo "scene_suite: no rows or logs in $out" >&2; exit 1; }
+  python3 - "$csv" "$out/log" <<'EOF'
+import csv, os, re, sys
+rows, logs = sys.argv[1], sys.argv[2]
+w = csv.writer(sys.stdout, lineterminator='\n')
+w.writerow(['scene', 'iters', 'run', 'target', 'view', 'psnr'])
+view = re.compile(r'^  (\S+) +psnr +([0-9.]+) dB')
+for r in csv.DictReader(open(rows)):
+    ev = os.path.join(logs, '%s-%s-%s-%s.eval' % (r['scene'], r['iters'], r['run'], r['target']))
+    if not os.path.exists(ev):
+        continue
+    for line in open(ev):
+        m = view.match(line)
+        if m:
+            w.writerow([r['scene'], r['iters'], r['run'], r['target']] + list(m.groups()))
+EOF
+  exit 0
+fi
 if [ "${1:-}" = "--table" ]; then
   [ -s "$csv" ] || { echo "scene_suite: no rows in $csv" >&2; exit 1; }
-  python3 - "$csv" <<'EOF'
-import csv, sys, collections
+  views=""
+  if [ "${2:-}" = "--views" ]; then
+    views=${3:?--views needs a file}
+    [ -s "$views" ] || { echo "scene_suite: $views: no such file" >&2; exit 1; }
+  fi
+  python3 - "$csv" "$views" <<'EOF'
+import csv, math, sys, collections
 rows = list(csv.DictReader(open(sys.argv[1])))
+# Each run's PSNR per test view (--views), for the standard error of a difference of means.
+per_view = collections.defaultdict(dict)
+if sys.argv[2]:
+    for v in csv.DictReader(open(sys.argv[2])):
+        per_view[(v['scene'], v['iters'], v['run'], v['target'])][v['view']] = float(v['psnr'])
 by = collections.OrderedDict()
 for r in rows:
     by.setdefault((r['scene'], r['iters']), []).append(r)
@@ -98,10 +132,20 @@ def psnr(r):
     ok = r and r['status'] in ('ok', 'missed-size') and r['test_psnr']
     return float(r['test_psnr']) if ok else None
 fmt = lambda v: '–' if v is None else '%+.2f dB' % v
+# The standard error of the mean over the test views of the per-view difference between
+# two runs (the difference of their mean PSNRs), and the number of views; None when a run's
+# views are unknown or differ.
+def stderr(a, b):
+    va, vb = per_view.get(a), per_view.get(b)
+    if not va or not vb or set(va) != set(vb) or len(va) < 2:
+        return None
+    d = [va[k] - vb[k] for k in va]
+    m = sum(d) / len(d)
+    return math.sqrt(sum((x - m) ** 2 for x in d) / (len(d) - 1) / len(d)), len(d)
 print()
-print('| scene | iters | size | default − better preset | default − float tiny | '
-      'float small − float tiny | bounds |')
-print('|---|---|---|---|---|---|---|')
+print('| scene | iters | size | default − other preset (± standard error, views) | '
+      'default − better preset | default − float tiny | float small − float tiny | bounds |')
+print('|---|---|---|---|---|---|---|---|')
 worst, slowest = None, None
 for (scene, iters), rs in by.items():
     get = lambda run, t='0': next((r for r in rs if r['run'] == run and r['target'] == t), None)
@@ -115,14 +159,23 @@ for (scene, iters), rs in by.items():
         pre = [dp if d and d['preset'] == p else psnr(get('encode-' + p, str(size)))
                for p in ('tiny', 'small')]
         a = dp - max(pre) if dp is not None and None not in pre else None
+        # the lead over the other preset, with its standard error over the test views
+        lead = '–'
+        if dp is not None and None not in pre:
+            k = 1 if d['preset'] == 'tiny' else 0
+            lead = fmt(dp - pre[k])
+            se = stderr((scene, iters, 'encode-default', str(size)),
+                        (scene, iters, 'encode-' + ('tiny', 'small')[k], str(size)))
+            if se is not None:
+                lead = lead.replace(' dB', ' ± %.2f dB (%d)' % se)
         b = dp - ft if dp is not None and ft is not None else None
         c = fs - ft if fs is not None and ft is not None else None
         broken = [n for n, v, lim in (('preset', a, -0.3), ('float tiny', b, -3),
                                       ('float small', c, -3)) if v is not None and v < lim - 1e-9]
         verdict = ('breaks: ' + ', '.join(broken)) if broken else \
             'hold' if None not in (a, b, c) else 'not all measured'
-        print('| %s | %s | %d | %s | %s | %s | %s |' % (scene, iters, size, fmt(a), fmt(b),
-                                                       fmt(c), verdict))
+        print('| %s | %s | %d | %s | %s | %s | %s | %s |' % (scene, iters, size, lead, fmt(a),
+                                                            fmt(b), fmt(c), verdict))
         if a is not None and (worst is None or a < worst[1]):
             worst = ('%s at %s iterations, %d B' % (scene, iters, size), a)
 print()
