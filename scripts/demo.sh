@@ -4,7 +4,7 @@
 # float reference of the file, print the stream's size breakdown, then decode the file with
 # the fixed-point decoder and render the same views into out/render/ (PSNR against the ground
 # truth and against the float reference, time per frame).
-# DEMO_ITERS sets the training iterations (default 2000: about 85 s of training on a 2-core
+# DEMO_ITERS sets the training iterations (default 2000: about 71 s of training on a 2-core
 # machine, 25.3 dB on the five test views and 25.8 dB on the 100 validation views;
 # docs/training.md).
 set -euo pipefail

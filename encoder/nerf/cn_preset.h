@@ -12,4 +12,11 @@
  * unknown name. */
 int cn_preset_header(const char *name, cnerf_info *hdr);
 
+/* The learning rate's warm-up of the named preset's compressed runs that start with a float
+ * phase (cn_train_opts.lr_warmup): 1 for "small" and "paper", whose float models Adam's
+ * first full-rate steps can throw into a fog (docs/training.md, "Warm-up"); 0 for "tiny",
+ * which finds every scene of the suite without it and whose encodes the warm-up cost up to
+ * half a dB (docs/training.md, "The float phase"); -1 for an unknown name. */
+int cn_preset_float_warmup(const char *name);
+
 #endif /* CNERF_ENC_PRESET_H */

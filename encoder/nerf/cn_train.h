@@ -33,7 +33,8 @@ typedef struct cn_train_opts {
     double lr_decay_steps; /* lr = lr0 * 0.1^(step / lr_decay_steps); 0: over iters */
     /* The first lr_warmup steps ramp lr linearly up to it (step k at (k + 1) / lr_warmup of it);
      * -1 (the default): CN_LR_WARMUP, at most a tenth of iters, for a float model and for a
-     * compressed one with a float phase (float_iters); none for one rounded from the start. */
+     * compressed one with a float phase (float_iters) of a preset that warms up
+     * (cn_preset_float_warmup: not tiny); none for one rounded from the start. */
     long lr_warmup;
     /* The first precrop_iters iterations draw their rays from the centre crop only (360-degree
      * scenes); -1 (the default): CN_PRECROP_ITERS when some training view has transparency,
@@ -293,6 +294,8 @@ double cn_quality_lambda(const cn_trainer *t, double k, double mse_sum);
  * t->fit_psnr, t->val_step); 0, or -1 on allocation failure. Without validation views it
  * measures nothing and leaves val_psnr NaN. */
 int cn_trainer_validate(cn_trainer *t);
+/* The learning rate's warm-up, in iterations (cn_train_opts.lr_warmup, its default resolved). */
+long cn_trainer_warmup(const cn_trainer *t);
 /* Current learning rate. */
 double cn_trainer_lr(const cn_trainer *t);
 

@@ -3,14 +3,24 @@
 
 #include "cn_preset.h"
 
+static const struct {
+    const char *name;
+    unsigned depth, width, view_width, n_coarse, n_fine;
+    int float_warmup; /* cn_preset_float_warmup */
+} presets[] = {{"tiny", 4, 64, 32, 32, 32, 0},
+               {"small", 4, 128, 32, 32, 32, 1},
+               {"paper", 8, 256, 128, 64, 128, 1}};
+
+int cn_preset_float_warmup(const char *name)
+{
+    for (size_t i = 0; i < sizeof presets / sizeof presets[0]; i++)
+        if (strcmp(name, presets[i].name) == 0)
+            return presets[i].float_warmup;
+    return -1;
+}
+
 int cn_preset_header(const char *name, cnerf_info *hdr)
 {
-    static const struct {
-        const char *name;
-        unsigned depth, width, view_width, n_coarse, n_fine;
-    } presets[] = {{"tiny", 4, 64, 32, 32, 32},
-                   {"small", 4, 128, 32, 32, 32},
-                   {"paper", 8, 256, 128, 64, 128}};
     for (size_t i = 0; i < sizeof presets / sizeof presets[0]; i++) {
         if (strcmp(name, presets[i].name) != 0)
             continue;

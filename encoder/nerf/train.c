@@ -243,14 +243,22 @@ void cn_trainer_free(cn_trainer *t)
             cn_occ_free(&t->occ[n]);
 }
 
+long cn_trainer_warmup(const cn_trainer *t)
+{
+    if (t->opts.lr_warmup >= 0)
+        return t->opts.lr_warmup;
+    /* a float model, or a float phase of a preset that warms up */
+    if (t->opts.compress &&
+        (t->opts.float_iters <= 0 || cn_preset_float_warmup(t->opts.preset) != 1))
+        return 0;
+    return t->opts.iters / 10 < CN_LR_WARMUP ? t->opts.iters / 10 : CN_LR_WARMUP;
+}
+
 double cn_trainer_lr(const cn_trainer *t)
 {
     const double span = t->opts.lr_decay_steps > 0 ? t->opts.lr_decay_steps
                         : t->opts.iters > 0 ? (double)t->opts.iters : 1.0;
-    long warmup = t->opts.lr_warmup;
-    if (warmup < 0) /* with a float phase, or for a float model (docs/training.md) */
-        warmup = t->opts.compress && t->opts.float_iters <= 0 ? 0
-                 : t->opts.iters / 10 < CN_LR_WARMUP ? t->opts.iters / 10 : CN_LR_WARMUP;
+    const long warmup = cn_trainer_warmup(t);
     const double warm = warmup > 0 && t->step < warmup
                             ? (double)(t->step + 1) / (double)warmup : 1.0;
     return t->opts.lr * warm * pow(0.1, (double)t->step / span);

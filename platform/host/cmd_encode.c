@@ -781,10 +781,18 @@ step_down: /* --preset auto encodes again with tiny when the rate collapses a la
                  "to write it", A->out, A->ckpt);
         rc = cli_run_training("encode", tp, A->ckpt, A->ckpt_every, A->ckpt_secs, A->log_every,
                               A->eval_every, after, &stopped);
-        if (rc == 0 && !stopped && tp->opts.float_iters > 0)
-            printf("float phase: the latents trained unrounded for the first %ld iterations%s\n",
+        if (rc == 0 && !stopped && tp->opts.float_iters > 0) {
+            const long warm = cn_trainer_warmup(tp);
+            printf("float phase: the latents trained unrounded for the first %ld iterations%s; ",
                    tp->opts.float_iters, tp->float_asked >= 0 ? " (--float-iters)"
                    : tp->float_left_fog ? ", until the model left the fog" : "");
+            if (warm > 0)
+                printf("the learning rate warmed up over the first %ld\n", warm);
+            else if (A->o.lr_warmup < 0)
+                printf("no warm-up of the learning rate (preset %s's default)\n", tp->opts.preset);
+            else
+                printf("no warm-up of the learning rate (--lr-warmup 0)\n");
+        }
         /* A model the rate collapsed, or fog (cn_trainer_fog): a file that would not show
          * the scene is not written; --preset auto encodes again with tiny instead. */
         const int fog = rc == 0 && !stopped && tp->rate_control && cn_trainer_fog(tp);

@@ -173,9 +173,10 @@ static void test_pinned_trajectory(void **state)
 }
 
 /* The learning rate's warm-up: by default CN_LR_WARMUP iterations, at most a tenth of the
- * run, for the float trainer and for the encoder with a float phase (float_iters, by default
- * a share of the run); none for the encoder rounding from the first iteration; step k at
- * (k + 1) / warm-up of the decayed rate; --lr-warmup N sets it, 0 turns it off. */
+ * run, for the float trainer of any preset and for the encoder with a float phase
+ * (float_iters, by default a share of the run) of preset small (not tiny); none for the
+ * encoder rounding from the first iteration; step k at (k + 1) / warm-up of the decayed
+ * rate; --lr-warmup N sets it, 0 turns it off. */
 static void test_lr_warmup(void **state)
 {
     (void)state;
@@ -183,13 +184,19 @@ static void test_lr_warmup(void **state)
         long iters, warmup, want; /* want: the warm-up's length */
         int compress;
         long float_iters;
-    } cases[] = {{2000, -1, CN_LR_WARMUP, 0, -1}, {100, -1, 10, 0, -1}, {5, -1, 0, 0, -1},
-                 {2000, 0, 0, 0, -1}, {2000, 400, 400, 0, -1}, {2000, -1, CN_LR_WARMUP, 1, -1},
-                 {2000, -1, CN_LR_WARMUP, 1, 300}, {100, -1, 10, 1, -1}, {2000, -1, 0, 1, 0},
-                 {2000, 50, 50, 1, 0}, {2000, 0, 0, 1, -1}};
+        const char *preset;
+    } cases[] = {{2000, -1, CN_LR_WARMUP, 0, -1, "tiny"},  {100, -1, 10, 0, -1, "tiny"},
+                 {5, -1, 0, 0, -1, "tiny"},                {2000, 0, 0, 0, -1, "tiny"},
+                 {2000, 400, 400, 0, -1, "tiny"},          {2000, -1, CN_LR_WARMUP, 0, -1, "small"},
+                 {2000, -1, CN_LR_WARMUP, 1, -1, "small"}, {2000, -1, CN_LR_WARMUP, 1, 300, "small"},
+                 {100, -1, 10, 1, -1, "small"},            {2000, -1, 0, 1, 0, "small"},
+                 {2000, -1, 0, 1, -1, "tiny"},             {2000, -1, 0, 1, 300, "tiny"},
+                 {2000, 50, 50, 1, 0, "small"},            {2000, 50, 50, 1, -1, "tiny"},
+                 {2000, 0, 0, 1, -1, "small"}};
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         cn_train_opts o;
         small_opts(&o);
+        o.preset = cases[c].preset;
         o.iters = cases[c].iters;
         o.lr_warmup = cases[c].warmup;
         o.compress = cases[c].compress;
@@ -204,8 +211,8 @@ static void test_lr_warmup(void **state)
             const double want = k < cases[c].want ? decayed * (double)(k + 1) / (double)cases[c].want
                                                   : decayed;
             if (fabs(cn_trainer_lr(&t) - want) > 1e-12 * want)
-                fail_msg("iters %ld, warm-up %ld, step %ld: lr %.9g, want %.9g", o.iters,
-                         o.lr_warmup, k, cn_trainer_lr(&t), want);
+                fail_msg("%s, iters %ld, warm-up %ld, step %ld: lr %.9g, want %.9g", o.preset,
+                         o.iters, o.lr_warmup, k, cn_trainer_lr(&t), want);
         }
         cn_trainer_free(&t);
     }
