@@ -3,7 +3,8 @@
 # (the default within 0.3 dB of the better preset, within 3 dB of float tiny; float small
 # within 3 dB of float tiny), a file short of its size counted, a missing run said, and the
 # worst and slowest scenes named; with --views, the default's lead over the other preset and
-# its standard error over the test views; --trajectories and --views on logs made up for them.
+# its standard error over the test views; --trajectories and --views on logs made up for them;
+# experiments/tiny_warmup.sh --table on eval logs made up for it.
 set -euo pipefail
 src=$1 work=$2
 rm -rf "$work" && mkdir -p "$work"
@@ -77,4 +78,20 @@ out=$("$src/experiments/scene_suite.sh" "$work/suite.csv" --table --views "$work
   fail "good without views: $(line good)"
 "$src/experiments/scene_suite.sh" "$work/suite.csv" --table --views "$work/none.csv" 2>/dev/null &&
   fail "--table --views with a missing file succeeded"
+# experiments/tiny_warmup.sh --table: each scene's two encodes from their eval logs, the
+# difference of means with its standard error, a scene with one run said.
+tw=$work/tiny_warmup && mkdir -p "$tw"
+head -c 25000 /dev/zero > "$tw/alpha-warm20.cnrf"
+head -c 24000 /dev/zero > "$tw/alpha-warm0.cnrf"
+head -c 23000 /dev/zero > "$tw/beta-warm0.cnrf"
+printf '  r_0   psnr  20.00 dB  ssim 0.9\n  r_1   psnr  22.00 dB  ssim 0.9\n' > "$tw/alpha-warm20.cnrf.eval"
+printf '  r_0   psnr  20.50 dB  ssim 0.9\n  r_1   psnr  22.10 dB  ssim 0.9\n' > "$tw/alpha-warm0.cnrf.eval"
+printf '  r_0   psnr  19.00 dB  ssim 0.9\n' > "$tw/beta-warm0.cnrf.eval"
+got=$("$src/experiments/tiny_warmup.sh" --table "$tw" /scenes/alpha /scenes/beta/)
+# alpha: differences +0.50 and +0.10, mean +0.30, standard error sqrt(0.08 / 1 / 2) = 0.20
+grep -qxF "| alpha | 21.00 dB, 25000 B | 21.30 dB, 24000 B | +0.30 ± 0.20 dB (2) |" <<<"$got" ||
+  fail "tiny_warmup alpha: $got"
+grep -qxF "| beta | not run | 19.00 dB, 23000 B | – |" <<<"$got" || fail "tiny_warmup beta: $got"
+grep -qxF "mean difference over 1 scenes: +0.30 dB; without the warm-up better on 1, worse on 0" <<<"$got" ||
+  fail "tiny_warmup summary: $got"
 echo "suite_table: ok"
