@@ -13,6 +13,8 @@ static const struct {
 
 int cn_preset_float_warmup(const char *name)
 {
+    if (!name)
+        return -1;
     for (size_t i = 0; i < sizeof presets / sizeof presets[0]; i++)
         if (strcmp(name, presets[i].name) == 0)
             return presets[i].float_warmup;
