@@ -72,19 +72,18 @@ fi
 if [ "${1:-}" = "--views" ]; then
   [ -s "$csv" ] && [ -d "$out/log" ] || { echo "scene_suite: no rows or logs in $out" >&2; exit 1; }
   python3 - "$csv" "$out/log" <<'EOF'
-import csv, os, re, sys
+import csv, os, sys
+sys.path.insert(0, 'experiments')
+from eval_views import eval_views
 rows, logs = sys.argv[1], sys.argv[2]
 w = csv.writer(sys.stdout, lineterminator='\n')
 w.writerow(['scene', 'iters', 'run', 'target', 'view', 'psnr'])
-view = re.compile(r'^  (\S+) +psnr +([0-9.]+) dB')
 for r in csv.DictReader(open(rows)):
     ev = os.path.join(logs, '%s-%s-%s-%s.eval' % (r['scene'], r['iters'], r['run'], r['target']))
     if not os.path.exists(ev):
         continue
-    for line in open(ev):
-        m = view.match(line)
-        if m:
-            w.writerow([r['scene'], r['iters'], r['run'], r['target']] + list(m.groups()))
+    for v in eval_views(ev):
+        w.writerow([r['scene'], r['iters'], r['run'], r['target']] + list(v))
 EOF
   exit 0
 fi
@@ -96,7 +95,9 @@ if [ "${1:-}" = "--table" ]; then
     [ -s "$views" ] || { echo "scene_suite: $views: no such file" >&2; exit 1; }
   fi
   python3 - "$csv" "$views" <<'EOF'
-import csv, math, sys, collections
+import csv, sys, collections
+sys.path.insert(0, 'experiments')
+from eval_views import paired
 rows = list(csv.DictReader(open(sys.argv[1])))
 # Each run's PSNR per test view (--views), for the standard error of a difference of means.
 per_view = collections.defaultdict(dict)
@@ -132,16 +133,6 @@ def psnr(r):
     ok = r and r['status'] in ('ok', 'missed-size') and r['test_psnr']
     return float(r['test_psnr']) if ok else None
 fmt = lambda v: '–' if v is None else '%+.2f dB' % v
-# The standard error of the mean over the test views of the per-view difference between
-# two runs (the difference of their mean PSNRs), and the number of views; None when a run's
-# views are unknown or differ.
-def stderr(a, b):
-    va, vb = per_view.get(a), per_view.get(b)
-    if not va or not vb or set(va) != set(vb) or len(va) < 2:
-        return None
-    d = [va[k] - vb[k] for k in va]
-    m = sum(d) / len(d)
-    return math.sqrt(sum((x - m) ** 2 for x in d) / (len(d) - 1) / len(d)), len(d)
 print()
 print('| scene | iters | size | default − other preset (± standard error, views) | '
       'default − better preset | default − float tiny | float small − float tiny | bounds |')
@@ -164,10 +155,10 @@ for (scene, iters), rs in by.items():
         if dp is not None and None not in pre:
             k = 1 if d['preset'] == 'tiny' else 0
             lead = fmt(dp - pre[k])
-            se = stderr((scene, iters, 'encode-default', str(size)),
-                        (scene, iters, 'encode-' + ('tiny', 'small')[k], str(size)))
-            if se is not None:
-                lead = lead.replace(' dB', ' ± %.2f dB (%d)' % se)
+            pv = paired(per_view.get((scene, iters, 'encode-' + ('tiny', 'small')[k], str(size))),
+                        per_view.get((scene, iters, 'encode-default', str(size))))
+            if pv is not None:
+                lead = lead.replace(' dB', ' ± %.2f dB (%d)' % pv[1:])
         b = dp - ft if dp is not None and ft is not None else None
         c = fs - ft if fs is not None and ft is not None else None
         broken = [n for n, v, lim in (('preset', a, -0.3), ('float tiny', b, -3),

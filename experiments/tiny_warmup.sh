@@ -31,18 +31,14 @@ for dir in "$@"; do
   done
 done
 python3 - "$out" "$@" > "$out/tiny_warmup.md" <<'EOF'
-import math, os, re, sys
+import os, sys
+sys.path.insert(0, 'experiments')
+from eval_views import eval_views, paired
 out, dirs = sys.argv[1], sys.argv[2:]
-view = re.compile(r'^  (\S+) +psnr +([0-9.]+) dB')
 def scored(path):
     if not os.path.exists(path):
         return None
-    v = {}
-    for line in open(path):
-        m = view.match(line)
-        if m:
-            v[m.group(1)] = float(m.group(2))
-    return v or None
+    return {k: float(v) for k, v in eval_views(path)} or None
 print('| scene | warm-up 20: test PSNR, bytes | none: test PSNR, bytes | none − 20 (± standard error, views) |')
 print('|---|---|---|---|')
 diffs = []
@@ -55,13 +51,10 @@ for d in dirs:
         views.append(v)
         row.append(' not run |' if v is None else ' %.2f dB, %d B |' %
                    (sum(v.values()) / len(v), os.path.getsize(f)))
-    a, b = views
-    if a and b and set(a) == set(b) and len(a) > 1:
-        x = [b[k] - a[k] for k in a]
-        m = sum(x) / len(x)
-        se = math.sqrt(sum((y - m) ** 2 for y in x) / (len(x) - 1) / len(x))
-        row.append(' %+.2f ± %.2f dB (%d) |' % (m, se, len(x)))
-        diffs.append(m)
+    pv = paired(*views)
+    if pv is not None:
+        row.append(' %+.2f ± %.2f dB (%d) |' % pv)
+        diffs.append(pv[0])
     else:
         row.append(' – |')
     print(''.join(row))
