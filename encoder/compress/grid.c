@@ -156,7 +156,7 @@ double cn_grid_eval_fraction(const cnerf_info *topo, int g, const uint8_t *occ,
 /* Mean PSNR against the ground truth of training views spread evenly, rendered with the model
  * (and its grid, if any): up to 8 views and about 2^17 pixels, at least one view (a large
  * image costs one view per trial, not eight). */
-static double views_psnr(const cn_model *m, const cn_dataset *ds, int *ok)
+static double views_psnr(cn_view_renderer *vr, const cn_model *m, const cn_dataset *ds, int *ok)
 {
     const size_t px = ds->n_train ? (size_t)ds->train[0].w * (size_t)ds->train[0].h : 1;
     const size_t fit = px ? ((size_t)1 << 17) / px : 8;
@@ -170,7 +170,7 @@ static double views_psnr(const cn_model *m, const cn_dataset *ds, int *ok)
         cn_view_camera(v, &cam);
         const size_t nv = (size_t)cam.w * cam.h * 3;
         float *rgb = malloc(sizeof(float) * nv);
-        if (!rgb || cn_render_view(m, &cam, ds->ndc, rgb, 4096)) {
+        if (!rgb || cn_view_render(vr, m, &cam, ds->ndc, rgb, 4096, 0)) {
             free(rgb);
             *ok = 0;
             return 0;
@@ -237,6 +237,8 @@ int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes,
     }
     diag = sqrt(diag);
     int ok = 1;
+    cn_view_renderer vr; /* one batch for every view rendered here */
+    memset(&vr, 0, sizeof vr);
     cn_model plain = *m;
     plain.grid = NULL;
     double psnr0 = 0; /* the views without a grid: measured once a grid is to be tried */
@@ -306,12 +308,12 @@ int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes,
             break;
         }
         if (!have_psnr0) {
-            psnr0 = views_psnr(&plain, ds, &ok);
+            psnr0 = views_psnr(&vr, &plain, ds, &ok);
             have_psnr0 = 1;
         }
         cn_model with = *m;
         with.grid = &o;
-        const double psnr1 = ok ? views_psnr(&with, ds, &ok) : 0;
+        const double psnr1 = ok ? views_psnr(&vr, &with, ds, &ok) : 0;
         cn_occ_free(&o);
         if (say) {
             snprintf(line, sizeof line,
@@ -335,6 +337,7 @@ int cn_grid_choose(const cn_model *m, const cn_dataset *ds, size_t stream_bytes,
                 ok = 0;
         }
     }
+    cn_view_renderer_free(&vr);
     free(lat0), free(lat1), free(occ), free(best);
     if (!ok) {
         cn_grid_choice_free(out);

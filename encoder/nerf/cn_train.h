@@ -339,4 +339,21 @@ int cn_render_view(const cn_model *m, const cn_camera *cam, int ndc, float *rgb,
 int cn_render_view_stop(const cn_model *m, const cn_camera *cam, int ndc, float *rgb,
                         size_t chunk, float t_stop);
 
+/* Whole views one after another through one batch, kept from view to view. At 4,096 rays a
+ * batch holds hundreds of megabytes of activations: made and freed for each view, its pages
+ * were mapped, faulted in and zeroed again every time, which took three quarters of an
+ * evaluation's time. The batch is made at the first view and made again when a model of
+ * another shape comes; the pixels are those of cn_render_view_stop with the same chunk.
+ * Zero-initialise, render, then free. */
+typedef struct cn_view_renderer {
+    cn_batch batch;
+    cnerf_info shape; /* the topology the batch was made for */
+    size_t chunk;
+    int live;
+    unsigned made; /* batches made since the last cn_view_renderer_free */
+} cn_view_renderer;
+int cn_view_render(cn_view_renderer *r, const cn_model *m, const cn_camera *cam, int ndc,
+                   float *rgb, size_t chunk, float t_stop);
+void cn_view_renderer_free(cn_view_renderer *r);
+
 #endif /* CNERF_ENC_TRAIN_H */

@@ -974,28 +974,69 @@ int cn_checkpoint_load_model(const char *path, cn_model *m, long *step, char *er
 
 /* ---- full views ---- */
 
-int cn_render_view_stop(const cn_model *m, const cn_camera *cam, int ndc, float *rgb,
-                        size_t chunk, float t_stop)
+/* Whether a batch made for topology a serves b: the sizes cn_batch_init reads. */
+static int same_batch_shape(const cnerf_info *a, const cnerf_info *b)
 {
-    cn_batch b;
-    if (cn_batch_init(&b, &m->topo, chunk))
-        return -1;
-    b.occ[0] = b.occ[1] = m->grid;
-    b.t_stop = t_stop;
+    if (a->n_nets != b->n_nets || a->n_coarse != b->n_coarse || a->n_fine != b->n_fine ||
+        a->in_pos != b->in_pos || a->in_dir != b->in_dir)
+        return 0;
+    for (unsigned n = 0; n < a->n_nets; n++) {
+        const cnerf_net_info *x = &a->net[n], *y = &b->net[n];
+        if (x->depth != y->depth || x->skip != y->skip || x->width != y->width ||
+            x->view_width != y->view_width)
+            return 0;
+    }
+    return 1;
+}
+
+int cn_view_render(cn_view_renderer *r, const cn_model *m, const cn_camera *cam, int ndc,
+                   float *rgb, size_t chunk, float t_stop)
+{
+    if (r->live && (r->chunk != chunk || !same_batch_shape(&r->shape, &m->topo))) {
+        cn_batch_free(&r->batch);
+        r->live = 0;
+    }
+    if (!r->live) {
+        if (cn_batch_init(&r->batch, &m->topo, chunk))
+            return -1;
+        r->shape = m->topo;
+        r->chunk = chunk;
+        r->live = 1;
+        r->made++;
+    }
+    cn_batch *b = &r->batch;
+    b->occ[0] = b->occ[1] = m->grid;
+    b->t_stop = t_stop;
     const size_t total = (size_t)cam->w * cam->h;
     const unsigned last = m->topo.n_nets - 1;
     for (size_t start = 0; start < total; start += chunk) {
         size_t R = total - start < chunk ? total - start : chunk;
-        for (size_t r = 0; r < R; r++) {
-            size_t pix = start + r;
-            cn_camera_ray(cam, ndc, (double)(pix % cam->w), (double)(pix / cam->w), b.o + 3 * r,
-                          b.d + 3 * r, b.vd + 3 * r);
+        for (size_t i = 0; i < R; i++) {
+            size_t pix = start + i;
+            cn_camera_ray(cam, ndc, (double)(pix % cam->w), (double)(pix / cam->w), b->o + 3 * i,
+                          b->d + 3 * i, b->vd + 3 * i);
         }
-        cn_render_forward(m, &b, R, NULL);
-        memcpy(rgb + 3 * start, b.color[last], sizeof(float) * 3 * R);
+        cn_render_forward(m, b, R, NULL);
+        memcpy(rgb + 3 * start, b->color[last], sizeof(float) * 3 * R);
     }
-    cn_batch_free(&b);
     return 0;
+}
+
+void cn_view_renderer_free(cn_view_renderer *r)
+{
+    if (r->live)
+        cn_batch_free(&r->batch);
+    memset(r, 0, sizeof *r);
+}
+
+int cn_render_view_stop(const cn_model *m, const cn_camera *cam, int ndc, float *rgb,
+                        size_t chunk, float t_stop)
+{
+    cn_view_renderer r;
+    memset(&r, 0, sizeof r);
+    const int rc = cn_view_render(&r, m, cam, ndc, rgb, chunk, t_stop);
+    cn_view_renderer_free(&r);
+    return rc;
 }
 
 int cn_render_view(const cn_model *m, const cn_camera *cam, int ndc, float *rgb, size_t chunk)

@@ -31,15 +31,15 @@ int cli_write_png(const char *path, const float *rgb, int w, int h, char *err, s
 
 /* Renders views[i], scores it (psnr, ssim, seconds) and writes it to outdir if given;
  * returns 0, or -1 with the message printed. */
-static int eval_view(const cn_model *m, const cn_view *v, int ndc, const char *outdir,
-                     float t_stop, double out[3])
+static int eval_view(cn_view_renderer *vr, const cn_model *m, const cn_view *v, int ndc,
+                     const char *outdir, float t_stop, double out[3])
 {
     const size_t npx = (size_t)v->w * v->h;
     float *rgb = malloc(sizeof(float) * 3 * npx);
     cn_camera cam;
     cn_view_camera(v, &cam);
     const double t0 = cli_now();
-    if (!rgb || cn_render_view_stop(m, &cam, ndc, rgb, 4096, t_stop)) {
+    if (!rgb || cn_view_render(vr, m, &cam, ndc, rgb, 4096, t_stop)) {
         free(rgb);
         return cli_fail("eval", "out of memory rendering %s", v->name), -1;
     }
@@ -86,11 +86,14 @@ int cli_eval_views(const cn_model *m, const cn_view *views, int n, int ndc, long
     if (!r)
         return cli_fail("eval", "out of memory (rank %d of %d)", rank, ranks), -1;
     int failed = 0;
+    cn_view_renderer vr;
+    memset(&vr, 0, sizeof vr);
     for (int j = rank; j < count && !failed; j += ranks) {
-        failed = eval_view(m, &views[(long)j * every], ndc, outdir, t_stop, &r[3 * j]) != 0;
+        failed = eval_view(&vr, m, &views[(long)j * every], ndc, outdir, t_stop, &r[3 * j]) != 0;
         if (!failed && !sh && !quiet)
             eval_line(&views[(long)j * every], &r[3 * j]);
     }
+    cn_view_renderer_free(&vr);
     if (sh) {
         const size_t nx = 3 * (size_t)count + 1;
         cn_xsum *x = malloc(sizeof *x * nx);

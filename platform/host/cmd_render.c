@@ -143,6 +143,7 @@ typedef struct render_job {
     void *core_ws[CLI_MAX_CORES];
     cnerf_render_stats core_stats[CLI_MAX_CORES];
     cn_model *ref; /* the float reference of the same file */
+    cn_view_renderer ref_vr; /* its batch, kept from view to view */
     const render_cfg *cfg;
     int use_float;
     const char *outdir;
@@ -182,8 +183,8 @@ static int render_view(render_job *j, const cn_camera *cam, const cnerf_camera *
             rc = cli_fail("render", "%s: %s", name, err);
     t0 = cli_now();
     /* the float reference ends its rays where the decoder does (t_stop) */
-    if (rc == 0 && cn_render_view_stop(j->ref, cam, I->coord == CNERF_COORD_NDC, rgb, 4096,
-                                       (float)(j->cfg->opts.t_stop / 1073741824.0)))
+    if (rc == 0 && cn_view_render(&j->ref_vr, j->ref, cam, I->coord == CNERF_COORD_NDC, rgb, 4096,
+                                  (float)(j->cfg->opts.t_stop / 1073741824.0)))
         rc = cli_fail("render", "out of memory");
     const double ms_ref = (cli_now() - t0) * 1e3;
     if (rc != 0) {
@@ -458,6 +459,7 @@ int cmd_render(int argc, char **argv)
     cn_buf_free(&cams);
     for (size_t k = 0; k < cli_n_cores; k++)
         free(job.core_ws[k]);
+    cn_view_renderer_free(&job.ref_vr);
     cn_dataset_free(&ds);
     ref.grid = grid;
     cn_model_free(&ref);

@@ -218,6 +218,55 @@ static void test_lr_warmup(void **state)
     }
 }
 
+/* cn_view_render: one batch kept across views renders what a batch made for each view does
+ * (cn_render_view_stop), made again for a model of another shape, and kept, not remade,
+ * from view to view of the same model. */
+static void test_view_renderer(void **state)
+{
+    (void)state;
+    char err[512];
+    cn_train_opts o;
+    small_opts(&o);
+    cn_trainer a, b;
+    assert_int_equal(cn_trainer_init(&a, &ds, &o, err, sizeof err), 0);
+    o.width = 24;
+    o.n_fine = 8;
+    assert_int_equal(cn_trainer_init(&b, &ds, &o, err, sizeof err), 0);
+    for (int it = 0; it < 20; it++) {
+        assert_true(isfinite(cn_trainer_step(&a, NULL, NULL)));
+        assert_true(isfinite(cn_trainer_step(&b, NULL, NULL)));
+    }
+    cn_model_materialize(&a.model);
+    cn_model_materialize(&b.model);
+    const cn_view *v = &ds.test[0];
+    const size_t nv = 3 * (size_t)v->w * v->h, chunk = 256; /* 625 rays: three chunks */
+    float *want = malloc(sizeof(float) * nv), *got = malloc(sizeof(float) * nv);
+    assert_non_null(want);
+    assert_non_null(got);
+    cn_view_renderer vr;
+    memset(&vr, 0, sizeof vr);
+    const cn_model *order[] = {&a.model, &a.model, &b.model, &b.model, &a.model};
+    const unsigned made[] = {1, 1, 2, 2, 3};
+    for (int k = 0; k < 5; k++) {
+        cn_camera cam;
+        cn_view_camera(&ds.test[k % ds.n_test], &cam);
+        const float t_stop = k == 1 ? 1e-3f : 0.0f;
+        assert_int_equal(cn_render_view_stop(order[k], &cam, ds.ndc, want, chunk, t_stop), 0);
+        memset(got, 0xff, sizeof(float) * nv);
+        assert_int_equal(cn_view_render(&vr, order[k], &cam, ds.ndc, got, chunk, t_stop), 0);
+        assert_memory_equal(got, want, sizeof(float) * nv);
+        assert_int_equal(vr.shape.net[0].width, order[k]->topo.net[0].width);
+        assert_int_equal(vr.made, made[k]); /* the same shape: the same batch */
+    }
+    assert_int_not_equal(a.model.topo.net[0].width, b.model.topo.net[0].width);
+    cn_view_renderer_free(&vr);
+    assert_int_equal(vr.live, 0);
+    free(want);
+    free(got);
+    cn_trainer_free(&a);
+    cn_trainer_free(&b);
+}
+
 /* --random-bg: auto follows the training views' transparency, off keeps the stream's
  * background for every ray, and the ground truth is then the stored pixel. */
 static void test_random_bg_option(void **state)
@@ -1139,6 +1188,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_pinned_trajectory),
+        cmocka_unit_test(test_view_renderer),
         cmocka_unit_test(test_random_bg_option),
         cmocka_unit_test(test_lr_warmup),
         cmocka_unit_test(test_end_to_end),
