@@ -4,7 +4,12 @@ for each scene whose two presets' courses are both there (the race's validations
 winner's default encode and the other preset's encode alone), prints both presets'
 validation PSNR and size every 100 iterations, small's mean lead over the three validations
 up to half the run, and the same lead over the validations where small is within TOL of its
-target size (the rule "wait until small is at its size"), and at the last validation.
+target size (the rule "wait until small is at its size"), at the last validation, and two
+rules' verdicts: the race's (cn_race_step in encoder/compress/autopreset.c: from 15% of the
+run a mean lead beyond 1 dB over the last 3 validations, else the leader at half the run)
+and "at size" (the same, but a lead counts only when the leader was within TOL of its size
+at each of those 3 validations, and from half the run only when both were; at the end of
+the run the leader wins).
 
   experiments/race_replay.py experiments/data/scene_suite_trajectories.csv [--tol 0.05]
 
@@ -68,3 +73,24 @@ for key in sorted(V):
     print("  small's lead over the last 3 where small is within %g%% of its size (%s): %s" %
           (100 * tol, ', '.join(map(str, at)) or 'none', fmt(lead(key, at))))
     print("  small's lead at the last validation (%d): %s" % (common[-1], fmt(lead(key, common[-1:]))))
+    def at_size(p, n):
+        size = S[key][p].get(n)
+        return size is not None and 0 < size <= (1 + tol) * target / 1000
+
+    def replay(sizes):
+        for i, n in enumerate(common):
+            win = common[max(0, i - 2):i + 1]
+            m = lead(key, win)
+            leader = 'small' if m > 0 else 'tiny'
+            sized = lambda p: not sizes or all(at_size(p, k) for k in win)
+            if n >= 0.15 * iters and abs(m) > 1.0 and sized(leader):
+                return '%s at %d (small\'s lead %+.2f dB)' % (leader, n, m)
+            if n >= 0.5 * iters and (not sizes or len(win) == 3) and sized('tiny') \
+                    and sized('small'):
+                return '%s at %d (small\'s lead %+.2f dB)' % (leader, n, m)
+        if common[-1] < iters - 100:
+            return 'none before the courses end (%d)' % common[-1]
+        m = lead(key, common[-3:])
+        return '%s at the end (small\'s lead %+.2f dB)' % ('small' if m > 0 else 'tiny', m)
+    print("  the race's verdict: %s" % replay(False))
+    print("  at size: %s" % replay(True))
