@@ -16,6 +16,16 @@
 #if defined(CN_HAVE_SIMD128)
 #include <wasm_simd128.h>
 
+/* The shift count s for a shift by a count held in a variable inside a loop: the
+ * instructions take it as a scalar (i32x4.shr_s and the others), but clang 14 hoists the
+ * count's splat out of the loop and then, seeing a vector count, shifts lane by lane. The
+ * empty asm, volatile, stays in the loop and gives a value the compiler cannot hoist. */
+static inline unsigned in_loop(unsigned s)
+{
+    __asm__ volatile("" : "+r"(s));
+    return s;
+}
+
 /* A pair's eight latents of a block as int16 lanes (int8 widened by the load). */
 static inline v128_t pair_s16(const int16_t *k) { return wasm_v128_load(k); }
 static inline v128_t pair_s8(const int8_t *k) { return wasm_i16x8_load8x8(k); }
@@ -29,6 +39,21 @@ static inline v128_t pair_s8(const int8_t *k) { return wasm_i16x8_load8x8(k); }
             xs[p] = wasm_v128_load32_splat(x + 2u * p);                                     \
         const uint32_t block = 8u * n_pairs; /* latents of a block of four rows */          \
         uint32_t j = 0;                                                                     \
+        for (; j + 16u <= n_rows; j += 16u, k += 4u * block) { /* four blocks a load of xs */ \
+            v128_t a = wasm_i32x4_splat(0), b = a, c = a, d = a;                            \
+            const KT *k1 = k + block, *k2 = k + 2u * block, *k3 = k + 3u * block;           \
+            for (uint32_t p = 0; p < n_pairs; p++) {                                        \
+                const v128_t xp = xs[p];                                                    \
+                a = wasm_i32x4_add(a, wasm_i32x4_dot_i16x8(PAIR(k + 8u * p), xp));          \
+                b = wasm_i32x4_add(b, wasm_i32x4_dot_i16x8(PAIR(k1 + 8u * p), xp));         \
+                c = wasm_i32x4_add(c, wasm_i32x4_dot_i16x8(PAIR(k2 + 8u * p), xp));         \
+                d = wasm_i32x4_add(d, wasm_i32x4_dot_i16x8(PAIR(k3 + 8u * p), xp));         \
+            }                                                                               \
+            wasm_v128_store(acc + j, a);                                                    \
+            wasm_v128_store(acc + j + 4u, b);                                               \
+            wasm_v128_store(acc + j + 8u, c);                                               \
+            wasm_v128_store(acc + j + 12u, d);                                              \
+        }                                                                                   \
         for (; j + 8u <= n_rows; j += 8u, k += 2u * block) { /* two blocks: one load of xs each */ \
             v128_t a = wasm_i32x4_splat(0), b = wasm_i32x4_splat(0);                        \
             const KT *k1 = k + block;                                                       \
@@ -64,11 +89,12 @@ int32_t cn_requant_s16_simd128(const int32_t *x, int16_t *xq, uint32_t n, unsign
     v128_t sum = wasm_i32x4_splat(0);
     uint32_t i = 0;
     for (; i + 8u <= n; i += 8u) {
+        const unsigned sh = in_loop(s), sh1 = in_loop(s - 1u);
         const v128_t a = wasm_v128_load(x + i), b = wasm_v128_load(x + i + 4u);
-        const v128_t qa = wasm_i32x4_add(wasm_i32x4_shr(a, s),
-                                         wasm_v128_and(wasm_u32x4_shr(a, s - 1u), one));
-        const v128_t qb = wasm_i32x4_add(wasm_i32x4_shr(b, s),
-                                         wasm_v128_and(wasm_u32x4_shr(b, s - 1u), one));
+        const v128_t qa = wasm_i32x4_add(wasm_i32x4_shr(a, sh),
+                                         wasm_v128_and(wasm_u32x4_shr(a, sh1), one));
+        const v128_t qb = wasm_i32x4_add(wasm_i32x4_shr(b, sh),
+                                         wasm_v128_and(wasm_u32x4_shr(b, sh1), one));
         const v128_t q = wasm_i16x8_narrow_i32x4(qa, qb);
         wasm_v128_store(xq + i, q);
         sum = wasm_i32x4_add(sum, wasm_i32x4_dot_i16x8(q, ones16));
@@ -95,7 +121,9 @@ static inline v128_t qadd_simd128(v128_t a, v128_t b)
 /* render.c's finish_fast for n < 32, four outputs a step: the products acc am in 64-bit
  * lanes (i64x2.extmul_low/high_i32x4_s), plus 2^(n-1), shifted right by n (the low word of
  * each lane is the result: bits n..n+31 of the sum, as the C's), then the two saturating
- * additions and, for relu, max(0, .). */
+ * additions and, for relu, max(0, .). The additions are made wrapping first, and made again
+ * saturating only when one of the four lanes wrapped (i32x4.bitmask of the overflow test):
+ * the same values, for less work where nothing saturates. */
 void cn_finish_s32_simd128(const int32_t *acc, uint32_t live, int32_t am, unsigned n, int32_t t,
                            const int32_t *bq, int32_t *y, int relu)
 {
@@ -103,11 +131,16 @@ void cn_finish_s32_simd128(const int32_t *acc, uint32_t live, int32_t am, unsign
     const v128_t half = wasm_i64x2_splat((int64_t)1 << (n - 1u)), zero = wasm_i32x4_splat(0);
     uint32_t j = 0;
     for (; j + 4u <= live; j += 4u) {
+        const unsigned sh = in_loop(n);
         const v128_t a = wasm_v128_load(acc + j);
-        const v128_t lo = wasm_u64x2_shr(wasm_i64x2_add(wasm_i64x2_extmul_low_i32x4(a, amv), half), n);
-        const v128_t hi = wasm_u64x2_shr(wasm_i64x2_add(wasm_i64x2_extmul_high_i32x4(a, amv), half), n);
-        v128_t v = qadd_simd128(qadd_simd128(wasm_i32x4_shuffle(lo, hi, 0, 2, 4, 6), tv),
-                                wasm_v128_load(bq + j));
+        const v128_t lo = wasm_u64x2_shr(wasm_i64x2_add(wasm_i64x2_extmul_low_i32x4(a, amv), half), sh);
+        const v128_t hi = wasm_u64x2_shr(wasm_i64x2_add(wasm_i64x2_extmul_high_i32x4(a, amv), half), sh);
+        const v128_t r = wasm_i32x4_shuffle(lo, hi, 0, 2, 4, 6), b = wasm_v128_load(bq + j);
+        const v128_t r1 = wasm_i32x4_add(r, tv), r2 = wasm_i32x4_add(r1, b);
+        /* the two additions wrapped where the sign bit of this is set: then saturate */
+        const v128_t ov = wasm_v128_or(wasm_v128_and(wasm_v128_xor(r, r1), wasm_v128_xor(tv, r1)),
+                                       wasm_v128_and(wasm_v128_xor(r1, r2), wasm_v128_xor(b, r2)));
+        v128_t v = wasm_i32x4_bitmask(ov) ? qadd_simd128(qadd_simd128(r, tv), b) : r2;
         if (relu)
             v = wasm_i32x4_max(v, zero);
         wasm_v128_store(y + j, v);
