@@ -4,7 +4,8 @@
  * i16x8.load8x8_s): per block of four rows and input pair, one load of the
  * block's eight latents (layout CN_PAIRS) and one i32x4.dot_i16x8_s with the pair splat to
  * the four lanes (once per call), which sums each row's two products into its lane; two
- * blocks a step share each load of the splat pair. The sums wrap modulo
+ * blocks a step share each load of the splat pair; the last one to three rows eight
+ * latents of a row a step. The sums wrap modulo
  * 2^32 like the C's int32 sums, and the caller's bound makes them exact. Also
  * cn_requant_s16_simd128 and cn_finish_s32_simd128, render.c's input quantization and output
  * rescale.
@@ -29,6 +30,32 @@ static inline unsigned in_loop(unsigned s)
 /* A pair's eight latents of a block as int16 lanes (int8 widened by the load). */
 static inline v128_t pair_s16(const int16_t *k) { return wasm_v128_load(k); }
 static inline v128_t pair_s8(const int8_t *k) { return wasm_i16x8_load8x8(k); }
+
+/* The last one to three rows, each row's latents in turn (cn_kernels.h): eight of a row
+ * against eight inputs a step (i32x4.dot_i16x8_s), the four lanes added at the end, then the
+ * inputs past the last multiple of eight. The same int32 sums as the C's row by row. */
+#define CN_ROWS_SIMD128(NAME, KT, EIGHT)                                                    \
+    static void NAME(const KT *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,      \
+                     int32_t *acc)                                                          \
+    {                                                                                       \
+        const uint32_t n = 2u * n_pairs;                                                    \
+        for (uint32_t j = 0; j < n_rows; j++, k += n) {                                     \
+            v128_t a = wasm_i32x4_splat(0);                                                 \
+            uint32_t i = 0;                                                                 \
+            for (; i + 8u <= n; i += 8u)                                                    \
+                a = wasm_i32x4_add(a, wasm_i32x4_dot_i16x8(EIGHT(k + i), wasm_v128_load(x + i))); \
+            int32_t sum = (int32_t)((uint32_t)wasm_i32x4_extract_lane(a, 0) +               \
+                                    (uint32_t)wasm_i32x4_extract_lane(a, 1) +               \
+                                    (uint32_t)wasm_i32x4_extract_lane(a, 2) +               \
+                                    (uint32_t)wasm_i32x4_extract_lane(a, 3));               \
+            for (; i < n; i++)                                                              \
+                sum += (int32_t)k[i] * x[i];                                                \
+            acc[j] = sum;                                                                   \
+        }                                                                                   \
+    }
+
+CN_ROWS_SIMD128(rows_s16, int16_t, pair_s16)
+CN_ROWS_SIMD128(rows_s8, int8_t, pair_s8)
 
 #define CN_DOT_SIMD128(NAME, KT, PAIR, TAIL)                                                \
     void NAME(const KT *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows, int32_t *acc) \
@@ -76,8 +103,8 @@ static inline v128_t pair_s8(const int8_t *k) { return wasm_i16x8_load8x8(k); }
             TAIL(k, x, n_pairs, n_rows - j, acc + j);                                       \
     }
 
-CN_DOT_SIMD128(cn_dot_s16_simd128, int16_t, pair_s16, cn_dot_s16_c)
-CN_DOT_SIMD128(cn_dot_s8_simd128, int8_t, pair_s8, cn_dot_s8_c)
+CN_DOT_SIMD128(cn_dot_s16_simd128, int16_t, pair_s16, rows_s16)
+CN_DOT_SIMD128(cn_dot_s8_simd128, int8_t, pair_s8, rows_s8)
 
 /* render.c's requant for 1 <= s <= 16, eight inputs a step: floor(x / 2^s + 1/2) as
  * (x >> s) plus bit s - 1 of x (no addition that could overflow: the same value as the C's
