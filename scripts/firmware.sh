@@ -55,6 +55,11 @@
 #                  MACs): half the run, for a check that needs only the MD5s; first: the
 #                  first job's work only (the check that the host's count, which the cost
 #                  model uses, is the firmware's); 1 (default): every tile's
+#   FW_PROFILE     a file: the firmware is run once more under QEMU's execution trace
+#                  (-d in_asm,exec,nochain, into a temporary file of about 70 bytes an
+#                  executed block: keep the tile small) and FILE gets the instructions
+#                  executed per function from the first call of cnerf_render_tile on
+#                  (scripts/fw_profile.py; the firmware's own printing and MD5 among them)
 # Instructions are counted with QEMU's -icount shift=0 (one virtual nanosecond per
 # instruction) and the SysTick on the processor clock (25 MHz on the AN386, 32 MHz on the
 # AN547): 40 or 31.25 instructions per tick, validated by the firmware on a loop of known
@@ -204,6 +209,18 @@ if [ $rc -ne 0 ] || ! grep -q '^fw stack ' "$out"; then
   cat "$out" >&2
   echo "firmware.sh: the firmware failed (exit status $rc)" >&2
   exit 1
+fi
+
+if [ -n "${FW_PROFILE:-}" ]; then
+  trace=$(mktemp "$bdir/trace.XXXXXX")
+  timeout "$tmo" qemu-system-arm -M "$machine" -nographic \
+    -semihosting-config enable=on,target=native -icount shift=0 -kernel "$elf" \
+    -d in_asm,exec,nochain -D "$trace" < /dev/null > /dev/null 2>&1 ||
+    { rm -f "$trace"; echo "firmware.sh: the traced run failed" >&2; exit 1; }
+  python3 "$root/scripts/fw_profile.py" "$trace" cnerf_render_tile > "$FW_PROFILE" ||
+    { rm -f "$trace"; exit 1; }
+  rm -f "$trace"
+  echo "profile (instructions per function, FW_PROFILE): $FW_PROFILE"
 fi
 
 # ---- the same tile on the host ----
