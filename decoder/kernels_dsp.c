@@ -105,10 +105,35 @@ void cn_dot_s16_dsp(const int16_t *k, const int16_t *x, uint32_t n_pairs, uint32
     "smlad %[a3], %[t], %[" X "], %[a3]\n\t"
 #define CN_DSP8_STEP "ldrd %[x0], %[x1], [%[xp]], #8\n\t" CN_DSP8_PAIR("x0") CN_DSP8_PAIR("x1")
 
+/* The last one to three rows of cn_dot_s8_dsp, each row's latents in turn (cn_kernels.h),
+ * four a step: one word of four latents k0..k3, SXTB16 of it ([k0, k2]) and of it rotated by
+ * 8 ([k1, k3]), against the inputs x0..x3 packed as [x0, x2] and [x1, x3] (PKHBT, PKHTB): two
+ * SMLADs. A last odd pair by the C. The same int32 sums as cn_dot_s8_c's, row after row. */
+static void rows_s8_dsp(const int8_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
+                        int32_t *acc)
+{
+    const uint32_t n = 2u * n_pairs;
+    for (uint32_t j = 0; j < n_rows; j++, k += n) {
+        int32_t a = 0;
+        uint32_t i = 0;
+        for (; i + 4u <= n; i += 4u) {
+            uint32_t w;
+            __builtin_memcpy(&w, k + i, 4);
+            const uint32_t x01 = (uint32_t)rd2(x + i), x23 = (uint32_t)rd2(x + i + 2);
+            const int32_t xe = (int32_t)((x01 & 0xffffu) | (x23 << 16));
+            const int32_t xo = (int32_t)((x01 >> 16) | (x23 & 0xffff0000u));
+            a = __smlad(__sxtb16((int8x4_t)w), xe, a);
+            a = __smlad(__sxtb16((int8x4_t)(w >> 8 | w << 24)), xo, a);
+        }
+        if (i < n)
+            a += k[i] * x[i] + k[i + 1u] * x[i + 1u];
+        acc[j] = a;
+    }
+}
+
 /* cn_dot_s8_c's sums over latents in layout CN_PAIRS_X: four rows at a time, eight input
  * pairs per loop iteration (four steps), then steps for the remaining pairs two at a time
- * and the intrinsics for a last odd pair; the last one to three rows (row after row) by the
- * portable C. */
+ * and the intrinsics for a last odd pair; the last one to three rows by rows_s8_dsp. */
 void cn_dot_s8_dsp(const int8_t *k, const int16_t *x, uint32_t n_pairs, uint32_t n_rows,
                    int32_t *acc)
 {
@@ -150,7 +175,7 @@ void cn_dot_s8_dsp(const int8_t *k, const int16_t *x, uint32_t n_pairs, uint32_t
         acc[j] = a0, acc[j + 1u] = a1, acc[j + 2u] = a2, acc[j + 3u] = a3;
     }
     if (j < n_rows)
-        cn_dot_s8_c(k, x, n_pairs, n_rows - j, acc + j);
+        rows_s8_dsp(k, x, n_pairs, n_rows - j, acc + j);
 }
 
 #endif /* the sums where there is no Helium */
