@@ -4,9 +4,9 @@
 # MAIN: the README main job's stream (default out/lego.cnrf, which scripts/demo.sh writes);
 # SMALL: a stream of preset small (default: encoded here, the main job's command with
 # --preset small and 500 iterations). For each, the first `cnerf render --orbit` camera at
-# each size (100x100 and 400x400 by default; each native run also renders the float
-# reference, minutes at 400x400 for small, not timed): the median of N renders (default 5) by `cnerf render --threads 1`
-# and `2` (its ms/frame: the fixed-point render only), and by the JavaScript package with 1
+# each size (100x100 and 400x400 by default): the median of N renders (default 5) by
+# `cnerf render --threads 1` and `--threads 2` with `--no-reference` (its ms/frame: the fixed-point render
+# alone), and by the JavaScript package with 1
 # and 2 workers under Node and in headless Chromium (experiments/web_bench.mjs: the render
 # calls only). Writes OUT/bench.csv and OUT/bench.md; needs build/web (the build makes it when
 # clang and wasm-ld are there), node and chromium.
@@ -46,7 +46,7 @@ for pair in "main=$main" "small=$small"; do
   name=${pair%%=*} s=${pair#*=}
   : > "$out/$name.cams"
   for size in $sizes; do
-    "$cnerf" render "$s" --orbit 1 --size $size -o "$out/r-$name-$size" \
+    "$cnerf" render "$s" --orbit 1 --size $size --no-reference -o "$out/r-$name-$size" \
       --save-cameras "$out/$name-$size.cam" > /dev/null
     cat "$out/$name-$size.cam" >> "$out/$name.cams"
   done
@@ -58,10 +58,10 @@ for pair in "main=$main" "small=$small"; do
   for size in $sizes; do
     for t in 1 2; do
       ms=$(for r in $(seq "$runs"); do
-             "$cnerf" render "$s" --orbit 1 --size $size --threads $t -o "$out/r-$name-$size" |
-               sed -n 's/.* \([0-9.]*\) ms\/frame .*/\1/p'
+             "$cnerf" render "$s" --orbit 1 --size $size --threads $t --no-reference \
+               -o "$out/r-$name-$size" | sed -n 's/.* \([0-9.]*\) ms\/frame$/\1/p'
            done | median)
-      epr=$("$cnerf" render "$s" --orbit 1 --size $size -o "$out/r-$name-$size" |
+      epr=$("$cnerf" render "$s" --orbit 1 --size $size --no-reference -o "$out/r-$name-$size" |
               sed -n 's/^network evaluations per ray: \([0-9.]*\).*/\1/p')
       echo "native,$name,orbit_000,$size,$t,$ms,$epr,,$round" >> "$out/bench.csv"
     done

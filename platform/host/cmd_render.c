@@ -24,7 +24,7 @@
 #define RENDER_USAGE                                                                          \
     "usage: cnerf render scene.cnrf [--dataset DIR [--split test|val|train] [--downscale F|--max-size N]\n" \
     "       [--every N]] [--orbit N [--size PX] [--radius R] [--elevation DEG] [--fov DEG]]\n" \
-    "       [-o DIR] [--float] [--verify MD5] [--coarse N] [--fine N] [--t-stop X]\n"        \
+    "       [-o DIR] [--float|--no-reference] [--verify MD5] [--coarse N] [--fine N] [--t-stop X]\n" \
     "       [--tile PX] [--threads T] [--save-cameras FILE] [--no-skip] [--scene I]"
 
 typedef struct render_cfg {
@@ -146,6 +146,7 @@ typedef struct render_job {
     cn_view_renderer ref_vr; /* its batch, kept from view to view */
     const render_cfg *cfg;
     int use_float;
+    int no_ref; /* --no-reference: the fixed-point render alone */
     const char *outdir;
     cnerf_render_stats stats;
 } render_job;
@@ -183,7 +184,7 @@ static int render_view(render_job *j, const cn_camera *cam, const cnerf_camera *
             rc = cli_fail("render", "%s: %s", name, err);
     t0 = cli_now();
     /* the float reference ends its rays where the decoder does (t_stop) */
-    if (rc == 0 && cn_view_render(&j->ref_vr, j->ref, cam, I->coord == CNERF_COORD_NDC, rgb, 4096,
+    if (rc == 0 && !j->no_ref && cn_view_render(&j->ref_vr, j->ref, cam, I->coord == CNERF_COORD_NDC, rgb, 4096,
                                   (float)(j->cfg->opts.t_stop / 1073741824.0)))
         rc = cli_fail("render", "out of memory");
     const double ms_ref = (cli_now() - t0) * 1e3;
@@ -191,7 +192,10 @@ static int render_view(render_job *j, const cn_camera *cam, const cnerf_camera *
         free(px), free(refpx), free(rgb);
         return rc;
     }
-    to_u8(rgb, refpx, nv);
+    if (j->no_ref)
+        memcpy(refpx, px, nv); /* compared with itself: nothing of it is printed */
+    else
+        to_u8(rgb, refpx, nv);
     if (j->use_float)
         memcpy(px, refpx, nv);
     char hex[33];
@@ -212,12 +216,17 @@ static int render_view(render_job *j, const cn_camera *cam, const cnerf_camera *
         const double s = cn_ssim(rgb, gt, cam->w, cam->h);
         to_float(refpx, rgb, nv);
         const double rg = cn_psnr_from_mse(cn_mse(rgb, gt, nv));
-        printf(" psnr %6.2f dB  ssim %.4f (float reference %6.2f dB)", g, s, rg);
+        printf(" psnr %6.2f dB  ssim %.4f", g, s);
+        if (!j->no_ref)
+            printf(" (float reference %6.2f dB)", rg);
         t->sum_gt += g, t->sum_ssim += s, t->sum_ref_gt += rg;
     }
-    if (!j->use_float)
+    if (j->no_ref)
+        printf("  %8.1f ms", ms);
+    else if (!j->use_float)
         printf("  vs float %6.2f dB, max diff %d (%ld px > 2)  %8.1f ms", vs, md, over2, ms);
-    printf("  float %8.1f ms", ms_ref);
+    if (!j->no_ref)
+        printf("  float %8.1f ms", ms_ref);
     printf("  md5 %s\n", hex);
     fflush(stdout);
     if (isinf(vs))
@@ -248,10 +257,14 @@ static int render_totals(const render_job *j, render_tally *t, int with_gt, int 
     printf("mean over %d views (%s, %u+%u samples, t_stop %.3g):", n,
            j->use_float ? "float reference" : "fixed point", o->n_coarse,
            I->n_nets > 1 ? o->n_fine : 0, o->t_stop / 1073741824.0);
-    if (with_gt)
+    if (with_gt && j->no_ref)
+        printf(" psnr %.2f dB  ssim %.4f", t->sum_gt / n, t->sum_ssim / n);
+    else if (with_gt)
         printf(" psnr %.2f dB  ssim %.4f (float reference %.2f dB)", t->sum_gt / n,
                t->sum_ssim / n, t->sum_ref_gt / n);
-    if (!j->use_float) {
+    if (j->no_ref) {
+        printf("  %.1f ms/frame\n", t->sum_ms / n);
+    } else if (!j->use_float) {
         if (t->inf_count == n)
             printf("  vs float: identical");
         else
@@ -260,7 +273,8 @@ static int render_totals(const render_job *j, render_tally *t, int with_gt, int 
         printf(", max diff %d (%ld of %ld px > 2)  %.1f ms/frame", t->worst, t->over2_all,
                t->px_all, t->sum_ms / n);
     }
-    printf("  float reference %.1f ms/frame\n", t->sum_ms_ref / n);
+    if (!j->no_ref)
+        printf("  float reference %.1f ms/frame\n", t->sum_ms_ref / n);
     char hex[33];
     MD5End(&t->all, hex);
     printf("md5 of all frames: %s\n", hex);
@@ -329,7 +343,7 @@ int cmd_render(int argc, char **argv)
     long downscale = 1, max_size = 0, every = 1, threads = 0, orbit = 0, size = 100, coarse = -1, fine = -1;
     long tile = 32, scene = 0;
     double radius = 4.0, elev = 30.0, fov = 40.0, t_stop = -1;
-    int use_float = 0, no_skip = 0, n_pos;
+    int use_float = 0, no_ref = 0, no_skip = 0, n_pos;
     const cli_opt opts[] = {
         {"--dataset", CLI_STR, &dataset, 0, 0},
         {"--split", CLI_STR, &split, 0, 0},
@@ -343,6 +357,7 @@ int cmd_render(int argc, char **argv)
         {"--fov", CLI_DOUBLE, &fov, 1, 120},
         {"-o", CLI_STR, &outdir, 0, 0},
         {"--float", CLI_FLAG, &use_float, 0, 0},
+        {"--no-reference", CLI_FLAG, &no_ref, 0, 0},
         {"--verify", CLI_STR, &verify, 0, 0},
         {"--coarse", CLI_LONG, &coarse, 1, CNERF_MAX_SAMPLES},
         {"--fine", CLI_LONG, &fine, 0, CNERF_MAX_SAMPLES},
@@ -360,6 +375,9 @@ int cmd_render(int argc, char **argv)
         return cli_usage("render", "need a stream file\n%s", RENDER_USAGE);
     if (!dataset == !orbit)
         return cli_fail("render", "give either --dataset DIR or --orbit N\n%s", RENDER_USAGE);
+    if (use_float && no_ref)
+        return cli_usage("render", "--float renders the float reference; --no-reference leaves it "
+                                   "out: give one of them\n%s", RENDER_USAGE);
     if (verify && (strlen(verify) != 32 || strspn(verify, "0123456789abcdef") != 32))
         return cli_usage("render", "--verify takes 32 lower-case hex digits, not '%s'", verify);
     cli_set_threads(threads);
@@ -412,7 +430,7 @@ int cmd_render(int argc, char **argv)
     cn_buf cams = {0}; /* --save-cameras' lines, written at the end */
 
     render_job job = {.dec = st.dec, .ref = &ref, .cfg = &cfg, .use_float = use_float,
-                      .outdir = outdir};
+                      .no_ref = no_ref, .outdir = outdir};
     /* The stream as each modelled core opens it: the work its estimate is made from. */
     for (size_t k = 0; rc == 0 && !use_float && k < cli_n_cores; k++) {
         if (cli_core_same_work(k) != k)

@@ -260,6 +260,7 @@ rows=(
   "1|is a directory; cnerf writes regular files only|quantize $work/t.ckpt -o $work"
   "1|is a FIFO; cnerf writes regular files only|quantize $work/t.ckpt -o $work/fifo"
   "2|--width: expected an integer in [1, 1024]|train $D -o $work/x.ckpt --width 100000"
+  "2|--no-reference leaves it out|render $work/s.cnrf --orbit 1 --size 8 --float --no-reference"
   "2|--downscale: expected an integer in [1, 64]|train $D -o $work/x.ckpt --downscale 0"
   "2|--max-size: expected an integer in [1, 1048576]|views $D -o $work --max-size 0"
   "1|give --downscale or --max-size, not both|eval $work/s.cnrf $D --downscale 2 --max-size 50"

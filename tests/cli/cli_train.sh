@@ -266,6 +266,10 @@ set -e
 [ $rc -ne 0 ] && grep -q "no/such/c.txt" <<<"$msg" || fail "--save-cameras to a bad path: $rc $msg"
 out=$("$cnerf" render "$work/s.cnrf" --orbit 2 --size 12)
 grep -q "mean over 2 views (fixed point" <<<"$out" || fail "render --orbit: $out"
+# --no-reference: the same pixels, no float reference
+nr=$("$cnerf" render "$work/s.cnrf" --orbit 2 --size 12 --no-reference)
+[ "$(grep '^md5 of all' <<<"$nr")" = "$(grep '^md5 of all' <<<"$out")" ] &&
+  grep -q "ms/frame$" <<<"$nr" && ! grep -q "float" <<<"$nr" || fail "render --no-reference: $nr"
 set +e
 msg=$("$cnerf" render "$work/s.cnrf" --orbit 2 --coarse 9 2>&1); rc=$?
 set -e
