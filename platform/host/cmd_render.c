@@ -432,7 +432,7 @@ int cmd_render(int argc, char **argv)
     render_job job = {.dec = st.dec, .ref = &ref, .cfg = &cfg, .use_float = use_float,
                       .no_ref = no_ref, .outdir = outdir};
     /* The stream as each modelled core opens it: the work its estimate is made from. */
-    for (size_t k = 0; rc == 0 && !use_float && k < cli_n_cores; k++) {
+    for (size_t k = 0; rc == 0 && !use_float && !no_ref && k < cli_n_cores; k++) {
         if (cli_core_same_work(k) != k)
             continue; /* counted with an earlier core's set */
         const size_t need = cnerf_workspace_size(I);

@@ -269,7 +269,8 @@ grep -q "mean over 2 views (fixed point" <<<"$out" || fail "render --orbit: $out
 # --no-reference: the same pixels, no float reference
 nr=$("$cnerf" render "$work/s.cnrf" --orbit 2 --size 12 --no-reference)
 [ "$(grep '^md5 of all' <<<"$nr")" = "$(grep '^md5 of all' <<<"$out")" ] &&
-  grep -q "ms/frame$" <<<"$nr" && ! grep -q "float" <<<"$nr" || fail "render --no-reference: $nr"
+  grep -q "ms/frame$" <<<"$nr" && ! grep -Eq "float|cost model" <<<"$nr" &&
+  grep -q "cost model" <<<"$out" || fail "render --no-reference: $nr"
 set +e
 msg=$("$cnerf" render "$work/s.cnrf" --orbit 2 --coarse 9 2>&1); rc=$?
 set -e
