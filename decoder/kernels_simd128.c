@@ -3,9 +3,9 @@
  * exactly cn_dot_s16_c's and cn_dot_s8_c's sums (cn_kernels.h; int8 latents widened by
  * i16x8.load8x8_s): per block of four rows and input pair, one load of the
  * block's eight latents (layout CN_PAIRS) and one i32x4.dot_i16x8_s with the pair splat to
- * the four lanes (once per call), which sums each row's two products into its lane; two
- * blocks a step share each load of the splat pair; the last one to three rows eight
- * latents of a row a step. The sums wrap modulo
+ * the four lanes (once per call), which sums each row's two products into its lane; four
+ * (then two) blocks a step share each load of the splat pair; the last one to three rows
+ * eight latents of a row a step. The sums wrap modulo
  * 2^32 like the C's int32 sums, and the caller's bound makes them exact. Also
  * cn_requant_s16_simd128 and cn_finish_s32_simd128, render.c's input quantization and output
  * rescale.
