@@ -4,9 +4,12 @@ for each scene whose two presets' courses are both there (the race's validations
 winner's default encode and the other preset's encode alone), prints both presets'
 validation PSNR and size every 100 iterations, small's mean lead over the three validations
 up to half the run, and the same lead over the validations where small is within TOL of its
-target size (the rule "wait until small is at its size"), at the last validation, and two
+target size (the rule "wait until small is at its size"), at the last validation, and three
 rules' verdicts: the race's (cn_race_step in encoder/compress/autopreset.c: from 15% of the
-run a mean lead beyond 1 dB over the last 3 validations, else the leader at half the run)
+run a mean lead beyond 1 dB over the last 3 validations, else the leader at half the run; a
+lead of small's counts only where small was within 5% of its size at each of the 3, and
+when small leads at half the run away from its size, the leader over the first 3
+validations at its size wins), the race's before it (sizes not looked at)
 and "at size" (the same, but a lead counts only when the leader was within TOL of its size
 at each of those 3 validations, and from half the run only when both were; at the end of
 the run the leader wins).
@@ -92,5 +95,33 @@ for key in sorted(V):
             return 'none before the courses end (%d)' % common[-1]
         m = lead(key, common[-3:])
         return '%s at the end (small\'s lead %+.2f dB)' % ('small' if m > 0 else 'tiny', m)
-    print("  the race's verdict: %s" % replay(False))
+
+    def race():  # cn_race_step: a lead of small's counts only at its size
+        waiting = False
+        for i, n in enumerate(common):
+            win = common[max(0, i - 2):i + 1]
+            m = lead(key, win)
+            sized = all(at_size('small', k) for k in win)
+            say = '%s at %d (small\'s lead %+.2f dB%s)' % (
+                'small' if m > 0 else 'tiny', n, m, ', after waiting' if waiting else '')
+            if n < 0.15 * iters:
+                continue
+            if waiting:
+                if sized and len(win) == 3:
+                    return say
+                continue
+            if m < -1.0 or (m > 1.0 and sized):
+                return say
+            if n < 0.5 * iters:
+                continue
+            if m > 0 and not sized:
+                waiting = True
+                continue
+            return say
+        if common[-1] < iters - 100:
+            return 'none before the courses end (%d)' % common[-1]
+        m = lead(key, common[-3:])
+        return '%s at the end (small\'s lead %+.2f dB)' % ('small' if m > 0 else 'tiny', m)
+    print("  the race's verdict: %s" % race())
+    print("  the race before sizes counted: %s" % replay(False))
     print("  at size: %s" % replay(True))

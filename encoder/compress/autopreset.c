@@ -44,22 +44,35 @@ int cn_preset_auto(const cn_dataset *ds, const cn_train_opts *o, double target,
     return -1; /* not reached */
 }
 
-int cn_race_step(cn_race *r, long step, long iters, double val_tiny, double val_small)
+int cn_race_step(cn_race *r, long step, long iters, double val_tiny, double val_small,
+                 int small_sized)
 {
     const int last = (double)step >= CN_RACE_LAST * (double)iters;
     if (isnan(val_tiny) || isnan(val_small)) /* no validation yet: nothing to tell */
-        return r->n == 0 ? (last ? 0 : -1) : last ? r->mean > 0 : -1;
+        return r->n == 0 ? (last ? 0 : -1) : last && !r->waiting ? r->mean > 0 : -1;
+    r->sized[r->n % CN_RACE_MEAN] = small_sized != 0;
     r->lead[r->n++ % CN_RACE_MEAN] = val_small - val_tiny;
     const int k = r->n < CN_RACE_MEAN ? r->n : CN_RACE_MEAN;
     double sum = 0;
-    for (int i = 0; i < k; i++)
+    int sized = 1;
+    for (int i = 0; i < k; i++) {
         sum += r->lead[i];
+        sized &= r->sized[i];
+    }
     r->mean = sum / k;
     if ((double)step < CN_RACE_FIRST * (double)iters)
         return -1;
-    if (r->mean > CN_RACE_MARGIN_DB || r->mean < -CN_RACE_MARGIN_DB || last)
+    if (r->waiting) /* only a window with small at its size decides */
+        return sized && k == CN_RACE_MEAN ? r->mean > 0 : -1;
+    if (r->mean < -CN_RACE_MARGIN_DB || (r->mean > CN_RACE_MARGIN_DB && sized))
         return r->mean > 0;
-    return -1;
+    if (!last)
+        return -1;
+    if (r->mean > 0 && !sized) {
+        r->waiting = 1;
+        return -1;
+    }
+    return r->mean > 0;
 }
 
 int cn_preset_of_checkpoint(const cn_dataset *ds, const cn_train_opts *o, const char *path,

@@ -450,11 +450,13 @@ static int auto_race(encode_args *A, const cn_dataset *ds, cn_trainer tr[2], int
     }
     cli_stop_before("race", "while --preset auto races tiny and small", NULL);
     printf("preset auto: racing tiny and small, each a whole encode, until the validation "
-           "views rank them (from %.0f%% of the run by more than %.1f dB, else at %.0f%%)\n",
+           "views rank them (from %.0f%% of the run by more than %.1f dB, else at %.0f%%; a lead "
+           "of small's only at its size)\n",
            100 * CN_RACE_FIRST, CN_RACE_MARGIN_DB, 100 * CN_RACE_LAST);
     fflush(stdout);
     const double t0 = cli_now();
-    cn_race race = {{0}, 0, 0};
+    cn_race race;
+    memset(&race, 0, sizeof race);
     int w = -1;
     long seen = 0; /* the last validation step looked at */
     while (w < 0) {
@@ -479,12 +481,15 @@ static int auto_race(encode_args *A, const cn_dataset *ds, cn_trainer tr[2], int
         if (step == seen && tr[0].step < A->iters)
             continue;
         seen = step;
-        w = cn_race_step(&race, step, A->iters, tr[0].val_psnr, tr[1].val_psnr);
+        const double small_kb = (tr[1].rc.size + tr[1].rc.reserved) / 1000.0;
+        const int small_sized = tr[1].rc.size > 0 &&
+            tr[1].rc.size + tr[1].rc.reserved <= (1 + CN_RACE_SIZE_TOL) * tr[1].rc.target;
+        w = cn_race_step(&race, step, A->iters, tr[0].val_psnr, tr[1].val_psnr, small_sized);
         printf("race %ld/%ld: validation psnr tiny %.2f dB, small %.2f dB (%.2f kB, %.2f kB), "
-               "small's lead %+.2f dB over the last %d\n", step, A->iters, tr[0].val_psnr,
-               tr[1].val_psnr, (tr[0].rc.size + tr[0].rc.reserved) / 1000.0,
-               (tr[1].rc.size + tr[1].rc.reserved) / 1000.0, race.mean,
-               race.n < CN_RACE_MEAN ? race.n : CN_RACE_MEAN);
+               "small's lead %+.2f dB over the last %d%s\n", step, A->iters, tr[0].val_psnr,
+               tr[1].val_psnr, (tr[0].rc.size + tr[0].rc.reserved) / 1000.0, small_kb,
+               race.mean, race.n < CN_RACE_MEAN ? race.n : CN_RACE_MEAN,
+               race.waiting && w < 0 ? ", waiting for small to reach its size" : "");
         fflush(stdout);
         if (tr[0].step >= A->iters && w < 0)
             w = race.n > 0 && race.mean > 0;

@@ -357,45 +357,99 @@ static void test_collapse_stops_rate_control(void **state)
 
 /* --preset auto's race: nothing is decided before CN_RACE_FIRST of the run; from there a
  * mean lead beyond the margin decides; at CN_RACE_LAST the leader wins, tiny on a tie; the
- * mean is over the last CN_RACE_MEAN validations; no validation (NaN) ends with tiny. */
+ * mean is over the last CN_RACE_MEAN validations; no validation (NaN) ends with tiny. Here
+ * small is at its size throughout (the last argument). */
 static void test_race_rule(void **state)
 {
     (void)state;
-    cn_race r = {{0}, 0, 0};
+    cn_race r;
+    memset(&r, 0, sizeof r);
     /* small far behind, but early: go on; from 15% it ends with tiny */
-    assert_int_equal(cn_race_step(&r, 100, 2000, 20, 15), -1);
-    assert_int_equal(cn_race_step(&r, 200, 2000, 20, 15), -1);
-    assert_int_equal(cn_race_step(&r, 500, 2000, 20, 15), 0);
+    assert_int_equal(cn_race_step(&r, 100, 2000, 20, 15, 1), -1);
+    assert_int_equal(cn_race_step(&r, 200, 2000, 20, 15, 1), -1);
+    assert_int_equal(cn_race_step(&r, 500, 2000, 20, 15, 1), 0);
     /* small ahead by more than the margin from 25% on */
-    cn_race a = {{0}, 0, 0};
-    assert_int_equal(cn_race_step(&a, 200, 2000, 20, 20 + CN_RACE_MARGIN_DB + 0.2), -1);
-    assert_int_equal(cn_race_step(&a, 300, 2000, 20, 20 + CN_RACE_MARGIN_DB + 0.2), 1);
+    cn_race a;
+    memset(&a, 0, sizeof a);
+    assert_int_equal(cn_race_step(&a, 200, 2000, 20, 20 + CN_RACE_MARGIN_DB + 0.2, 1), -1);
+    assert_int_equal(cn_race_step(&a, 300, 2000, 20, 20 + CN_RACE_MARGIN_DB + 0.2, 1), 1);
     /* close: on until 50%, then the leader; the mean is over the last three */
-    cn_race c = {{0}, 0, 0};
+    cn_race c;
+    memset(&c, 0, sizeof c);
     const double lead[] = {0.9, -0.9, 0.3, 0.2, -0.4, 0.3, 0.2, 0.1, 0.4, -0.2};
     int w = -1;
     long step = 0;
     for (int i = 0; i < 10 && w < 0; i++) {
         step = 100 * (i + 1);
-        w = cn_race_step(&c, step, 2000, 20, 20 + lead[i]);
+        w = cn_race_step(&c, step, 2000, 20, 20 + lead[i], 1);
     }
     assert_int_equal(step, 1000);
     assert_int_equal(w, 1); /* (0.1 + 0.4 - 0.2) / 3 > 0 */
     assert_true(fabs(c.mean - 0.1) < 1e-12);
-    cn_race d = {{0}, 0, 0};
+    cn_race d;
+    memset(&d, 0, sizeof d);
     for (int i = 1; i < 10; i++)
-        assert_int_equal(cn_race_step(&d, 100 * i, 2000, 20, 20), -1);
-    assert_int_equal(cn_race_step(&d, 1000, 2000, 20, 20), 0); /* a tie: tiny */
-    cn_race n = {{0}, 0, 0};
-    assert_int_equal(cn_race_step(&n, 900, 2000, NAN, NAN), -1);
-    assert_int_equal(cn_race_step(&n, 1000, 2000, NAN, NAN), 0);
+        assert_int_equal(cn_race_step(&d, 100 * i, 2000, 20, 20, 1), -1);
+    assert_int_equal(cn_race_step(&d, 1000, 2000, 20, 20, 1), 0); /* a tie: tiny */
+    cn_race n;
+    memset(&n, 0, sizeof n);
+    assert_int_equal(cn_race_step(&n, 900, 2000, NAN, NAN, 1), -1);
+    assert_int_equal(cn_race_step(&n, 1000, 2000, NAN, NAN, 1), 0);
     /* a validation not made yet is not counted: the mean is of those made */
-    cn_race m = {{0}, 0, 0};
-    assert_int_equal(cn_race_step(&m, 100, 2000, NAN, 20), -1);
-    assert_int_equal(cn_race_step(&m, 200, 2000, 20, 21.5), -1);
-    assert_int_equal(cn_race_step(&m, 300, 2000, 20, 21.3), 1);
+    cn_race m;
+    memset(&m, 0, sizeof m);
+    assert_int_equal(cn_race_step(&m, 100, 2000, NAN, 20, 1), -1);
+    assert_int_equal(cn_race_step(&m, 200, 2000, 20, 21.5, 1), -1);
+    assert_int_equal(cn_race_step(&m, 300, 2000, 20, 21.3, 1), 1);
     assert_int_equal(m.n, 2);
     assert_true(fabs(m.mean - 1.4) < 1e-12);
+}
+
+/* A lead of small's counts only where small was at its size at each validation of the mean:
+ * early, a lead beyond the margin bought with bytes goes on; at CN_RACE_LAST a lead away
+ * from the size waits for it, and then the leader over validations at the size wins, either
+ * preset. Tiny's lead counts at any size. (The chair of the scene suite: small 1.2 dB ahead
+ * at twice its size, behind once at it.) */
+static void test_race_waits_for_size(void **state)
+{
+    (void)state;
+    cn_race r;
+    memset(&r, 0, sizeof r);
+    for (long s = 100; s < 1000; s += 100) /* far ahead, not at its size */
+        assert_int_equal(cn_race_step(&r, s, 2000, 20, 21.5, 0), -1);
+    assert_int_equal(cn_race_step(&r, 1000, 2000, 20, 20.5, 0), -1); /* half: the leader waits */
+    assert_true(r.waiting);
+    assert_int_equal(cn_race_step(&r, 1100, 2000, 20, 20.3, 1), -1); /* one at size of three */
+    assert_int_equal(cn_race_step(&r, 1200, 2000, 20, 19.9, 1), -1);
+    assert_int_equal(cn_race_step(&r, 1300, 2000, 20, 19.6, 0), -1); /* above it again */
+    assert_int_equal(cn_race_step(&r, 1400, 2000, 20, 19.5, 1), -1);
+    assert_int_equal(cn_race_step(&r, 1500, 2000, 20, 19.4, 1), -1);
+    assert_int_equal(cn_race_step(&r, 1600, 2000, 20, 19.5, 1), 0); /* three at size: tiny */
+    assert_true(fabs(r.mean + 0.5333333333333333) < 1e-9);
+    /* the same wait, with small still ahead at its size */
+    cn_race s;
+    memset(&s, 0, sizeof s);
+    for (long k = 100; k <= 1000; k += 100)
+        assert_int_equal(cn_race_step(&s, k, 2000, 20, 20.4, 0), -1);
+    assert_int_equal(cn_race_step(&s, 1100, 2000, 20, 20.2, 1), -1);
+    assert_int_equal(cn_race_step(&s, 1200, 2000, 20, 20.2, 1), -1);
+    assert_int_equal(cn_race_step(&s, 1300, 2000, 20, 20.2, 1), 1);
+    /* small not at its size does not stop tiny's lead, early or at half the run */
+    cn_race t;
+    memset(&t, 0, sizeof t);
+    assert_int_equal(cn_race_step(&t, 300, 2000, 22, 20, 0), 0);
+    cn_race u;
+    memset(&u, 0, sizeof u);
+    for (long k = 100; k < 1000; k += 100)
+        assert_int_equal(cn_race_step(&u, k, 2000, 20.3, 20, 0), -1);
+    assert_int_equal(cn_race_step(&u, 1000, 2000, 20.3, 20, 0), 0);
+    /* a missed validation while waiting decides nothing */
+    cn_race v;
+    memset(&v, 0, sizeof v);
+    for (long k = 100; k <= 1000; k += 100)
+        assert_int_equal(cn_race_step(&v, k, 2000, 20, 20.4, 0), -1);
+    assert_int_equal(cn_race_step(&v, 1100, 2000, NAN, NAN, 1), -1);
+    assert_int_equal(v.n, 10);
 }
 
 int main(void)
@@ -410,6 +464,7 @@ int main(void)
         cmocka_unit_test(test_float_phase_end),
         cmocka_unit_test(test_collapse_stops_rate_control),
         cmocka_unit_test(test_race_rule),
+        cmocka_unit_test(test_race_waits_for_size),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
