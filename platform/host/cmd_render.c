@@ -214,8 +214,11 @@ static int render_view(render_job *j, const cn_camera *cam, const cnerf_camera *
         to_float(px, rgb, nv);
         const double g = cn_psnr_from_mse(cn_mse(rgb, gt, nv));
         const double s = cn_ssim(rgb, gt, cam->w, cam->h);
-        to_float(refpx, rgb, nv);
-        const double rg = cn_psnr_from_mse(cn_mse(rgb, gt, nv));
+        double rg = g; /* --no-reference: nothing of it is printed */
+        if (!j->no_ref) {
+            to_float(refpx, rgb, nv);
+            rg = cn_psnr_from_mse(cn_mse(rgb, gt, nv));
+        }
         printf(" psnr %6.2f dB  ssim %.4f", g, s);
         if (!j->no_ref)
             printf(" (float reference %6.2f dB)", rg);
