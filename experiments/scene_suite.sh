@@ -149,16 +149,24 @@ for (scene, iters), rs in by.items():
         dp = psnr(d)
         pre = [dp if d and d['preset'] == p else psnr(get('encode-' + p, str(size)))
                for p in ('tiny', 'small')]
+        # a preset that the encoder refused at this size (collapse) is no candidate: the
+        # bound is against the presets it accepts
+        refused = [p for p in ('tiny', 'small')
+                   if (get('encode-' + p, str(size)) or {}).get('status') == 'refused']
+        pre = [-1e9 if p in refused else v for p, v in zip(('tiny', 'small'), pre)]
         a = dp - max(pre) if dp is not None and None not in pre else None
         # the lead over the other preset, with its standard error over the test views
         lead = '–'
         if dp is not None and None not in pre:
             k = 1 if d['preset'] == 'tiny' else 0
-            lead = fmt(dp - pre[k])
-            pv = paired(per_view.get((scene, iters, 'encode-' + ('tiny', 'small')[k], str(size))),
-                        per_view.get((scene, iters, 'encode-default', str(size))))
-            if pv is not None:
-                lead = lead.replace(' dB', ' ± %.2f dB (%d)' % pv[1:])
+            if ('tiny', 'small')[k] in refused:
+                lead = 'the other refused'
+            else:
+                lead = fmt(dp - pre[k])
+                pv = paired(per_view.get((scene, iters, 'encode-' + ('tiny', 'small')[k], str(size))),
+                            per_view.get((scene, iters, 'encode-default', str(size))))
+                if pv is not None:
+                    lead = lead.replace(' dB', ' ± %.2f dB (%d)' % pv[1:])
         b = dp - ft if dp is not None and ft is not None else None
         c = fs - ft if fs is not None and ft is not None else None
         broken = [n for n, v, lim in (('preset', a, -0.3), ('float tiny', b, -3),
