@@ -5,14 +5,16 @@ winner's default encode and the other preset's encode alone), prints both preset
 validation PSNR and size every 100 iterations, small's mean lead over the three validations
 up to half the run, and the same lead over the validations where small is within TOL of its
 target size (the rule "wait until small is at its size"), at the last validation, and three
-rules' verdicts: the race's (cn_race_step in encoder/compress/autopreset.c: from 15% of the
-run a mean lead beyond 1 dB over the last 3 validations, else the leader at half the run; a
-lead of small's counts only where small was within 5% of its size at each of the 3, and
-when small leads at half the run away from its size, the leader over the first 3
-validations at its size wins), the race's before it (sizes not looked at)
-and "at size" (the same, but a lead counts only when the leader was within TOL of its size
-at each of those 3 validations, and from half the run only when both were; at the end of
-the run the leader wins).
+rules' verdicts:
+- the race's (cn_race_step in encoder/compress/autopreset.c): from 15% of the run a mean lead
+  beyond 1 dB over the last 3 validations, else the leader at half the run; a lead of
+  small's counts only where small was within 5% of its size at each of the 3, and when
+  small leads at half the run away from its size, the leader over the first 3 validations
+  at its size wins;
+- the race's before sizes counted: the same without the size;
+- "at size": a lead counts only when the leader was within TOL of its size at each of
+  those 3 validations, and from half the run only when both were; at the end of the run
+  the leader wins.
 
   experiments/race_replay.py experiments/data/scene_suite_trajectories.csv [--tol 0.05]
 
