@@ -108,7 +108,7 @@ for s in "${scenes[@]}"; do
     head -n 1 "$out/files/$name-$cfg-$target.cam" > "$cam1"
     read -r -a cam < "$cam1"
     w=${cam[16]} h=${cam[17]} view=${cam[18]}
-    samples=$("$cnerf" info "$f" | sed -n 's/^samples: \([0-9]*\) coarse + \([0-9]*\) fine.*/\1 \2/p')
+    samples=$("$cnerf" info --no-estimate "$f" | sed -n 's/^samples: \([0-9]*\) coarse + \([0-9]*\) fine.*/\1 \2/p')
     fw=$(FW_BUILD_DIR=$out/fw-after-$name FW_TIMEOUT=6000 scripts/firmware.sh "$f" "$cam1" "0 0 $w $h" $samples \
          "$after_q30" 2>&1) || { echo "$fw" >&2; exit 1; }
     ipr=$(ipr_of "$fw")

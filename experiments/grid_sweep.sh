@@ -29,7 +29,7 @@ for g in 0 16 32 64 128; do
   "$cnerf" render "$out/g$g.cnrf" --dataset "$data" ${ds:+--downscale "$ds"} --every "$every" \
     > "$out/render_g$g.log"
   bytes=$(stat -c %s "$out/g$g.cnrf")
-  read -r gb occ < <("$cnerf" info "$out/g$g.cnrf" |
+  read -r gb occ < <("$cnerf" info --no-estimate "$out/g$g.cnrf" |
     sed -n 's/^occupancy grid: [0-9]*^3 cells, \([0-9]*\) bytes, [0-9]* occupied (\(.*\))$/\1 \2/p;
             s/^occupancy grid: none.*/0 -/p')
   read -r ev ib < <(sed -n 's/^network evaluations per ray: \([0-9.]*\) (\([0-9.]*\) .*/\1 \2/p' \

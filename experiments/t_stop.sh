@@ -19,7 +19,7 @@ trap 'rm -rf "$work"' EXIT
   --save-cameras "$work/cam.txt" > /dev/null
 read -r -a cam < <(head -n 1 "$work/cam.txt")
 w=${cam[16]} h=${cam[17]} view=${cam[18]}
-samples=$("$cnerf" info "$stream" | sed -n 's/^samples: \([0-9]*\) coarse + \([0-9]*\) fine.*/\1 \2/p')
+samples=$("$cnerf" info --no-estimate "$stream" | sed -n 's/^samples: \([0-9]*\) coarse + \([0-9]*\) fine.*/\1 \2/p')
 echo "| t_stop | test PSNR (dB) | evaluations per ray | M4 instructions per ray, view $view ${w}x${h} |"
 echo "|---|---|---|---|"
 for t in ${T_STOPS:-0.000244140625 0.001 0.003 0.01 0.03}; do

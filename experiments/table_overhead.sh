@@ -12,7 +12,7 @@ for preset in tiny small paper; do
   for spread in 0.5 2 8; do
     f=$tmp/$preset-$spread.cnrf
     "$build/cnerf" synth -o "$f" --preset "$preset" --spread "$spread" --seed 1 >/dev/null
-    "$build/cnerf" info "$f" | awk -v p="$preset" -v s="$spread" '
+    "$build/cnerf" info --no-estimate "$f" | awk -v p="$preset" -v s="$spread" '
       /latent payload/ {pay=$3} /frequency tables/ {tab=$3} /^  total/ {tot=$2}
       /^parameters:/ {lat=$2}
       END {printf "| %s | %s | %d | %d | %d | %.2f%% | %d |\n", p, s, lat, pay, tab, 100*tab/pay, tot}'

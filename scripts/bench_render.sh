@@ -45,7 +45,7 @@ cmake --build build -j"$(nproc)" --target cnerf render_tile > /dev/null
 mkdir -p "$out"
 cnerf=build/cnerf
 
-read -r NC NF < <(./build/cnerf info "$stream" | sed -n 's/^samples: \([0-9]*\) coarse + \([0-9]*\) fine$/\1 \2/p')
+read -r NC NF < <(./build/cnerf info --no-estimate "$stream" | sed -n 's/^samples: \([0-9]*\) coarse + \([0-9]*\) fine$/\1 \2/p')
 [ -n "${NC:-}" ] || { echo "bench_render.sh: cannot read the sample counts of $stream" >&2; exit 1; }
 if [ -z "$settings" ]; then
   h=$((NF / 2)) q=$((NF / 4)) c=$((NC / 2))
@@ -54,10 +54,10 @@ if [ -z "$settings" ]; then
   settings+=" $c $h 0.000244140625"
   # the coarse network's image alone, when the stream carries its colour
   coarse_color=1
-  grep -q "^network 0 (coarse):.*no colour" <<< "$(./build/cnerf info "$stream")" && coarse_color=0
+  grep -q "^network 0 (coarse):.*no colour" <<< "$(./build/cnerf info --no-estimate "$stream")" && coarse_color=0
   [ $coarse_color -eq 1 ] && settings+="; $NC 0 0.000244140625; $c 0 0.000244140625"
   # a stream with an occupancy grid: the main settings again without it
-  if grep -q "^occupancy grid: [0-9]" <<< "$(./build/cnerf info "$stream")"; then
+  if grep -q "^occupancy grid: [0-9]" <<< "$(./build/cnerf info --no-estimate "$stream")"; then
     settings+="; $NC $NF 0.000244140625 noskip; $NC $h 0.000244140625 noskip"
     [ $coarse_color -eq 1 ] && settings+="; $NC 0 0.000244140625 noskip"
   fi

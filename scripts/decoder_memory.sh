@@ -13,7 +13,7 @@ echo "| preset | latents | biases | workspace bytes | render scratch bytes |"
 echo "|---|---|---|---|---|"
 for p in tiny small paper; do
   "$cnerf" synth -o "$tmp" --preset $p > /dev/null
-  "$cnerf" info "$tmp" | awk -v p=$p '
+  "$cnerf" info --no-estimate "$tmp" | awk -v p=$p '
     /^parameters:/ {lat = $2; bias = $4}
     /^decoder memory:/ {
       ws = $4

@@ -25,7 +25,7 @@ fmt() { python3 -c "import sys; print(f'{int(sys.argv[1]):,}')" "$1"; }
   for preset in tiny small paper; do
     s=$bd/$preset.cnrf
     "$cnerf" synth -o "$s" --preset "$preset" --seed 1 > /dev/null
-    "$cnerf" info "$s" > "$bd/$preset.info"
+    "$cnerf" info --no-estimate "$s" > "$bd/$preset.info"
     topo=$(sed -n 's/^network 1 (fine): depth \([0-9]*\), width \([0-9]*\),.*/\1x\2/p' "$bd/$preset.info")
     [ -n "$topo" ] || topo=$(sed -n 's/^network 0 [^:]*: depth \([0-9]*\), width \([0-9]*\),.*/\1x\2/p' "$bd/$preset.info")
     samples=$(sed -n 's/^samples: \([0-9]*\) coarse + \([0-9]*\) fine/\1+\2/p' "$bd/$preset.info")

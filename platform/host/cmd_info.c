@@ -12,11 +12,13 @@
 #include "cost_model.h"
 
 #define INFO_USAGE                                                                            \
-    "usage: cnerf info [--check] [--scene I] FILE.cnrf|IMAGE\n"                              \
-    "  --check    also decode every payload (cnerf_open), as a device would; without it the\n" \
-    "             structure and every chunk's CRC are checked, not the coded latents\n"      \
-    "  --scene I  a stream of several scenes: describe scene I (0 by default); --check\n"    \
-    "             decodes every scene"
+    "usage: cnerf info [--check] [--scene I] [--no-estimate] FILE.cnrf|IMAGE\n"              \
+    "  --check        also decode every payload (cnerf_open), as a device would; without it\n" \
+    "                 the structure and every chunk's CRC are checked, not the coded latents\n" \
+    "  --scene I      a stream of several scenes: describe scene I (0 by default); --check\n" \
+    "                 decodes every scene\n"                                                  \
+    "  --no-estimate  without each core's time for a view (the cost model's, from a view\n"  \
+    "                 rendered at 25x25 with each kernel set: a minute for the paper preset)"
 
 /* cnerf_open_scene of every scene, each into a workspace of its own: decodes every
  * payload. *bad gets the scene that failed. */
@@ -140,11 +142,14 @@ static int describe_image(const char *path, const uint8_t *im, size_t n, size_t 
 
 int cmd_info(int argc, char **argv)
 {
-    int check = 0;
+    int check = 0, estimate = 1;
     long scene = 0;
     for (;;) {
         if (argc >= 2 && !strcmp(argv[1], "--check")) {
             check = 1;
+            argc--, argv++;
+        } else if (argc >= 2 && !strcmp(argv[1], "--no-estimate")) {
+            estimate = 0;
             argc--, argv++;
         } else if (argc >= 3 && !strcmp(argv[1], "--scene")) {
             char *end;
@@ -199,7 +204,7 @@ int cmd_info(int argc, char **argv)
                       check ? " (every payload decoded)" : "");
     else
         cn_print_info(stdout, argv[1], buf, info);
-    if (rc == 0)
+    if (rc == 0 && estimate)
         rc = print_estimates(buf, len, (uint32_t)scene, info);
     if (rc == 0 && check)
         printf("check: every payload decodes (cnerf_open)\n");

@@ -25,6 +25,17 @@ foreach(want "network 0 \\(coarse\\): depth 4, width 64" "network 1 \\(fine\\)" 
     message(FATAL_ERROR "info output lacks '${want}':\n${out}")
   endif()
 endforeach()
+# --no-estimate: the same description without the cores' times.
+execute_process(COMMAND ${CNERF} info --no-estimate ${WORK}/tiny.cnrf
+                RESULT_VARIABLE rc OUTPUT_VARIABLE brief ERROR_VARIABLE err)
+if(NOT rc EQUAL 0 OR NOT brief MATCHES "bits per parameter" OR brief MATCHES "cost model")
+  message(FATAL_ERROR "info --no-estimate (${rc}): expected the description without the "
+                      "estimates: ${brief}${err}")
+endif()
+string(FIND "${out}" "${brief}" at)
+if(NOT at EQUAL 0)
+  message(FATAL_ERROR "info --no-estimate does not print what info prints before its estimates:\n${brief}")
+endif()
 # A truncated copy is refused with its status.
 execute_process(COMMAND sh -c "head -c 100 '${WORK}/tiny.cnrf' > '${WORK}/trunc.cnrf'")
 execute_process(COMMAND ${CNERF} info ${WORK}/trunc.cnrf

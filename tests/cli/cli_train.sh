@@ -88,7 +88,7 @@ grep -q "^dead units removed: coarse [0-9+]* of 4 x 64, view [0-9]* of 32; fine 
   || fail "encode: dead units line: $out"
 # Outputs are captured before grep: with pipefail, `cnerf ... | grep -q` fails when grep exits
 # at its match before cnerf has written its last line, which then dies of SIGPIPE.
-grep -q "samples: 8 coarse + 8 fine" <<<"$("$cnerf" info "$work/s.cnrf")" || fail "info of encoded file"
+grep -q "samples: 8 coarse + 8 fine" <<<"$("$cnerf" info --no-estimate "$work/s.cnrf")" || fail "info of encoded file"
 # eval of a stream renders its float reference model: the same PSNR that encode printed.
 enc_psnr=$(sed -n 's/^test: 2 views, psnr \([0-9.]*\) dB.*/\1/p' <<<"$out")
 out=$("$cnerf" eval "$work/s.cnrf" "$data/lego" --downscale 16 --every 100)
@@ -111,7 +111,7 @@ out=$("$cnerf" encode "$data/lego" -o "$work/gr.cnrf" --lambda 1e-3 --iters 3 --
 ! grep -q "^dead units removed" <<<"$out" || fail "encode --prune off pruned: $out"
 grep -q "^occupancy grid: 16^3, [0-9.]*% of the cells occupied, [0-9]* bytes" <<<"$out" \
   || fail "encode --grid 16: $out"
-info=$("$cnerf" info "$work/gr.cnrf")
+info=$("$cnerf" info --no-estimate "$work/gr.cnrf")
 grep -q "format version 2.3" <<<"$info" || fail "info: version of a stream with a grid: $info"
 grep -q "^occupancy grid: 16^3 cells, [0-9]* bytes (by blocks: [0-9] of 8 blocks of 8^3 occupied), [0-9]* occupied" <<<"$info" \
   || fail "info: grid line: $info"
@@ -127,7 +127,7 @@ grep -q "^network multiply-accumulates per ray: [1-9][0-9]* ([1-9][0-9]* per eva
 out=$("$cnerf" render "$work/gr.cnrf" --dataset "$data/lego" --downscale 16 --every 100 --no-skip)
 grep -q "^network evaluations per ray: \([0-9.]*\) (\1 without skipping; --no-skip" <<<"$out" \
   || fail "render --no-skip: $out"
-info=$("$cnerf" info "$work/s.cnrf")
+info=$("$cnerf" info --no-estimate "$work/s.cnrf")
 grep -q "format version 2.0" <<<"$info" || fail "a stream without a grid is 2.0 too: $info"
 # --coarse-color: off (the default) sends no colour for the coarse network, so its image
 # alone (--fine 0) is refused with a reason; on sends it and renders that image.
@@ -146,7 +146,7 @@ msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1 --coarse-color m
 set -e
 out=$("$cnerf" encode "$data/lego" -o "$work/cc.cnrf" --lambda 1e-3 --iters 3 --every 100 \
   --coarse-color on --grid 0 "${common[@]}")
-! grep -q "no colour" <<<"$("$cnerf" info "$work/cc.cnrf")" || fail "info: --coarse-color on"
+! grep -q "no colour" <<<"$("$cnerf" info --no-estimate "$work/cc.cnrf")" || fail "info: --coarse-color on"
 out=$("$cnerf" render "$work/cc.cnrf" --dataset "$data/lego" --downscale 16 --every 100 --fine 0)
 grep -q "mean over 2 views (fixed point, 8+0 samples" <<<"$out" || fail "render --fine 0: $out"
 [ "$(stat -c %s "$work/cc.cnrf")" -gt "$(stat -c %s "$work/s.cnrf")" ] \
@@ -182,8 +182,8 @@ set -e
 "$cnerf" encode "$data/lego" -o "$work/fp0.cnrf" --lambda 1e-3 --iters 8 --every 100 --grid 0 \
   --float-iters 0 "${common[@]}" > /dev/null
 cmp -s "$work/fp.cnrf" "$work/fp0.cnrf" && fail "encode --float-iters 0 changed nothing"
-grep -q "float-iters=2;" <<<"$("$cnerf" info "$work/fp.cnrf")" || fail "info: no float-iters=2"
-grep -q "float-iters=0;" <<<"$("$cnerf" info "$work/fp0.cnrf")" || fail "info: no float-iters=0"
+grep -q "float-iters=2;" <<<"$("$cnerf" info --no-estimate "$work/fp.cnrf")" || fail "info: no float-iters=2"
+grep -q "float-iters=0;" <<<"$("$cnerf" info --no-estimate "$work/fp0.cnrf")" || fail "info: no float-iters=0"
 set +e
 msg=$("$cnerf" encode "$data/lego" -o "$work/z.cnrf" --lambda 1e-3 --iters 3 --float-iters 3 2>&1)
 rc=$?
@@ -198,8 +198,8 @@ set -e
 # fine samples is the same bits, and the file is smaller.
 "$cnerf" quantize "$work/m.ckpt" -o "$work/q1.cnrf" --bits 6 > /dev/null
 "$cnerf" quantize "$work/m.ckpt" -o "$work/q0.cnrf" --bits 6 --coarse-color off > /dev/null
-! grep -q "no colour" <<<"$("$cnerf" info "$work/q1.cnrf")" || fail "quantize: coarse colour"
-grep -q "no colour" <<<"$("$cnerf" info "$work/q0.cnrf")" || fail "quantize --coarse-color off"
+! grep -q "no colour" <<<"$("$cnerf" info --no-estimate "$work/q1.cnrf")" || fail "quantize: coarse colour"
+grep -q "no colour" <<<"$("$cnerf" info --no-estimate "$work/q0.cnrf")" || fail "quantize --coarse-color off"
 [ "$(stat -c %s "$work/q0.cnrf")" -lt "$(stat -c %s "$work/q1.cnrf")" ] \
   || fail "quantize --coarse-color off is not smaller"
 for q in q0 q1; do
@@ -240,7 +240,7 @@ msg=$("$cnerf" synth -o "$work/z.cnrf" --units 8,8,99,8 2>&1); rc=$?
   || fail "synth --units 8,8,99,8: $rc $msg"
 [ ! -e "$work/z.cnrf" ] || fail "a refused option wrote a file"
 "$cnerf" synth -o "$work/u.cnrf" --units 8,3,16,64:5 > /dev/null
-info=$("$cnerf" info "$work/u.cnrf")
+info=$("$cnerf" info --no-estimate "$work/u.cnrf")
 grep -q "format version 2.0" <<<"$info" && grep -q "^units per layer (UNIT chunk, 32 bytes): network 0 trunk 8 3 16 64, view 5; network 1 trunk 8 3 16 64, view 5$" <<<"$info" \
   || fail "info of a stream with narrower layers: $info"
 set -e
@@ -279,7 +279,7 @@ set -e
 # quantize: the baseline stream of a float checkpoint, readable by eval and info.
 out=$("$cnerf" quantize "$work/m.ckpt" -o "$work/q.cnrf" --bits 6)
 grep -q "wrote $work/q.cnrf: [0-9]* bytes" <<<"$out" || fail "quantize: $out"
-"$cnerf" info "$work/q.cnrf" > /dev/null || fail "info of quantized file"
+"$cnerf" info --no-estimate "$work/q.cnrf" > /dev/null || fail "info of quantized file"
 out=$("$cnerf" eval "$work/q.cnrf" "$data/lego" --downscale 16 --every 100)
 grep -q "mean over 2 test views (stream)" <<<"$out" || fail "eval of quantized file"
 
@@ -363,7 +363,7 @@ cmp -s "$work/f1.ckpt" "$work/f3.ckpt" && fail "train --train-images: another vi
 # fixed-point render within a few grey levels of it.
 out=$("$cnerf" encode "$data/lego" -o "$work/c.cnrf" --lambda 1e-3 --iters 3 --every 100 \
   --background contract "${common[@]}")
-info=$("$cnerf" info "$work/c.cnrf")
+info=$("$cnerf" info --no-estimate "$work/c.cnrf")
 grep -q "format version 2.2" <<<"$info" && grep -q "^render: contracted" <<<"$info" ||
   fail "info of a contracted stream: $info"
 c_psnr=$(sed -n 's/^test: .* psnr \([0-9.]*\) dB.*/\1/p' <<<"$out")
@@ -385,7 +385,7 @@ for m in 0 1; do # each scene measured on its own held-out views
   grep -q "^scene $m: validation: psnr [0-9.]* dB on [0-9]* held-out views, [0-9.]* dB on the training views" \
     <<<"$out" || fail "encode a set: scene $m's validation line: $out"
 done
-info=$("$cnerf" info --check --scene 1 "$work/set.cnrf")
+info=$("$cnerf" info --no-estimate --check --scene 1 "$work/set.cnrf")
 grep -q "^scenes: 2, sharing one topology" <<<"$info" || fail "info of a set: $info"
 grep -q "file: [0-9]* bytes)$" <<<"$info" || fail "info of a set: totals: $info"
 out=$("$cnerf" eval "$work/set.cnrf" "$data/mic" --scene 1 --every 100 --downscale 16 --threads 2)
@@ -394,13 +394,13 @@ grep -q "mean over 2 test views .* psnr $set_psnr dB" <<<"$out" || fail "eval --
 # shifts of them): each scene's coarse image alone is refused; --coarse-color on sends it.
 for m in 0 1; do
   grep -q "^network 0 (coarse): .*; no colour (density only)$" \
-    <<<"$("$cnerf" info --scene $m "$work/set.cnrf")" || fail "info of a set's scene $m: colour"
+    <<<"$("$cnerf" info --no-estimate --scene $m "$work/set.cnrf")" || fail "info of a set's scene $m: colour"
 done
-grep -q "coarse-color=off; coarse-weight=0.1" <<<"$("$cnerf" info "$work/set.cnrf")" \
+grep -q "coarse-color=off; coarse-weight=0.1" <<<"$("$cnerf" info --no-estimate "$work/set.cnrf")" \
   || fail "set meta: coarse colour"
 "$cnerf" encode "$data/lego" "$data/mic" -o "$work/setc.cnrf" --lambda 1e-3 --iters 3 \
   --every 100 --coarse-color on --grid 0 "${common[@]}" > /dev/null
-! grep -q "no colour" <<<"$("$cnerf" info --scene 1 "$work/setc.cnrf")" || fail "set: --coarse-color on"
+! grep -q "no colour" <<<"$("$cnerf" info --no-estimate --scene 1 "$work/setc.cnrf")" || fail "set: --coarse-color on"
 [ "$(stat -c %s "$work/setc.cnrf")" -gt "$(stat -c %s "$work/set.cnrf")" ] \
   || fail "set: --coarse-color on is not larger than off"
 set +e
