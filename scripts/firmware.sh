@@ -55,6 +55,9 @@
 #                  MACs): half the run, for a check that needs only the MD5s; first: the
 #                  first job's work only (the check that the host's count, which the cost
 #                  model uses, is the firmware's); 1 (default): every tile's
+#   FW_HOST_TILE   the host program that renders each tile beside the firmware, already
+#                  built (ctest passes the build's render_tile_cost); without it this script
+#                  builds tests/xarch/render_tile.c into the build directory
 #   FW_PROFILE     a file: the firmware is run once more under QEMU's execution trace
 #                  (-d in_asm,exec,nochain, into a temporary file of about 70 bytes an
 #                  executed block: keep the tile small) and FILE gets the instructions
@@ -224,10 +227,14 @@ if [ -n "${FW_PROFILE:-}" ]; then
 fi
 
 # ---- the same tile on the host ----
-host=$bdir/render_tile_host
+# (FW_HOST_TILE: that program already built, as the build's render_tile_cost)
+host=${FW_HOST_TILE:-$bdir/render_tile_host}
 host_src=(decoder/*.c decoder/*.h common/*.h include/cnerf/*.h platform/host/cost_model.[ch]
           tests/xarch/render_tile.c)
-if [ ! -x "$host" ] || [ -n "$(find "${host_src[@]}" -newer "$host" 2>/dev/null | head -n 1)" ]; then
+[ -z "${FW_HOST_TILE:-}" ] || [ -x "$host" ] ||
+  { echo "firmware.sh: FW_HOST_TILE=$host: no such program" >&2; exit 2; }
+if [ -z "${FW_HOST_TILE:-}" ] &&
+   { [ ! -x "$host" ] || [ -n "$(find "${host_src[@]}" -newer "$host" 2>/dev/null | head -n 1)" ]; }; then
   cc -std=c99 -O2 -Wall -Wextra -Werror -Iinclude -Iplatform/host -DCNERF_COST_MODEL \
     decoder/*.c platform/host/cost_model.c tests/xarch/render_tile.c -o "$host"
 fi

@@ -223,7 +223,10 @@ for job, fj in zip(jobs, fw_jobs):
         err = est / ins["render"] - 1
         cost = f"cost model: {n(est)} instructions for the tile, QEMU {n(ins['render'])} " \
                f"({100 * err:+.1f}%)"
-        if tol and abs(err) > float(tol):
+        # (the model is a tile's, fitted on tiles: on one ray, an empty one, its per-tile
+        # constant is most of the count; tests/firmware/vectors.sh's single rays are checked
+        # for their pixel only)
+        if tol and rays > 1 and abs(err) > float(tol):
             problem(f"{job['name']}: the cost model is {100 * err:+.1f}% off, beyond "
                     f"{100 * float(tol):.0f}% (FW_COST_TOLERANCE)")
     work = (f"rays {rays} evals {r['evals']} in_bounds {r['in_bounds']} macs {r['macs']} "
