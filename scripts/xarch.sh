@@ -54,14 +54,24 @@ for t in "aarch64 aarch64-linux-gnu-gcc qemu-aarch64" "armhf arm-linux-gnueabihf
   fi
   targets+=("$t")
 done
+jobs_max=$(nproc 2>/dev/null || echo 2)
+# (the targets' builds side by side, one a core: each compiles the whole decoder three times)
+build_for() { # NAME CC RUN
+  local name=$1 cc=$2 run=$3 static
+  static=$([ "$run" = "-" ] || [ "$name" = wasm32 ] && echo "" || echo "-static")
+  $cc "${flags[@]}" $static "${dec[@]}" tests/xarch/render_tile.c -o "$work/render_tile.$name" &&
+  $cc "${flags[@]}" $static "${dec[@]}" tests/xarch/check_kernels.c -o "$work/check_kernels.$name" &&
+  $cc "${flags[@]}" $static "${dec[@]}" vectors/tools/lookat.c -o "$work/lookat.$name" &&
+  echo "built for $name with $cc"
+}
+pids=()
 for t in "${targets[@]}"; do
   read -r name cc run <<< "$t"
-  static=$([ "$run" = "-" ] || [ "$name" = wasm32 ] && echo "" || echo "-static")
-  $cc "${flags[@]}" $static "${dec[@]}" tests/xarch/render_tile.c -o "$work/render_tile.$name"
-  $cc "${flags[@]}" $static "${dec[@]}" tests/xarch/check_kernels.c -o "$work/check_kernels.$name"
-  $cc "${flags[@]}" $static "${dec[@]}" vectors/tools/lookat.c -o "$work/lookat.$name"
-  echo "built for $name with $cc"
+  build_for "$name" "$cc" "$run" &
+  pids+=($!)
+  while [ "$(jobs -rp | wc -l)" -ge "$jobs_max" ]; do sleep 0.2; done
 done
+for p in "${pids[@]}"; do wait "$p" || { echo "xarch.sh: a build failed" >&2; exit 1; }; done
 # The look-at cameras of the vectors (valid/LOOKAT), made on each architecture.
 for t in "${targets[@]}"; do
   read -r name cc run <<< "$t"
@@ -168,7 +178,6 @@ done < "$work/tiles" > "$work/jobs"
 render_all() { # NAME RUN: every tile's MD5, a line each, into $work/md5.NAME
   render_list "$1" "$2" "$work/jobs" "$work/md5.$1"
 }
-jobs_max=$(nproc 2>/dev/null || echo 2)
 pids=()
 for t in "${targets[@]}"; do
   read -r name cc run <<< "$t"
