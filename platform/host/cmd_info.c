@@ -18,7 +18,7 @@
     "  --scene I      a stream of several scenes: describe scene I (0 by default); --check\n" \
     "                 decodes every scene\n"                                                  \
     "  --no-estimate  without each core's time for a view (the cost model's, from a view\n"  \
-    "                 rendered at 25x25 with each kernel set: a minute for the paper preset)"
+    "                 rendered at 25x25 with each kernel set: slow for the larger presets)"
 
 /* cnerf_open_scene of every scene, each into a workspace of its own: decodes every
  * payload. *bad gets the scene that failed. */
